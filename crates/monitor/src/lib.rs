@@ -1,0 +1,28 @@
+//! # pmon-monitor: the safety channel
+//!
+//! A lightweight perception monitor after Buerkle et al., *Fault-Tolerant Perception for Automated Driving: A
+//! Lightweight Monitoring Approach*. Two checks run on every frame of the primary channel's object list:
+//!
+//! - **Sensor checks** (Section III-B): LiDAR points inside a height band go into an ego-centred occupancy grid;
+//!   each object's footprint `A_o`, grown by a safety margin and its covariance, must contain occupied cells
+//!   (consistency `eta(o)`, eq. consistency), and occupied cells that no footprint covers are conflicts
+//!   (`kappa`, eq. conflict), clustered into missed-object candidates or attributed to a displaced object.
+//! - **Plausibility checks** (Section III-C): each track's motion between frames must fit the small-dt CTRA
+//!   model within physical limits and propagated uncertainty (eqs. pred1, pred2, condition_w/a/xy).
+//!
+//! One call per frame, [`Monitor::check`], returns exactly one [`Verdict`] per object, never panics, and
+//! allocates nothing after [`Monitor::new`]. The crate is `no_std` (it needs `alloc` only at construction).
+#![cfg_attr(not(feature = "std"), no_std)]
+
+extern crate alloc;
+
+pub mod frame;
+pub mod params;
+pub mod verdict;
+
+pub use frame::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty};
+pub use params::{ClassMotionLimits, MonitorParams, MotionLimits, ParamError};
+pub use verdict::{
+    ClusterReport, Conditions, FrameError, FrameReport, GridStats, MotionOutcome, MotionVerdict, NotMonitoredReason,
+    ObjectReport, SensorOutcome, SensorVerdict, Verdict,
+};

@@ -1,0 +1,385 @@
+//! [`MonitorParams`]: every tunable of the monitor, with the paper's Table I as `Default`.
+//!
+//! A unit in every name (`_m`, `_s`, `_mps`, `_mps2`, `_rad`, `_radps`); dimensionless fields say so.
+//! Parameters are validated once, by [`MonitorParams::validate`] (called by [`crate::Monitor::new`]): the core
+//! trusts a validated set and never re-checks it per frame.
+
+use core::fmt;
+
+use crate::frame::{ObjectClass, Uncertainty};
+
+/// Physical motion limits of a road user (eqs. condition_w and condition_a).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(deny_unknown_fields))]
+pub struct MotionLimits {
+    /// Largest plausible forward acceleration `a_acc`, m/s^2, `> 0`. Table I: 7.
+    pub accel_max_mps2: f32,
+    /// Strongest plausible braking `a_br`, m/s^2, `< 0`. Table I: -7.
+    pub brake_max_mps2: f32,
+    /// Largest plausible turn rate `|omega_max|`, rad/s, `> 0`. Table I: 90 degrees per 0.2 s.
+    pub turn_rate_max_radps: f32,
+}
+
+impl Default for MotionLimits {
+    fn default() -> Self {
+        Self { accel_max_mps2: 7.0, brake_max_mps2: -7.0, turn_rate_max_radps: core::f32::consts::FRAC_PI_2 / 0.2 }
+    }
+}
+
+/// Per-class overrides of [`MonitorParams::motion_limits`]; `None` uses the common limits.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
+pub struct ClassMotionLimits {
+    /// Cars.
+    pub car: Option<MotionLimits>,
+    /// Trucks, vans, buses.
+    pub truck: Option<MotionLimits>,
+    /// Pedestrians.
+    pub pedestrian: Option<MotionLimits>,
+    /// Cyclists.
+    pub cyclist: Option<MotionLimits>,
+    /// Motorcyclists.
+    pub motorcyclist: Option<MotionLimits>,
+    /// Other objects.
+    pub other: Option<MotionLimits>,
+    /// Objects of unknown class.
+    pub unknown: Option<MotionLimits>,
+}
+
+impl ClassMotionLimits {
+    fn get(&self, class: ObjectClass) -> Option<MotionLimits> {
+        match class {
+            ObjectClass::Car => self.car,
+            ObjectClass::Truck => self.truck,
+            ObjectClass::Pedestrian => self.pedestrian,
+            ObjectClass::Cyclist => self.cyclist,
+            ObjectClass::Motorcyclist => self.motorcyclist,
+            ObjectClass::Other => self.other,
+            ObjectClass::Unknown => self.unknown,
+        }
+    }
+
+    fn iter(&self) -> impl Iterator<Item = (&'static str, &MotionLimits)> {
+        [
+            ("per_class_limits.car", &self.car),
+            ("per_class_limits.truck", &self.truck),
+            ("per_class_limits.pedestrian", &self.pedestrian),
+            ("per_class_limits.cyclist", &self.cyclist),
+            ("per_class_limits.motorcyclist", &self.motorcyclist),
+            ("per_class_limits.other", &self.other),
+            ("per_class_limits.unknown", &self.unknown),
+        ]
+        .into_iter()
+        .filter_map(|(n, l)| l.as_ref().map(|l| (n, l)))
+    }
+}
+
+/// All parameters of the monitor. `Default` is the paper's Table I plus documented choices for what the paper
+/// leaves open (height band, inverse sensor model, clustering, capacities).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
+pub struct MonitorParams {
+    // ---- grid (Table I: 100 m x 100 m, c_grid = 0.5 m) ----
+    /// Side length of the square, ego-centred occupancy grid, metres. Table I: 100.
+    pub grid_size_m: f32,
+    /// Cell side `c_grid`, metres. Table I: 0.5.
+    pub cell_size_m: f32,
+
+    // ---- height band (which LiDAR points are obstacles) ----
+    /// Height of the flat ground plane in the ego frame, metres (the ego frame's origin is on the ground: 0).
+    pub ground_z_m: f32,
+    /// Points lower than this above the ground are ground returns, metres.
+    pub min_obstacle_height_m: f32,
+    /// Points higher than this above the ground can be driven under (canopies, signs, bridges), metres.
+    pub max_obstacle_height_m: f32,
+
+    // ---- occupancy (inverse sensor model, log-odds) ----
+    /// Occupancy probability that one LiDAR hit in a cell stands for (inverse sensor model), dimensionless in
+    /// (0.5, 1). Each hit adds `ln(p / (1 - p))` to the cell's log-odds, starting from the prior 0.5. With 0.7
+    /// and tau 0.8, two hits make a cell occupied.
+    pub hit_probability: f32,
+
+    // ---- sensor checks (Table I) ----
+    /// Safety margin `delta_safe` added around every object footprint, metres. Table I: 0.1.
+    pub safety_margin_m: f32,
+    /// Consistency threshold `tau_tp`, dimensionless. Table I: 0.8.
+    pub tau_tp: f32,
+    /// Conflict threshold `tau_fn`, dimensionless. Table I: 0.8.
+    pub tau_fn: f32,
+    /// Sensitivity `gamma_sens` of the covariance margin, dimensionless. Table I: 3.
+    pub gamma_sens: f32,
+    /// Smallest conflict cluster reported as a missed object or attributed to an object, cells.
+    pub min_cluster_cells: u32,
+    /// A conflict cluster closer than this to an object's region `A_o` is attributed to that object (its
+    /// evidence lies outside its region: a position error), metres.
+    pub conflict_association_m: f32,
+    /// Fraction of an evidence-free region that must be visible to the sensor (not shadowed by nearer
+    /// obstacles, crossed by rays that returned from beyond it) for the object to be called a ghost; below it,
+    /// the object is *not monitored: occluded*. Dimensionless in [0, 1].
+    pub ghost_visible_fraction: f32,
+    /// Azimuth bins of the visibility map used for the occlusion test.
+    pub visibility_bins: u32,
+
+    // ---- plausibility checks (Table I) ----
+    /// Common motion limits `a_acc`, `a_br`, `omega_max`. Table I: +7, -7 m/s^2, 90 degrees per 0.2 s.
+    pub motion_limits: MotionLimits,
+    /// Optional per-class overrides of `motion_limits`.
+    pub per_class_limits: ClassMotionLimits,
+    /// Sensitivity `gamma_plaus` of the position condition, dimensionless. Table I: 1.
+    pub gamma_plaus: f32,
+    /// Uncertainties used for objects that carry none. The heading value is Table I's `Delta theta` = 10
+    /// degrees; position 0.1 m and speed 1 m/s are the values of the paper's Fig. dv_theo.
+    pub default_uncertainty: Uncertainty,
+    /// Longest time step the small-dt motion model is trusted for, seconds; a longer gap restarts the track.
+    pub max_time_step_s: f64,
+
+    // ---- capacities (fixed at construction: no allocation per frame) ----
+    /// Most LiDAR points accepted per frame; a larger cloud leaves the sensor checks *not monitored*.
+    pub max_points: u32,
+    /// Most objects accepted per frame; a larger list is rejected as a whole with an error.
+    pub max_objects: u32,
+    /// Most conflict clusters reported per frame; further clusters are counted but not described.
+    pub max_clusters: u32,
+    /// Longest object side accepted, metres; a longer box is *not monitored: invalid state*.
+    pub max_object_size_m: f32,
+}
+
+impl Default for MonitorParams {
+    fn default() -> Self {
+        Self::PAPER
+    }
+}
+
+impl MonitorParams {
+    /// The paper's Table I.
+    pub const PAPER: Self = Self {
+        grid_size_m: 100.0,
+        cell_size_m: 0.5,
+        ground_z_m: 0.0,
+        min_obstacle_height_m: 0.3,
+        max_obstacle_height_m: 2.5,
+        hit_probability: 0.7,
+        safety_margin_m: 0.1,
+        tau_tp: 0.8,
+        tau_fn: 0.8,
+        gamma_sens: 3.0,
+        min_cluster_cells: 2,
+        conflict_association_m: 1.0,
+        ghost_visible_fraction: 0.5,
+        visibility_bins: 1024,
+        motion_limits: MotionLimits {
+            accel_max_mps2: 7.0,
+            brake_max_mps2: -7.0,
+            turn_rate_max_radps: core::f32::consts::FRAC_PI_2 / 0.2,
+        },
+        per_class_limits: ClassMotionLimits {
+            car: None,
+            truck: None,
+            pedestrian: None,
+            cyclist: None,
+            motorcyclist: None,
+            other: None,
+            unknown: None,
+        },
+        gamma_plaus: 1.0,
+        default_uncertainty: Uncertainty {
+            x_m: 0.1,
+            y_m: 0.1,
+            heading_rad: 10.0 * core::f32::consts::PI / 180.0,
+            speed_mps: 1.0,
+            length_m: 0.0,
+            width_m: 0.0,
+        },
+        max_time_step_s: 0.5,
+        max_points: 400_000,
+        max_objects: 1024,
+        max_clusters: 512,
+        max_object_size_m: 30.0,
+    };
+
+    /// Motion limits for a class: the per-class override if set, else the common limits.
+    #[must_use]
+    pub fn limits_for(&self, class: ObjectClass) -> MotionLimits {
+        self.per_class_limits.get(class).unwrap_or(self.motion_limits)
+    }
+
+    /// Number of cells along one side of the grid.
+    #[must_use]
+    pub fn grid_cells_per_side(&self) -> u32 {
+        // Validated: grid_size_m / cell_size_m is in [1, MAX_CELLS_PER_SIDE].
+        let n = libm::ceilf(self.grid_size_m / self.cell_size_m);
+        if n.is_finite() && n >= 1.0 && n <= MAX_CELLS_PER_SIDE as f32 {
+            n as u32
+        } else {
+            1
+        }
+    }
+
+    /// Checks every field against its range. Called once by [`crate::Monitor::new`].
+    ///
+    /// # Errors
+    /// The first field out of range, with the reason.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        fn pos(field: &'static str, v: f32) -> Result<(), ParamError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(ParamError { field, reason: "must be finite and > 0" })
+            }
+        }
+        fn non_neg(field: &'static str, v: f32) -> Result<(), ParamError> {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(ParamError { field, reason: "must be finite and >= 0" })
+            }
+        }
+        fn unit(field: &'static str, v: f32) -> Result<(), ParamError> {
+            if (0.0..=1.0).contains(&v) {
+                Ok(())
+            } else {
+                Err(ParamError { field, reason: "must be in [0, 1]" })
+            }
+        }
+        fn limits(prefix: &'static str, l: &MotionLimits) -> Result<(), ParamError> {
+            pos(prefix, l.accel_max_mps2)?;
+            pos(prefix, l.turn_rate_max_radps)?;
+            if !(l.brake_max_mps2.is_finite() && l.brake_max_mps2 < 0.0) {
+                return Err(ParamError { field: prefix, reason: "brake_max_mps2 must be finite and < 0" });
+            }
+            Ok(())
+        }
+        pos("grid_size_m", self.grid_size_m)?;
+        pos("cell_size_m", self.cell_size_m)?;
+        let cells = self.grid_size_m / self.cell_size_m;
+        if !(cells.is_finite() && cells <= MAX_CELLS_PER_SIDE as f32) {
+            return Err(ParamError { field: "cell_size_m", reason: "grid_size_m / cell_size_m must be <= 4096" });
+        }
+        if !self.ground_z_m.is_finite() {
+            return Err(ParamError { field: "ground_z_m", reason: "must be finite" });
+        }
+        non_neg("min_obstacle_height_m", self.min_obstacle_height_m)?;
+        pos("max_obstacle_height_m", self.max_obstacle_height_m)?;
+        if self.max_obstacle_height_m <= self.min_obstacle_height_m {
+            return Err(ParamError {
+                field: "max_obstacle_height_m",
+                reason: "must be greater than min_obstacle_height_m",
+            });
+        }
+        if !(self.hit_probability > 0.5 && self.hit_probability < 1.0) {
+            return Err(ParamError { field: "hit_probability", reason: "must be in (0.5, 1)" });
+        }
+        non_neg("safety_margin_m", self.safety_margin_m)?;
+        unit("tau_tp", self.tau_tp)?;
+        unit("tau_fn", self.tau_fn)?;
+        non_neg("gamma_sens", self.gamma_sens)?;
+        if self.min_cluster_cells == 0 {
+            return Err(ParamError { field: "min_cluster_cells", reason: "must be >= 1" });
+        }
+        non_neg("conflict_association_m", self.conflict_association_m)?;
+        unit("ghost_visible_fraction", self.ghost_visible_fraction)?;
+        if !(8..=65_536).contains(&self.visibility_bins) {
+            return Err(ParamError { field: "visibility_bins", reason: "must be in [8, 65536]" });
+        }
+        limits("motion_limits", &self.motion_limits)?;
+        for (name, l) in self.per_class_limits.iter() {
+            limits(name, l)?;
+        }
+        non_neg("gamma_plaus", self.gamma_plaus)?;
+        if !self.default_uncertainty.is_valid() {
+            return Err(ParamError { field: "default_uncertainty", reason: "every value must be finite and >= 0" });
+        }
+        if !(self.max_time_step_s.is_finite() && self.max_time_step_s > 0.0) {
+            return Err(ParamError { field: "max_time_step_s", reason: "must be finite and > 0" });
+        }
+        if !(1..=MAX_POINTS).contains(&self.max_points) {
+            return Err(ParamError { field: "max_points", reason: "must be in [1, 4194304]" });
+        }
+        if !(1..=MAX_OBJECTS).contains(&self.max_objects) {
+            return Err(ParamError { field: "max_objects", reason: "must be in [1, 65536]" });
+        }
+        if !(1..=65_536).contains(&self.max_clusters) {
+            return Err(ParamError { field: "max_clusters", reason: "must be in [1, 65536]" });
+        }
+        pos("max_object_size_m", self.max_object_size_m)?;
+        if self.max_object_size_m > 200.0 {
+            return Err(ParamError { field: "max_object_size_m", reason: "must be <= 200" });
+        }
+        Ok(())
+    }
+}
+
+/// Largest grid side in cells (4096 x 4096 = 16.7 M cells, 33 MiB).
+pub const MAX_CELLS_PER_SIDE: u32 = 4096;
+/// Largest accepted `max_points`.
+pub const MAX_POINTS: u32 = 4_194_304;
+/// Largest accepted `max_objects`.
+pub const MAX_OBJECTS: u32 = 65_536;
+
+/// A parameter out of its range.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ParamError {
+    /// The field's name as in the TOML file.
+    pub field: &'static str,
+    /// What is wrong.
+    pub reason: &'static str,
+}
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "parameter `{}` {}", self.field, self.reason)
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for ParamError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_defaults_are_table_one() {
+        let p = MonitorParams::default();
+        assert!((p.grid_size_m - 100.0).abs() < 1e-6);
+        assert!((p.cell_size_m - 0.5).abs() < 1e-6);
+        assert!((p.safety_margin_m - 0.1).abs() < 1e-6);
+        assert!((p.tau_tp - 0.8).abs() < 1e-6 && (p.tau_fn - 0.8).abs() < 1e-6);
+        assert!((p.motion_limits.brake_max_mps2 + 7.0).abs() < 1e-6);
+        assert!((p.motion_limits.accel_max_mps2 - 7.0).abs() < 1e-6);
+        assert!((p.default_uncertainty.heading_rad.to_degrees() - 10.0).abs() < 1e-4);
+        // 90 degrees per 0.2 s = 450 degrees per second.
+        assert!((p.motion_limits.turn_rate_max_radps.to_degrees() - 450.0).abs() < 1e-3);
+        assert!((p.gamma_sens - 3.0).abs() < 1e-6 && (p.gamma_plaus - 1.0).abs() < 1e-6);
+        assert_eq!(p.validate(), Ok(()));
+        assert_eq!(p.grid_cells_per_side(), 200);
+    }
+
+    #[test]
+    fn out_of_range_values_are_named() {
+        let mut p = MonitorParams::default();
+        p.cell_size_m = -0.5;
+        assert_eq!(p.validate().map_err(|e| e.field), Err("cell_size_m"));
+        let mut p = MonitorParams::default();
+        p.tau_tp = f32::NAN;
+        assert_eq!(p.validate().map_err(|e| e.field), Err("tau_tp"));
+        let mut p = MonitorParams::default();
+        p.motion_limits.brake_max_mps2 = 3.0;
+        assert_eq!(p.validate().map_err(|e| e.field), Err("motion_limits"));
+        let mut p = MonitorParams::default();
+        p.cell_size_m = 0.001;
+        assert_eq!(p.validate().map_err(|e| e.field), Err("cell_size_m"));
+        let mut p = MonitorParams::default();
+        p.per_class_limits.pedestrian = Some(MotionLimits { turn_rate_max_radps: 0.0, ..MotionLimits::default() });
+        assert_eq!(p.validate().map_err(|e| e.field), Err("per_class_limits.pedestrian"));
+    }
+
+    #[test]
+    fn per_class_limits_override() {
+        let mut p = MonitorParams::default();
+        let ped = MotionLimits { accel_max_mps2: 3.0, brake_max_mps2: -4.0, turn_rate_max_radps: 20.0 };
+        p.per_class_limits.pedestrian = Some(ped);
+        assert_eq!(p.limits_for(ObjectClass::Pedestrian), ped);
+        assert_eq!(p.limits_for(ObjectClass::Car), p.motion_limits);
+    }
+}

@@ -1,0 +1,382 @@
+//! What the monitor says about each object and each frame, and why.
+
+use core::fmt;
+
+/// Why a check could not judge an object. Every object that is not judged gets one of these, never silence.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
+pub enum NotMonitoredReason {
+    /// The object's state is invalid: NaN or infinite values, a size not > 0 or above the maximum, a
+    /// negative speed, or invalid uncertainties.
+    InvalidState,
+    /// The object's footprint is not entirely inside the occupancy grid.
+    OutsideGrid,
+    /// No LiDAR sweep came with this frame.
+    NoLidarData,
+    /// The LiDAR sweep had no point at all (a sensor fault, not an empty world: the ground returns).
+    EmptyCloud,
+    /// The LiDAR sweep was invalid: its extrinsic is not finite.
+    InvalidCloud,
+    /// The sweep had more points than the monitor's capacity (`max_points`).
+    TooManyPoints,
+    /// No LiDAR evidence in the object's region, and the region is hidden from the sensor (behind nearer
+    /// obstacles or beyond the sweep's reach): the sensor cannot say whether the object is there.
+    Occluded,
+    /// First frame of this track: there is no history to check the motion against.
+    FirstFrameOfTrack,
+    /// The frame's timestamp is not finite.
+    InvalidTimestamp,
+    /// The time since the track's previous state is zero or negative.
+    TimeStepNotPositive,
+    /// The time since the track's previous state exceeds `max_time_step_s`; the track restarts.
+    TimeStepTooLong,
+    /// Two or more objects of this frame share this id.
+    DuplicateId,
+}
+
+impl NotMonitoredReason {
+    /// Short snake_case name, as in JSON output.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::InvalidState => "invalid_state",
+            Self::OutsideGrid => "outside_grid",
+            Self::NoLidarData => "no_lidar_data",
+            Self::EmptyCloud => "empty_cloud",
+            Self::InvalidCloud => "invalid_cloud",
+            Self::TooManyPoints => "too_many_points",
+            Self::Occluded => "occluded",
+            Self::FirstFrameOfTrack => "first_frame_of_track",
+            Self::InvalidTimestamp => "invalid_timestamp",
+            Self::TimeStepNotPositive => "time_step_not_positive",
+            Self::TimeStepTooLong => "time_step_too_long",
+            Self::DuplicateId => "duplicate_id",
+        }
+    }
+}
+
+impl fmt::Display for NotMonitoredReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Which implausibility conditions fired (bit set).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Conditions(pub u8);
+
+impl Conditions {
+    /// Eq. (condition_w): turn rate beyond `omega_max`.
+    pub const TURN_RATE: Self = Self(1);
+    /// Eq. (condition_a): acceleration beyond `a_acc` or braking beyond `a_br`.
+    pub const ACCELERATION: Self = Self(2);
+    /// Eq. (condition_xy): position off the CTRA prediction.
+    pub const POSITION: Self = Self(4);
+
+    /// True when no condition fired.
+    #[must_use]
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// True when every condition of `other` fired.
+    #[must_use]
+    pub const fn contains(self, other: Self) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// Union.
+    #[must_use]
+    pub const fn union(self, other: Self) -> Self {
+        Self(self.0 | other.0)
+    }
+}
+
+impl fmt::Display for Conditions {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut first = true;
+        for (bit, name) in
+            [(Self::TURN_RATE, "turn_rate"), (Self::ACCELERATION, "acceleration"), (Self::POSITION, "position")]
+        {
+            if self.contains(bit) {
+                if !first {
+                    f.write_str("+")?;
+                }
+                f.write_str(name)?;
+                first = false;
+            }
+        }
+        if first {
+            f.write_str("none")?;
+        }
+        Ok(())
+    }
+}
+
+/// Result of the sensor checks for one object (Section III-B).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
+pub enum SensorVerdict {
+    /// `eta(o) >= tau_tp` and no unexplained evidence next to the object.
+    Consistent,
+    /// `eta(o) < tau_tp`, no unexplained evidence nearby, and the region was visible: a false positive.
+    Ghost,
+    /// The object's LiDAR evidence lies outside its region: `eta(o) < tau_tp` with an unexplained conflict
+    /// cluster nearby, or a conflict cluster touching the region.
+    PositionError,
+    /// The sensor checks could not judge this object.
+    NotMonitored(NotMonitoredReason),
+}
+
+/// Details of the sensor checks for one object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct SensorOutcome {
+    /// The verdict.
+    pub verdict: SensorVerdict,
+    /// Consistency `eta(o)` (eq. consistency), the highest occupancy probability in `A_o`; 0 when not computed.
+    pub eta: f32,
+    /// Growth of the footprint along its length, `delta_safe + gamma_sens (Delta lon + Delta L)`, metres.
+    pub margin_length_m: f32,
+    /// Growth of the footprint across its width, `delta_safe + gamma_sens (Delta lat + Delta W)`, metres.
+    pub margin_width_m: f32,
+    /// Fraction of the region's cells visible to the sensor, in [0, 1]; computed only when `eta < tau_tp`.
+    pub visible_fraction: f32,
+    /// Index into [`FrameReport::clusters`] of the conflict cluster attributed to this object, if any.
+    pub cluster: Option<u16>,
+    /// For a position error: vector from the attributed cluster's centroid to the nearest point of the
+    /// object's (ungrown) box, ego frame, metres: how far the object sits from its evidence.
+    pub offset_m: [f32; 2],
+}
+
+/// Result of the plausibility checks for one object (Section III-C).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
+pub enum MotionVerdict {
+    /// No condition fired.
+    Plausible,
+    /// At least one of eqs. (condition_w), (condition_a), (condition_xy) fired.
+    Implausible(Conditions),
+    /// The plausibility checks could not judge this object.
+    NotMonitored(NotMonitoredReason),
+}
+
+/// Details of the plausibility checks for one object: the estimates and margins of eqs. (pred1)-(condition_xy).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct MotionOutcome {
+    /// The verdict.
+    pub verdict: MotionVerdict,
+    /// Time step `dt` since the track's previous state, seconds (0 when not computed).
+    pub dt_s: f64,
+    /// Estimated acceleration `a_hat` (eq. pred1), m/s^2.
+    pub accel_mps2: f32,
+    /// Its margin of error `Delta a_hat`, m/s^2.
+    pub accel_margin_mps2: f32,
+    /// Estimated turn rate `omega_hat` (eq. pred1), rad/s.
+    pub turn_rate_radps: f32,
+    /// Its margin of error `Delta omega_hat`, rad/s.
+    pub turn_rate_margin_radps: f32,
+    /// Predicted position `x_hat, y_hat` (eq. pred2), world frame, metres.
+    pub predicted_world_m: [f64; 2],
+    /// Margin of error of the prediction `(Delta x_hat, Delta y_hat)`, metres.
+    pub predicted_margin_m: [f32; 2],
+    /// Distance between prediction and measurement `||x_hat - x_tilde||`, metres.
+    pub position_residual_m: f32,
+    /// Allowed distance `gamma_plaus (||Delta x_hat|| + ||Delta x_tilde||)`, metres.
+    pub position_allowance_m: f32,
+}
+
+impl MotionOutcome {
+    /// An outcome with no estimates.
+    #[must_use]
+    pub const fn not_monitored(reason: NotMonitoredReason) -> Self {
+        Self {
+            verdict: MotionVerdict::NotMonitored(reason),
+            dt_s: 0.0,
+            accel_mps2: 0.0,
+            accel_margin_mps2: 0.0,
+            turn_rate_radps: 0.0,
+            turn_rate_margin_radps: 0.0,
+            predicted_world_m: [0.0, 0.0],
+            predicted_margin_m: [0.0, 0.0],
+            position_residual_m: 0.0,
+            position_allowance_m: 0.0,
+        }
+    }
+}
+
+/// The one verdict every object gets each frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
+pub enum Verdict {
+    /// At least one check ran and none raised an alarm.
+    Consistent,
+    /// Sensor checks: no evidence in a visible region (false positive).
+    Ghost,
+    /// Sensor checks: the evidence lies outside the object's region.
+    PositionError,
+    /// Plausibility checks: the motion violates the named conditions.
+    ImplausibleMotion(Conditions),
+    /// Neither check could judge the object; the reason of the sensor checks is given unless it is only
+    /// that no LiDAR came, in which case the plausibility reason is given.
+    NotMonitored(NotMonitoredReason),
+}
+
+impl Verdict {
+    /// True for the alarms (ghost, position error, implausible motion).
+    #[must_use]
+    pub const fn is_alarm(self) -> bool {
+        matches!(self, Self::Ghost | Self::PositionError | Self::ImplausibleMotion(_))
+    }
+
+    /// Combines the two checks: sensor alarms first, then motion alarms, then consistent if either check
+    /// judged the object, else not monitored.
+    #[must_use]
+    pub fn combine(sensor: SensorVerdict, motion: MotionVerdict) -> Self {
+        match (sensor, motion) {
+            (SensorVerdict::Ghost, _) => Self::Ghost,
+            (SensorVerdict::PositionError, _) => Self::PositionError,
+            (_, MotionVerdict::Implausible(c)) => Self::ImplausibleMotion(c),
+            (SensorVerdict::Consistent, _) | (_, MotionVerdict::Plausible) => Self::Consistent,
+            (SensorVerdict::NotMonitored(s), MotionVerdict::NotMonitored(m)) => {
+                if matches!(s, NotMonitoredReason::NoLidarData) {
+                    Self::NotMonitored(m)
+                } else {
+                    Self::NotMonitored(s)
+                }
+            }
+        }
+    }
+
+    /// Short snake_case name.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Consistent => "consistent",
+            Self::Ghost => "ghost",
+            Self::PositionError => "position_error",
+            Self::ImplausibleMotion(_) => "implausible_motion",
+            Self::NotMonitored(_) => "not_monitored",
+        }
+    }
+}
+
+impl fmt::Display for Verdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::ImplausibleMotion(c) => write!(f, "implausible_motion({c})"),
+            Self::NotMonitored(r) => write!(f, "not_monitored({r})"),
+            other => f.write_str(other.name()),
+        }
+    }
+}
+
+/// Everything the monitor says about one object in one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct ObjectReport {
+    /// The object's id.
+    pub id: u64,
+    /// The combined verdict.
+    pub verdict: Verdict,
+    /// Sensor checks.
+    pub sensor: SensorOutcome,
+    /// Plausibility checks.
+    pub motion: MotionOutcome,
+}
+
+/// A connected group of conflict cells (`kappa > tau_fn`): LiDAR evidence that no object explains.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct ClusterReport {
+    /// Number of cells.
+    pub cells: u32,
+    /// Centroid of the cell centres, ego frame, metres.
+    pub centroid_m: [f32; 2],
+    /// Axis-aligned bounds `[min_x, min_y, max_x, max_y]`, ego frame, metres.
+    pub bounds_m: [f32; 4],
+    /// True when at least one cell centre lies in the frame's region of interest (or there is none).
+    pub in_roi: bool,
+    /// Index into [`FrameReport::objects`] of the object it is attributed to (a position error), if any.
+    pub object: Option<u32>,
+}
+
+impl ClusterReport {
+    /// True for an alarm: large enough, in the region of interest, and not attributed to any object.
+    #[must_use]
+    pub const fn is_missed_object(&self) -> bool {
+        self.in_roi && self.object.is_none()
+    }
+}
+
+/// Frame-level summary of the sensor checks.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct GridStats {
+    /// Points in the sweep.
+    pub points_total: u32,
+    /// Points inside the height band and the grid (obstacle evidence).
+    pub points_in_band: u32,
+    /// Cells with at least one obstacle hit.
+    pub cells_hit: u32,
+    /// Cells with occupancy above `tau_fn`.
+    pub cells_occupied: u32,
+    /// Occupied cells no object explains (`kappa > tau_fn`).
+    pub cells_conflict: u32,
+    /// Conflict clusters of at least `min_cluster_cells`, including those beyond `max_clusters`.
+    pub clusters_total: u32,
+}
+
+/// What [`crate::Monitor::check`] returns: borrowed from the monitor's buffers until the next call.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameReport<'a> {
+    /// One report per input object, in input order.
+    pub objects: &'a [ObjectReport],
+    /// Conflict clusters (at most `max_clusters`).
+    pub clusters: &'a [ClusterReport],
+    /// Grid statistics; all zero when the sensor checks did not run.
+    pub grid: GridStats,
+    /// Why the sensor checks did not run this frame, if they did not.
+    pub sensor_status: Option<NotMonitoredReason>,
+}
+
+impl FrameReport<'_> {
+    /// Number of object alarms.
+    #[must_use]
+    pub fn object_alarms(&self) -> usize {
+        self.objects.iter().filter(|o| o.verdict.is_alarm()).count()
+    }
+
+    /// Number of missed-object alarms (unattributed conflict clusters in the region of interest).
+    #[must_use]
+    pub fn missed_objects(&self) -> usize {
+        self.clusters.iter().filter(|c| c.is_missed_object()).count()
+    }
+}
+
+/// A frame the monitor refuses as a whole.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameError {
+    /// More objects than `max_objects`.
+    TooManyObjects {
+        /// Objects in the frame.
+        got: usize,
+        /// Capacity.
+        max: u32,
+    },
+}
+
+impl fmt::Display for FrameError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::TooManyObjects { got, max } => {
+                write!(f, "frame has {got} objects, more than the monitor's capacity of {max} (max_objects)")
+            }
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for FrameError {}
