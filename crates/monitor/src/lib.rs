@@ -13,6 +13,17 @@
 //! One call per frame, [`Monitor::check`], returns exactly one [`Verdict`] per object, never panics, and
 //! allocates nothing after [`Monitor::new`]. The crate is `no_std` (it needs `alloc` only at construction).
 #![cfg_attr(not(feature = "std"), no_std)]
+// Unit tests may panic: a failed assertion is how a test fails.
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic,
+        clippy::field_reassign_with_default
+    )
+)]
 
 extern crate alloc;
 
@@ -26,3 +37,16 @@ pub use verdict::{
     ClusterReport, Conditions, FrameError, FrameReport, GridStats, MotionOutcome, MotionVerdict, NotMonitoredReason,
     ObjectReport, SensorOutcome, SensorVerdict, Verdict,
 };
+
+pub mod geometry;
+pub mod grid;
+pub mod monitor;
+pub mod motion;
+pub mod plausibility;
+pub mod region;
+pub mod theory;
+pub mod visibility;
+
+pub use grid::{CellState, GridGeometry, OccupancyGrid};
+pub use monitor::{object_is_valid, Monitor};
+pub use region::Region;

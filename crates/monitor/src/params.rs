@@ -331,8 +331,7 @@ impl fmt::Display for ParamError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for ParamError {}
+impl core::error::Error for ParamError {}
 
 #[cfg(test)]
 mod tests {

@@ -1,0 +1,208 @@
+//! Small 2D geometry: angle wrapping, oriented rectangles, cell-rectangle overlap, polygons.
+
+use core::f64::consts::PI;
+
+/// Wraps an angle difference into `(-pi, pi]`, radians. Non-finite input returns NaN.
+#[must_use]
+pub fn wrap_angle(a: f64) -> f64 {
+    if !a.is_finite() {
+        return f64::NAN;
+    }
+    let two_pi = 2.0 * PI;
+    let mut r = libm::fmod(a + PI, two_pi);
+    if r <= 0.0 {
+        r += two_pi;
+    }
+    r - PI
+}
+
+/// An oriented rectangle in the ego frame: centre, unit axes, half extents (metres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrientedRect {
+    /// Centre x, metres.
+    pub cx: f32,
+    /// Centre y, metres.
+    pub cy: f32,
+    /// cos(heading).
+    pub cos: f32,
+    /// sin(heading).
+    pub sin: f32,
+    /// Half extent along the heading, metres.
+    pub half_length: f32,
+    /// Half extent across the heading, metres.
+    pub half_width: f32,
+}
+
+impl OrientedRect {
+    /// A rectangle from centre, heading and half extents.
+    #[must_use]
+    pub fn new(cx: f32, cy: f32, heading_rad: f32, half_length: f32, half_width: f32) -> Self {
+        let (sin, cos) = libm::sincosf(heading_rad);
+        Self { cx, cy, cos, sin, half_length, half_width }
+    }
+
+    /// Axis-aligned bounds `[min_x, min_y, max_x, max_y]`.
+    #[must_use]
+    pub fn aabb(&self) -> [f32; 4] {
+        let ex = self.half_length * self.cos.abs() + self.half_width * self.sin.abs();
+        let ey = self.half_length * self.sin.abs() + self.half_width * self.cos.abs();
+        [self.cx - ex, self.cy - ey, self.cx + ex, self.cy + ey]
+    }
+
+    /// True when the axis-aligned square of centre `(x, y)` and half side `h` overlaps the rectangle with
+    /// positive area (separating-axis test on the square's two axes and the rectangle's two axes). Touching
+    /// edges do not count.
+    #[must_use]
+    #[inline]
+    pub fn overlaps_square(&self, x: f32, y: f32, h: f32) -> bool {
+        let dx = x - self.cx;
+        let dy = y - self.cy;
+        let (c, s) = (self.cos.abs(), self.sin.abs());
+        // Square's axes (x, y).
+        if dx.abs() >= h + self.half_length * c + self.half_width * s {
+            return false;
+        }
+        if dy.abs() >= h + self.half_length * s + self.half_width * c {
+            return false;
+        }
+        // Rectangle's axes (u along heading, v across).
+        let du = dx * self.cos + dy * self.sin;
+        let dv = -dx * self.sin + dy * self.cos;
+        let hs = h * (c + s);
+        du.abs() < self.half_length + hs && dv.abs() < self.half_width + hs
+    }
+
+    /// True when the point lies inside or on the rectangle.
+    #[must_use]
+    pub fn contains(&self, x: f32, y: f32) -> bool {
+        let (du, dv) = self.local(x, y);
+        du.abs() <= self.half_length && dv.abs() <= self.half_width
+    }
+
+    /// The point in the rectangle's frame (along, across), metres.
+    #[must_use]
+    pub fn local(&self, x: f32, y: f32) -> (f32, f32) {
+        let dx = x - self.cx;
+        let dy = y - self.cy;
+        (dx * self.cos + dy * self.sin, -dx * self.sin + dy * self.cos)
+    }
+
+    /// Euclidean distance from the point to the rectangle (0 inside), metres.
+    #[must_use]
+    pub fn distance(&self, x: f32, y: f32) -> f32 {
+        let (du, dv) = self.local(x, y);
+        let ou = (du.abs() - self.half_length).max(0.0);
+        let ov = (dv.abs() - self.half_width).max(0.0);
+        libm::hypotf(ou, ov)
+    }
+
+    /// The point of the rectangle nearest to `(x, y)`.
+    #[must_use]
+    pub fn nearest_point(&self, x: f32, y: f32) -> (f32, f32) {
+        let (du, dv) = self.local(x, y);
+        let u = du.clamp(-self.half_length, self.half_length);
+        let v = dv.clamp(-self.half_width, self.half_width);
+        (self.cx + u * self.cos - v * self.sin, self.cy + u * self.sin + v * self.cos)
+    }
+}
+
+/// Even-odd point-in-polygon test. A polygon with fewer than 3 vertices contains nothing.
+#[must_use]
+pub fn polygon_contains(polygon: &[[f32; 2]], x: f32, y: f32) -> bool {
+    if polygon.len() < 3 {
+        return false;
+    }
+    let mut inside = false;
+    let mut prev = match polygon.last() {
+        Some(p) => *p,
+        None => return false,
+    };
+    for &p in polygon {
+        let ([xi, yi], [xj, yj]) = (p, prev);
+        if (yi > y) != (yj > y) {
+            let t = (y - yi) / (yj - yi);
+            if x < xi + t * (xj - xi) {
+                inside = !inside;
+            }
+        }
+        prev = p;
+    }
+    inside
+}
+
+/// A monotonic pseudo-angle in `[0, 4)` of the direction `(dx, dy)` (the "diamond angle"): cheaper than
+/// `atan2`, no trigonometry, same ordering. `(0, 0)` maps to 0.
+#[must_use]
+#[inline]
+pub fn diamond_angle(dx: f32, dy: f32) -> f32 {
+    let s = dx.abs() + dy.abs();
+    if s <= 0.0 || !s.is_finite() {
+        return 0.0;
+    }
+    if dy >= 0.0 {
+        if dx >= 0.0 {
+            dy / s
+        } else {
+            1.0 - dx / s
+        }
+    } else if dx < 0.0 {
+        2.0 - dy / s
+    } else {
+        3.0 + dx / s
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::float_cmp)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrap_angle_into_half_open_interval() {
+        assert!((wrap_angle(3.0 * PI) - PI).abs() < 1e-12);
+        assert!((wrap_angle(-PI) - PI).abs() < 1e-12);
+        assert!((wrap_angle(0.1 - 2.0 * PI) - 0.1).abs() < 1e-12);
+        assert!(wrap_angle(f64::NAN).is_nan());
+    }
+
+    #[test]
+    fn square_overlap_and_touching() {
+        let r = OrientedRect::new(0.0, 0.0, 0.0, 1.0, 0.5);
+        assert!(r.overlaps_square(1.2, 0.0, 0.25));
+        assert!(!r.overlaps_square(1.25, 0.0, 0.25), "touching edges do not overlap");
+        assert!(!r.overlaps_square(0.0, 0.8, 0.25));
+        // Rotated 45 degrees: the corner region between the rectangle's corner and the square.
+        let r = OrientedRect::new(0.0, 0.0, core::f32::consts::FRAC_PI_4, 1.0, 1.0);
+        assert!(r.overlaps_square(1.5, 0.0, 0.25)); // tip at sqrt(2) = 1.414 > 1.25
+        assert!(!r.overlaps_square(1.2, 1.2, 0.25));
+    }
+
+    #[test]
+    fn distance_and_nearest_point() {
+        let r = OrientedRect::new(1.0, 1.0, core::f32::consts::FRAC_PI_2, 2.0, 1.0);
+        assert!(r.distance(1.0, 1.0) < 1e-6);
+        assert!((r.distance(3.0, 1.0) - 1.0).abs() < 1e-5);
+        let (x, y) = r.nearest_point(3.0, 1.0);
+        assert!((x - 2.0).abs() < 1e-5 && (y - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn polygon() {
+        let sq = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+        assert!(polygon_contains(&sq, 1.0, 1.0));
+        assert!(!polygon_contains(&sq, 3.0, 1.0));
+        assert!(!polygon_contains(&sq[..2], 1.0, 0.0));
+    }
+
+    #[test]
+    fn diamond_angle_is_monotonic() {
+        let mut last = -1.0;
+        for i in 0..720 {
+            let a = (i as f32) * core::f32::consts::PI / 360.0;
+            let d = diamond_angle(libm::cosf(a), libm::sinf(a));
+            assert!(d >= last, "{i}");
+            assert!((0.0..4.0).contains(&d));
+            last = d;
+        }
+    }
+}

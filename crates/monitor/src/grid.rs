@@ -1,0 +1,283 @@
+//! Grid geometry and the occupancy grid.
+//!
+//! Cells and metres are kept apart: `GridGeometry` converts; cell indices are `u32` row-major
+//! (`iy * cells_per_side + ix`), `ix` along ego x. The grid is centred on the ego origin.
+//!
+//! Each cell holds the number of obstacle hits of this frame. Its occupancy probability follows the classic
+//! log-odds inverse sensor model (Thrun, Burgard, Fox, *Probabilistic Robotics*, ch. 9): starting from the prior
+//! 0.5 (log-odds 0), every hit adds `l_hit = ln(p_hit / (1 - p_hit))`, so `P(n) = 1 - 1 / (1 + exp(n l_hit))`.
+//! A cell without a hit is **unknown** (`P = 0.5`), a state of its own, not "free": the hit-only grid cannot
+//! see free space (see [`crate::visibility`] for that).
+//!
+//! Only cells touched this frame are reset at the start of the next frame: the per-frame cost grows with the
+//! number of points, not with the grid's area.
+
+use alloc::vec;
+use alloc::vec::Vec;
+
+/// Hits beyond this are not counted further (the probability has long saturated).
+pub const MAX_HITS: u16 = 255;
+
+/// Cell flag: the cell intersects at least one object region `A_o`.
+pub const FLAG_EXPLAINED: u8 = 1;
+/// Cell flag: visited by the conflict clustering.
+pub const FLAG_VISITED: u8 = 2;
+
+/// The state of one cell, for display and inspection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CellState {
+    /// No evidence this frame.
+    Unknown,
+    /// Some hits, occupancy probability at or below the threshold.
+    Weak,
+    /// Occupied (`P > tau_fn`) and inside some object region.
+    Occupied,
+    /// Occupied and inside no object region: a conflict (`kappa > tau_fn`).
+    Conflict,
+}
+
+/// Geometry of the square, ego-centred grid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridGeometry {
+    /// Cells along one side.
+    pub cells_per_side: u32,
+    /// Cell side, metres.
+    pub cell_size_m: f32,
+    /// Ego-frame coordinate of the grid's lower-left corner (both axes), metres.
+    pub origin_m: f32,
+    inv_cell: f32,
+}
+
+impl GridGeometry {
+    /// A grid of `cells_per_side` cells of `cell_size_m`, centred on the ego origin.
+    #[must_use]
+    pub fn new(cells_per_side: u32, cell_size_m: f32) -> Self {
+        let origin_m = -(cells_per_side as f32) * cell_size_m * 0.5;
+        Self { cells_per_side, cell_size_m, origin_m, inv_cell: 1.0 / cell_size_m }
+    }
+
+    /// Side length, metres.
+    #[must_use]
+    pub fn size_m(&self) -> f32 {
+        self.cells_per_side as f32 * self.cell_size_m
+    }
+
+    /// Total number of cells.
+    #[must_use]
+    pub fn cell_count(&self) -> usize {
+        self.cells_per_side as usize * self.cells_per_side as usize
+    }
+
+    /// Column or row of an ego-frame coordinate, or `None` outside the grid (or not finite).
+    #[must_use]
+    #[inline]
+    pub fn axis_to_cell(&self, v_m: f32) -> Option<u32> {
+        let f = (v_m - self.origin_m) * self.inv_cell;
+        // NaN fails both comparisons.
+        if f >= 0.0 && f < self.cells_per_side as f32 {
+            Some(f as u32)
+        } else {
+            None
+        }
+    }
+
+    /// Cell index of an ego-frame point, or `None` outside the grid.
+    #[must_use]
+    #[inline]
+    pub fn point_to_cell(&self, x_m: f32, y_m: f32) -> Option<u32> {
+        let ix = self.axis_to_cell(x_m)?;
+        let iy = self.axis_to_cell(y_m)?;
+        Some(iy * self.cells_per_side + ix)
+    }
+
+    /// Centre of column/row `i`, ego frame, metres.
+    #[must_use]
+    #[inline]
+    pub fn cell_center_axis(&self, i: u32) -> f32 {
+        self.origin_m + (i as f32 + 0.5) * self.cell_size_m
+    }
+
+    /// Centre of a cell, ego frame, metres.
+    #[must_use]
+    pub fn cell_center(&self, index: u32) -> (f32, f32) {
+        let n = self.cells_per_side.max(1);
+        (self.cell_center_axis(index % n), self.cell_center_axis(index / n))
+    }
+
+    /// True when the axis-aligned box `[min_x, min_y, max_x, max_y]` lies entirely inside the grid.
+    #[must_use]
+    pub fn contains_box(&self, b: [f32; 4]) -> bool {
+        let hi = self.origin_m + self.size_m();
+        b[0] >= self.origin_m && b[1] >= self.origin_m && b[2] < hi && b[3] < hi
+    }
+
+    /// Inclusive cell range `(ix0, iy0, ix1, iy1)` covering a box that lies inside the grid.
+    #[must_use]
+    pub fn cell_range(&self, b: [f32; 4]) -> Option<(u32, u32, u32, u32)> {
+        Some((self.axis_to_cell(b[0])?, self.axis_to_cell(b[1])?, self.axis_to_cell(b[2])?, self.axis_to_cell(b[3])?))
+    }
+}
+
+/// The occupancy grid: hit counts, flags and the list of cells touched this frame.
+#[derive(Clone, Debug)]
+pub struct OccupancyGrid {
+    /// Geometry.
+    pub geometry: GridGeometry,
+    hits: Vec<u16>,
+    flags: Vec<u8>,
+    touched: Vec<u32>,
+    /// `P(n)` for `n = 0..=MAX_HITS`.
+    probability: [f32; MAX_HITS as usize + 1],
+}
+
+impl OccupancyGrid {
+    /// Allocates a grid; `max_touched` bounds the cells touched per frame (at most one per point).
+    #[must_use]
+    pub fn new(geometry: GridGeometry, hit_probability: f32, max_touched: usize) -> Self {
+        let l_hit = libm::logf(hit_probability / (1.0 - hit_probability));
+        let mut probability = [0.5_f32; MAX_HITS as usize + 1];
+        for (n, p) in probability.iter_mut().enumerate() {
+            *p = 1.0 - 1.0 / (1.0 + libm::expf(n as f32 * l_hit));
+        }
+        let cells = geometry.cell_count();
+        Self {
+            geometry,
+            hits: vec![0; cells],
+            flags: vec![0; cells],
+            touched: Vec::with_capacity(max_touched.min(cells)),
+            probability,
+        }
+    }
+
+    /// Clears every cell touched since the last reset.
+    pub fn reset(&mut self) {
+        for &i in &self.touched {
+            if let Some(h) = self.hits.get_mut(i as usize) {
+                *h = 0;
+            }
+            if let Some(f) = self.flags.get_mut(i as usize) {
+                *f = 0;
+            }
+        }
+        self.touched.clear();
+    }
+
+    /// Adds one hit to a cell. Returns false when the touched list is full (the hit is then not recorded).
+    #[inline]
+    pub fn add_hit(&mut self, index: u32) -> bool {
+        let Some(h) = self.hits.get_mut(index as usize) else { return false };
+        if *h == 0 {
+            if self.touched.len() >= self.touched.capacity() {
+                return false;
+            }
+            self.touched.push(index);
+        }
+        *h = h.saturating_add(1).min(MAX_HITS);
+        true
+    }
+
+    /// Hits of a cell this frame (0 outside the grid).
+    #[must_use]
+    #[inline]
+    pub fn hits(&self, index: u32) -> u16 {
+        self.hits.get(index as usize).copied().unwrap_or(0)
+    }
+
+    /// Occupancy probability `P(zeta)` of a cell (0.5, unknown, for a cell without hits).
+    #[must_use]
+    #[inline]
+    pub fn probability(&self, index: u32) -> f32 {
+        self.probability_of_hits(self.hits(index))
+    }
+
+    /// `P(n)` for a hit count.
+    #[must_use]
+    #[inline]
+    pub fn probability_of_hits(&self, hits: u16) -> f32 {
+        self.probability.get(hits as usize).copied().unwrap_or(1.0)
+    }
+
+    /// Flags of a cell.
+    #[must_use]
+    #[inline]
+    pub fn flags(&self, index: u32) -> u8 {
+        self.flags.get(index as usize).copied().unwrap_or(0)
+    }
+
+    /// Sets flags on a cell that has hits (flags are only ever set on touched cells, so that
+    /// [`OccupancyGrid::reset`] clears them).
+    #[inline]
+    pub fn set_flags(&mut self, index: u32, flags: u8) {
+        if self.hits(index) == 0 {
+            return;
+        }
+        if let Some(f) = self.flags.get_mut(index as usize) {
+            *f |= flags;
+        }
+    }
+
+    /// Cells touched this frame, in the order of first touch.
+    #[must_use]
+    pub fn touched(&self) -> &[u32] {
+        &self.touched
+    }
+
+    /// State of a cell given the conflict threshold.
+    #[must_use]
+    pub fn state(&self, index: u32, tau_fn: f32) -> CellState {
+        let n = self.hits(index);
+        if n == 0 {
+            CellState::Unknown
+        } else if self.probability_of_hits(n) <= tau_fn {
+            CellState::Weak
+        } else if self.flags(index) & FLAG_EXPLAINED != 0 {
+            CellState::Occupied
+        } else {
+            CellState::Conflict
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn world_to_cell_and_back() {
+        let g = GridGeometry::new(200, 0.5);
+        assert_eq!(g.point_to_cell(0.1, 0.1), Some(100 * 200 + 100));
+        assert_eq!(g.point_to_cell(-50.0, -50.0), Some(0));
+        assert_eq!(g.point_to_cell(50.0, 0.0), None);
+        assert_eq!(g.point_to_cell(f32::NAN, 0.0), None);
+        let (x, y) = g.cell_center(100 * 200 + 100);
+        assert!((x - 0.25).abs() < 1e-6 && (y - 0.25).abs() < 1e-6);
+    }
+
+    #[test]
+    fn log_odds_probabilities() {
+        let g = OccupancyGrid::new(GridGeometry::new(4, 1.0), 0.7, 16);
+        assert!((g.probability_of_hits(0) - 0.5).abs() < 1e-6);
+        assert!((g.probability_of_hits(1) - 0.7).abs() < 1e-5);
+        // Two hits: odds (7/3)^2 = 5.444, P = 0.8448.
+        assert!((g.probability_of_hits(2) - 0.844_827_6).abs() < 1e-5);
+        assert!(g.probability_of_hits(255) <= 1.0);
+    }
+
+    #[test]
+    fn reset_clears_only_touched_and_capacity_is_respected() {
+        let mut g = OccupancyGrid::new(GridGeometry::new(4, 1.0), 0.7, 2);
+        assert!(g.add_hit(3));
+        assert!(g.add_hit(3));
+        assert!(g.add_hit(5));
+        assert!(!g.add_hit(7), "third distinct cell exceeds capacity");
+        g.set_flags(3, FLAG_EXPLAINED);
+        g.set_flags(9, FLAG_EXPLAINED); // no hits: ignored
+        assert_eq!(g.flags(9), 0);
+        assert_eq!(g.state(3, 0.8), CellState::Occupied);
+        assert_eq!(g.state(5, 0.8), CellState::Weak);
+        g.reset();
+        assert_eq!(g.hits(3), 0);
+        assert_eq!(g.flags(3), 0);
+        assert!(g.touched().is_empty());
+    }
+}

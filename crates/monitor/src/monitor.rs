@@ -1,0 +1,450 @@
+//! [`Monitor`]: owns every buffer, runs both checks on a frame, and returns one verdict per object.
+
+use alloc::vec::Vec;
+
+use crate::frame::{Frame, ObjectState, Uncertainty};
+use crate::grid::{GridGeometry, OccupancyGrid, FLAG_EXPLAINED, FLAG_VISITED};
+use crate::params::{MonitorParams, ParamError};
+use crate::plausibility::TrackTable;
+use crate::region::Region;
+use crate::verdict::{
+    ClusterReport, FrameError, FrameReport, GridStats, MotionOutcome, NotMonitoredReason, ObjectReport, SensorOutcome,
+    SensorVerdict, Verdict,
+};
+use crate::visibility::VisibilityMap;
+
+/// Per-object state of the sensor checks within one frame.
+#[derive(Clone, Copy, Debug)]
+struct ObjectScratch {
+    region: Option<Region>,
+    /// Attributed cluster and its size.
+    cluster: Option<(u16, u32)>,
+}
+
+/// The perception monitor. Construct once with [`Monitor::new`]; call [`Monitor::check`] every frame.
+///
+/// Memory is allocated in `new` only: the grid (`cells^2` x 3 bytes), the point and cluster buffers
+/// (`max_points` x 4 bytes x 2), and the per-object and track buffers. `check` allocates nothing.
+#[derive(Clone, Debug)]
+pub struct Monitor {
+    params: MonitorParams,
+    grid: OccupancyGrid,
+    visibility: VisibilityMap,
+    scratch: Vec<ObjectScratch>,
+    valid: Vec<bool>,
+    motion: Vec<MotionOutcome>,
+    reports: Vec<ObjectReport>,
+    clusters: Vec<ClusterReport>,
+    cluster_spans: Vec<(u32, u32)>,
+    queue: Vec<u32>,
+    tracks: TrackTable,
+    stats: GridStats,
+    sensor_status: Option<NotMonitoredReason>,
+}
+
+/// Checks an object's state: finite values, sizes in `(0, max]`, speed `>= 0`, valid uncertainties.
+#[must_use]
+pub fn object_is_valid(o: &ObjectState, p: &MonitorParams) -> bool {
+    let finite = [o.x_m, o.y_m, o.heading_rad, o.speed_mps, o.length_m, o.width_m].iter().all(|v| v.is_finite());
+    finite
+        && o.length_m > 0.0
+        && o.width_m > 0.0
+        && o.length_m <= p.max_object_size_m
+        && o.width_m <= p.max_object_size_m
+        && o.speed_mps >= 0.0
+        && o.uncertainty.is_none_or(|u| u.is_valid())
+}
+
+const fn sensor_outcome(verdict: SensorVerdict) -> SensorOutcome {
+    SensorOutcome {
+        verdict,
+        eta: 0.0,
+        margin_length_m: 0.0,
+        margin_width_m: 0.0,
+        visible_fraction: 0.0,
+        cluster: None,
+        offset_m: [0.0, 0.0],
+    }
+}
+
+impl Monitor {
+    /// Validates the parameters and allocates every buffer.
+    ///
+    /// # Errors
+    /// The first parameter out of range.
+    pub fn new(params: MonitorParams) -> Result<Self, ParamError> {
+        params.validate()?;
+        let geometry = GridGeometry::new(params.grid_cells_per_side(), params.cell_size_m);
+        let max_points = params.max_points as usize;
+        let max_objects = params.max_objects as usize;
+        let max_clusters = params.max_clusters as usize;
+        let cells = geometry.cell_count();
+        Ok(Self {
+            grid: OccupancyGrid::new(geometry, params.hit_probability, max_points),
+            visibility: VisibilityMap::new(params.visibility_bins),
+            scratch: Vec::with_capacity(max_objects),
+            valid: Vec::with_capacity(max_objects),
+            motion: Vec::with_capacity(max_objects),
+            reports: Vec::with_capacity(max_objects),
+            clusters: Vec::with_capacity(max_clusters),
+            cluster_spans: Vec::with_capacity(max_clusters),
+            queue: Vec::with_capacity(max_points.min(cells)),
+            tracks: TrackTable::new(max_objects),
+            stats: GridStats::default(),
+            sensor_status: None,
+            params,
+        })
+    }
+
+    /// The validated parameters.
+    #[must_use]
+    pub fn params(&self) -> &MonitorParams {
+        &self.params
+    }
+
+    /// The occupancy grid of the last frame (for display and inspection).
+    #[must_use]
+    pub fn grid(&self) -> &OccupancyGrid {
+        &self.grid
+    }
+
+    /// The region `A_o` the sensor checks use for an object, `None` for an invalid state.
+    #[must_use]
+    pub fn region_of(&self, o: &ObjectState) -> Option<Region> {
+        object_is_valid(o, &self.params).then(|| Region::of(o, &self.uncertainty_of(o), &self.params))
+    }
+
+    fn uncertainty_of(&self, o: &ObjectState) -> Uncertainty {
+        o.uncertainty.unwrap_or(self.params.default_uncertainty)
+    }
+
+    /// Forgets all track histories (for example after a jump in the recording).
+    pub fn reset_tracks(&mut self) {
+        self.tracks.clear();
+    }
+
+    /// Runs the sensor and plausibility checks on one frame.
+    ///
+    /// Every object of `frame.objects` gets exactly one [`ObjectReport`], in input order. Allocates nothing;
+    /// never panics; loops are bounded by the capacities in [`MonitorParams`] and by the grid size.
+    ///
+    /// # Errors
+    /// [`FrameError::TooManyObjects`] when the list exceeds `max_objects` (no object is judged then; the
+    /// tracks are left unchanged).
+    pub fn check(&mut self, frame: &Frame<'_>) -> Result<FrameReport<'_>, FrameError> {
+        let n = frame.objects.len();
+        if n > self.params.max_objects as usize {
+            return Err(FrameError::TooManyObjects { got: n, max: self.params.max_objects });
+        }
+        self.begin_frame(frame);
+        self.rasterize(frame);
+        self.object_regions(frame);
+        if self.sensor_status.is_none() {
+            self.cluster_conflicts(frame);
+            self.attribute_clusters();
+        }
+        self.tracks.check_frame(
+            frame.timestamp_s,
+            &frame.world_from_ego,
+            frame.objects,
+            &self.valid,
+            &mut self.motion,
+            &self.params,
+        );
+        self.finish_reports(frame);
+        Ok(FrameReport {
+            objects: &self.reports,
+            clusters: &self.clusters,
+            grid: self.stats,
+            sensor_status: self.sensor_status,
+        })
+    }
+
+    fn begin_frame(&mut self, frame: &Frame<'_>) {
+        self.grid.reset();
+        self.clusters.clear();
+        self.cluster_spans.clear();
+        self.queue.clear();
+        self.stats = GridStats::default();
+        self.valid.clear();
+        self.scratch.clear();
+        self.motion.clear();
+        self.reports.clear();
+        for o in frame.objects {
+            self.valid.push(object_is_valid(o, &self.params));
+            self.scratch.push(ObjectScratch { region: None, cluster: None });
+            self.motion.push(MotionOutcome::not_monitored(NotMonitoredReason::InvalidState));
+        }
+        self.sensor_status = match &frame.cloud {
+            None => Some(NotMonitoredReason::NoLidarData),
+            Some(c) if !c.ego_from_sensor.is_finite() => Some(NotMonitoredReason::InvalidCloud),
+            Some(c) if c.points_in_sensor.is_empty() => Some(NotMonitoredReason::EmptyCloud),
+            Some(c) if c.points_in_sensor.len() > self.params.max_points as usize => {
+                Some(NotMonitoredReason::TooManyPoints)
+            }
+            Some(_) => None,
+        };
+    }
+
+    /// Points -> grid: transform into the ego frame, keep the height band, count hits, fill the visibility map.
+    fn rasterize(&mut self, frame: &Frame<'_>) {
+        let Some(cloud) = frame.cloud.filter(|_| self.sensor_status.is_none()) else { return };
+        let t = cloud.ego_from_sensor;
+        self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
+        let lo = self.params.ground_z_m + self.params.min_obstacle_height_m;
+        let hi = self.params.ground_z_m + self.params.max_obstacle_height_m;
+        let geometry = self.grid.geometry;
+        let mut in_band = 0u32;
+        for p in cloud.points_in_sensor {
+            let q = t.transform(*p);
+            // Above the band (overhangs) or NaN: not an obstacle, and not a return that shows free space.
+            if q[2].partial_cmp(&hi).is_none_or(|o| o == core::cmp::Ordering::Greater) {
+                continue;
+            }
+            let obstacle = q[2] >= lo;
+            if !(q[0].is_finite() && q[1].is_finite()) {
+                continue;
+            }
+            self.visibility.add_return(q[0], q[1], obstacle);
+            if obstacle {
+                if let Some(cell) = geometry.point_to_cell(q[0], q[1]) {
+                    // Cannot fail: the touched list has room for max_points >= points cells.
+                    let _ = self.grid.add_hit(cell);
+                    in_band += 1;
+                }
+            }
+        }
+        self.stats.points_total = u32::try_from(cloud.points_in_sensor.len()).unwrap_or(u32::MAX);
+        self.stats.points_in_band = in_band;
+        self.stats.cells_hit = u32::try_from(self.grid.touched().len()).unwrap_or(u32::MAX);
+    }
+
+    /// Regions `A_o`, consistency `eta(o)` (eq. consistency), and the cells they explain.
+    fn object_regions(&mut self, frame: &Frame<'_>) {
+        let geometry = self.grid.geometry;
+        let half = 0.5 * geometry.cell_size_m;
+        for (i, o) in frame.objects.iter().enumerate() {
+            let report = if !self.valid.get(i).copied().unwrap_or(false) {
+                sensor_outcome(SensorVerdict::NotMonitored(NotMonitoredReason::InvalidState))
+            } else {
+                let region = Region::of(o, &self.uncertainty_of(o), &self.params);
+                let mut out = sensor_outcome(SensorVerdict::Consistent);
+                out.margin_length_m = region.margin_length_m;
+                out.margin_width_m = region.margin_width_m;
+                let bounds = region.grown.aabb();
+                match geometry.cell_range(bounds).filter(|_| geometry.contains_box(bounds)) {
+                    None => out.verdict = SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid),
+                    Some(_) if self.sensor_status.is_some() => {
+                        out.verdict =
+                            SensorVerdict::NotMonitored(self.sensor_status.unwrap_or(NotMonitoredReason::NoLidarData));
+                    }
+                    Some((ix0, iy0, ix1, iy1)) => {
+                        let mut eta = self.grid.probability_of_hits(0);
+                        for iy in iy0..=iy1 {
+                            let cy = geometry.cell_center_axis(iy);
+                            for ix in ix0..=ix1 {
+                                let cx = geometry.cell_center_axis(ix);
+                                if !region.grown.overlaps_square(cx, cy, half) {
+                                    continue;
+                                }
+                                let idx = iy * geometry.cells_per_side + ix;
+                                let hits = self.grid.hits(idx);
+                                if hits > 0 {
+                                    eta = eta.max(self.grid.probability_of_hits(hits));
+                                    self.grid.set_flags(idx, FLAG_EXPLAINED);
+                                }
+                            }
+                        }
+                        out.eta = eta;
+                        if let Some(s) = self.scratch.get_mut(i) {
+                            s.region = Some(region);
+                        }
+                    }
+                }
+                out
+            };
+            self.reports.push(ObjectReport {
+                id: o.id,
+                verdict: Verdict::NotMonitored(NotMonitoredReason::InvalidState),
+                sensor: report,
+                motion: MotionOutcome::not_monitored(NotMonitoredReason::InvalidState),
+            });
+        }
+    }
+
+    /// Conflict cells (`kappa > tau_fn`, eq. conflict) grouped into 8-connected clusters.
+    fn cluster_conflicts(&mut self, frame: &Frame<'_>) {
+        let geometry = self.grid.geometry;
+        let n = geometry.cells_per_side;
+        let tau = self.params.tau_fn;
+        let mut k = 0usize;
+        while let Some(&idx) = self.grid.touched().get(k) {
+            k += 1;
+            if self.grid.probability(idx) <= tau {
+                continue;
+            }
+            self.stats.cells_occupied += 1;
+            let flags = self.grid.flags(idx);
+            if flags & FLAG_EXPLAINED != 0 {
+                continue;
+            }
+            self.stats.cells_conflict += 1;
+            if flags & FLAG_VISITED != 0 {
+                continue;
+            }
+            // Flood fill; the queue keeps every cluster's cells contiguous (bounded: each cell enters once).
+            let start = self.queue.len();
+            self.grid.set_flags(idx, FLAG_VISITED);
+            self.queue.push(idx);
+            let mut head = start;
+            while let Some(&c) = self.queue.get(head) {
+                head += 1;
+                let (cx, cy) = (c % n, c / n);
+                for dy in -1i32..=1 {
+                    for dx in -1i32..=1 {
+                        if dx == 0 && dy == 0 {
+                            continue;
+                        }
+                        let (nx, ny) = (cx as i64 + i64::from(dx), cy as i64 + i64::from(dy));
+                        if nx < 0 || ny < 0 || nx >= i64::from(n) || ny >= i64::from(n) {
+                            continue;
+                        }
+                        let nb = ny as u32 * n + nx as u32;
+                        if self.grid.hits(nb) == 0
+                            || self.grid.probability(nb) <= tau
+                            || self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) != 0
+                            || self.queue.len() >= self.queue.capacity()
+                        {
+                            continue;
+                        }
+                        self.grid.set_flags(nb, FLAG_VISITED);
+                        self.queue.push(nb);
+                    }
+                }
+            }
+            let end = self.queue.len();
+            let cells = (end - start) as u32;
+            if cells < self.params.min_cluster_cells {
+                continue;
+            }
+            self.stats.clusters_total += 1;
+            if self.clusters.len() >= self.clusters.capacity() {
+                continue;
+            }
+            let (mut sx, mut sy) = (0.0f32, 0.0f32);
+            let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+            let mut in_roi = frame.roi_in_ego.is_empty();
+            for &c in self.queue.get(start..end).unwrap_or(&[]) {
+                let (x, y) = geometry.cell_center(c);
+                sx += x;
+                sy += y;
+                b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+                if !in_roi {
+                    in_roi = frame.roi_in_ego.iter().any(|poly| crate::geometry::polygon_contains(poly, x, y));
+                }
+            }
+            let inv = 1.0 / cells as f32;
+            self.clusters.push(ClusterReport {
+                cells,
+                centroid_m: [sx * inv, sy * inv],
+                bounds_m: b,
+                in_roi,
+                object: None,
+            });
+            self.cluster_spans.push((start as u32, end as u32));
+        }
+    }
+
+    /// Attributes each cluster to the nearest object region within `conflict_association_m`: any cluster to an
+    /// inconsistent object (its evidence moved out), and, when it lies in the region of interest, also to a
+    /// consistent one (its evidence spills over the region's edge).
+    fn attribute_clusters(&mut self) {
+        let geometry = self.grid.geometry;
+        let reach = self.params.conflict_association_m;
+        let tau_tp = self.params.tau_tp;
+        for (k, cluster) in self.clusters.iter_mut().enumerate() {
+            let Some(&(start, end)) = self.cluster_spans.get(k) else { continue };
+            let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
+            let mut best: Option<(usize, f32)> = None;
+            for (j, s) in self.scratch.iter().enumerate() {
+                let Some(region) = &s.region else { continue };
+                let consistent = self.reports.get(j).is_some_and(|r| r.sensor.eta >= tau_tp);
+                if consistent && !cluster.in_roi {
+                    continue;
+                }
+                let rb = region.grown.aabb();
+                let cb = cluster.bounds_m;
+                let gap_x = (cb[0] - rb[2]).max(rb[0] - cb[2]).max(0.0);
+                let gap_y = (cb[1] - rb[3]).max(rb[1] - cb[3]).max(0.0);
+                if libm::hypotf(gap_x, gap_y) > reach {
+                    continue;
+                }
+                let mut d = f32::INFINITY;
+                for &c in cells {
+                    let (x, y) = geometry.cell_center(c);
+                    d = d.min(region.grown.distance(x, y));
+                }
+                if d <= reach && best.is_none_or(|(_, bd)| d < bd) {
+                    best = Some((j, d));
+                }
+            }
+            if let Some((j, _)) = best {
+                cluster.object = u32::try_from(j).ok();
+                if let Some(s) = self.scratch.get_mut(j) {
+                    if s.cluster.is_none_or(|(_, size)| cluster.cells > size) {
+                        s.cluster = u16::try_from(k).ok().map(|k16| (k16, cluster.cells));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Sensor verdicts (f(o) with the cluster attribution and the occlusion test) and the combined verdicts.
+    fn finish_reports(&mut self, frame: &Frame<'_>) {
+        let geometry = self.grid.geometry;
+        let half = 0.5 * geometry.cell_size_m;
+        let tau_tp = self.params.tau_tp;
+        for (j, report) in self.reports.iter_mut().enumerate() {
+            let scratch = self.scratch.get(j).copied();
+            if let Some(ObjectScratch { region: Some(region), cluster }) = scratch {
+                let s = &mut report.sensor;
+                if let Some((k, _)) = cluster {
+                    s.verdict = SensorVerdict::PositionError;
+                    s.cluster = Some(k);
+                    if let Some(c) = self.clusters.get(k as usize) {
+                        let (nx, ny) = region.footprint.nearest_point(c.centroid_m[0], c.centroid_m[1]);
+                        s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
+                    }
+                } else if s.eta < tau_tp {
+                    // Was the empty region visible to the sensor?
+                    let (mut visible, mut total) = (0u32, 0u32);
+                    if let Some((ix0, iy0, ix1, iy1)) = geometry.cell_range(region.grown.aabb()) {
+                        for iy in iy0..=iy1 {
+                            let cy = geometry.cell_center_axis(iy);
+                            for ix in ix0..=ix1 {
+                                let cx = geometry.cell_center_axis(ix);
+                                if region.grown.overlaps_square(cx, cy, half) {
+                                    total += 1;
+                                    if self.visibility.is_visible(cx, cy) {
+                                        visible += 1;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    s.visible_fraction = if total > 0 { visible as f32 / total as f32 } else { 0.0 };
+                    s.verdict = if s.visible_fraction >= self.params.ghost_visible_fraction {
+                        SensorVerdict::Ghost
+                    } else {
+                        SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
+                    };
+                }
+            }
+            if let Some(m) = self.motion.get(j) {
+                report.motion = *m;
+            }
+            report.verdict = Verdict::combine(report.sensor.verdict, report.motion.verdict);
+        }
+        let _ = frame;
+    }
+}

@@ -1,0 +1,104 @@
+//! A polar visibility map, to tell an empty region (ghost) from a hidden one (occluded).
+//!
+//! The hit-only occupancy grid cannot say whether a cell without hits is free or merely unseen. Per azimuth
+//! bin around the sensor this map keeps the squared range of the nearest obstacle return (points in the
+//! height band) and of the farthest return below the band's top (ground or obstacle). A ground position is
+//! *visible* when it lies before the nearest obstacle of its bin (not in a shadow) and before the farthest
+//! return (some ray reached past it). Cost: one pass over the points, no trigonometry (bins are spaced in
+//! [`crate::geometry::diamond_angle`], which is monotonic in the true angle but not uniform: bins are at most
+//! about 1.4 times wider than `360 / bins` degrees).
+
+use alloc::vec;
+use alloc::vec::Vec;
+
+use crate::geometry::diamond_angle;
+
+/// Nearest-obstacle and farthest-return ranges per azimuth bin.
+#[derive(Clone, Debug)]
+pub struct VisibilityMap {
+    nearest_obstacle_r2: Vec<f32>,
+    farthest_return_r2: Vec<f32>,
+    origin: [f32; 2],
+    bins_per_unit: f32,
+}
+
+impl VisibilityMap {
+    /// A map with `bins` azimuth bins (at least 1).
+    #[must_use]
+    pub fn new(bins: u32) -> Self {
+        let n = bins.max(1) as usize;
+        Self {
+            nearest_obstacle_r2: vec![f32::INFINITY; n],
+            farthest_return_r2: vec![0.0; n],
+            origin: [0.0, 0.0],
+            bins_per_unit: n as f32 / 4.0,
+        }
+    }
+
+    /// Clears the map and sets the sensor origin (ego frame, metres).
+    pub fn reset(&mut self, origin: [f32; 2]) {
+        self.nearest_obstacle_r2.fill(f32::INFINITY);
+        self.farthest_return_r2.fill(0.0);
+        self.origin = origin;
+    }
+
+    #[inline]
+    fn bin(&self, dx: f32, dy: f32) -> usize {
+        let b = (diamond_angle(dx, dy) * self.bins_per_unit) as usize;
+        b.min(self.nearest_obstacle_r2.len().saturating_sub(1))
+    }
+
+    /// Records a return at an ego-frame position; `obstacle` for points in the height band.
+    #[inline]
+    pub fn add_return(&mut self, x: f32, y: f32, obstacle: bool) {
+        let dx = x - self.origin[0];
+        let dy = y - self.origin[1];
+        let r2 = dx * dx + dy * dy;
+        let b = self.bin(dx, dy);
+        if let Some(f) = self.farthest_return_r2.get_mut(b) {
+            if r2 > *f {
+                *f = r2;
+            }
+        }
+        if obstacle {
+            if let Some(n) = self.nearest_obstacle_r2.get_mut(b) {
+                if r2 < *n {
+                    *n = r2;
+                }
+            }
+        }
+    }
+
+    /// True when the ego-frame position is visible: before the nearest obstacle and the farthest return of
+    /// its bin.
+    #[must_use]
+    #[inline]
+    pub fn is_visible(&self, x: f32, y: f32) -> bool {
+        let dx = x - self.origin[0];
+        let dy = y - self.origin[1];
+        let r2 = dx * dx + dy * dy;
+        let b = self.bin(dx, dy);
+        let near = self.nearest_obstacle_r2.get(b).copied().unwrap_or(0.0);
+        let far = self.farthest_return_r2.get(b).copied().unwrap_or(0.0);
+        r2 < near && r2 <= far
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shadow_behind_obstacle_and_reach_of_ground() {
+        let mut v = VisibilityMap::new(1024);
+        v.reset([0.0, 0.0]);
+        v.add_return(10.0, 0.0, true); // obstacle at 10 m straight ahead
+        v.add_return(30.0, 0.0, false); // ground return at 30 m behind it (other beam)
+        v.add_return(0.0, 20.0, false); // ground at 20 m to the left
+        assert!(v.is_visible(5.0, 0.0));
+        assert!(!v.is_visible(15.0, 0.0), "in the obstacle's shadow");
+        assert!(v.is_visible(0.0, 15.0));
+        assert!(!v.is_visible(0.0, 25.0), "beyond the farthest return");
+        assert!(!v.is_visible(-10.0, 0.0), "no return in that direction");
+    }
+}
