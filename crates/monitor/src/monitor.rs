@@ -11,7 +11,7 @@ use crate::verdict::{
     ClusterReport, FrameError, FrameReport, GridStats, MotionOutcome, NotMonitoredReason, ObjectReport, SensorOutcome,
     SensorVerdict, Verdict,
 };
-use crate::visibility::VisibilityMap;
+use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
 /// Per-object state of the sensor checks within one frame.
 #[derive(Clone, Copy, Debug)]
@@ -205,13 +205,12 @@ impl Monitor {
             if !(q[0].is_finite() && q[1].is_finite()) {
                 continue;
             }
-            self.visibility.add_return(q[0], q[1], obstacle);
-            if obstacle {
-                if let Some(cell) = geometry.point_to_cell(q[0], q[1]) {
-                    // Cannot fail: the touched list has room for max_points >= points cells.
-                    let _ = self.grid.add_hit(cell);
-                    in_band += 1;
-                }
+            let cell = if obstacle { geometry.point_to_cell(q[0], q[1]) } else { None };
+            self.visibility.add_return(q[0], q[1], obstacle, cell.unwrap_or(NO_CELL));
+            if let Some(cell) = cell {
+                // Cannot fail: the touched list has room for max_points >= points cells.
+                let _ = self.grid.add_hit(cell);
+                in_band += 1;
             }
         }
         self.stats.points_total = u32::try_from(cloud.points_in_sensor.len()).unwrap_or(u32::MAX);
@@ -362,6 +361,7 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let reach = self.params.conflict_association_m;
         let tau_tp = self.params.tau_tp;
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         for (k, cluster) in self.clusters.iter_mut().enumerate() {
             let Some(&(start, end)) = self.cluster_spans.get(k) else { continue };
             let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
@@ -379,10 +379,11 @@ impl Monitor {
                 if libm::hypotf(gap_x, gap_y) > reach {
                     continue;
                 }
+                // Distance from the cell (not its centre) to the region: centre distance less half a diagonal.
                 let mut d = f32::INFINITY;
                 for &c in cells {
                     let (x, y) = geometry.cell_center(c);
-                    d = d.min(region.grown.distance(x, y));
+                    d = d.min((region.grown.distance(x, y) - half_diagonal).max(0.0));
                 }
                 if d <= reach && best.is_none_or(|(_, bd)| d < bd) {
                     best = Some((j, d));
@@ -397,6 +398,15 @@ impl Monitor {
                 }
             }
         }
+    }
+
+    /// Index of the reported cluster that contains a cell (linear in the conflict cells; only called for
+    /// evidence-free objects).
+    fn cluster_of(spans: &[(u32, u32)], queue: &[u32], cell: u32) -> Option<usize> {
+        if cell == NO_CELL {
+            return None;
+        }
+        spans.iter().position(|&(a, b)| queue.get(a as usize..b as usize).is_some_and(|cells| cells.contains(&cell)))
     }
 
     /// Sensor verdicts (f(o) with the cluster attribution and the occlusion test) and the combined verdicts.
@@ -416,8 +426,10 @@ impl Monitor {
                         s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
                     }
                 } else if s.eta < tau_tp {
-                    // Was the empty region visible to the sensor?
-                    let (mut visible, mut total) = (0u32, 0u32);
+                    // Was the empty region visible to the sensor? A region hidden behind evidence that no
+                    // object explains is not excused: that evidence is likely the object itself, displaced.
+                    let (mut visible, mut unexplained_shadow, mut total) = (0u32, 0u32, 0u32);
+                    let mut occluder = NO_CELL;
                     if let Some((ix0, iy0, ix1, iy1)) = geometry.cell_range(region.grown.aabb()) {
                         for iy in iy0..=iy1 {
                             let cy = geometry.cell_center_axis(iy);
@@ -425,18 +437,39 @@ impl Monitor {
                                 let cx = geometry.cell_center_axis(ix);
                                 if region.grown.overlaps_square(cx, cy, half) {
                                     total += 1;
-                                    if self.visibility.is_visible(cx, cy) {
-                                        visible += 1;
+                                    match self.visibility.sight(cx, cy) {
+                                        Sight::Visible => visible += 1,
+                                        Sight::Shadowed(c) if c != NO_CELL => {
+                                            if self.grid.flags(c) & FLAG_EXPLAINED == 0
+                                                && self.grid.probability(c) > self.params.tau_fn
+                                            {
+                                                unexplained_shadow += 1;
+                                                occluder = c;
+                                            }
+                                        }
+                                        Sight::Shadowed(_) | Sight::Unreached => {}
                                     }
                                 }
                             }
                         }
                     }
-                    s.visible_fraction = if total > 0 { visible as f32 / total as f32 } else { 0.0 };
-                    s.verdict = if s.visible_fraction >= self.params.ghost_visible_fraction {
-                        SensorVerdict::Ghost
-                    } else {
+                    let frac = |k: u32| if total > 0 { k as f32 / total as f32 } else { 0.0 };
+                    s.visible_fraction = frac(visible);
+                    s.verdict = if frac(visible + unexplained_shadow) < self.params.ghost_visible_fraction {
                         SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
+                    } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, occluder) {
+                        // Hidden behind evidence no object explains: that evidence is the object, displaced.
+                        s.cluster = u16::try_from(k).ok();
+                        if let Some(c) = self.clusters.get_mut(k) {
+                            let (nx, ny) = region.footprint.nearest_point(c.centroid_m[0], c.centroid_m[1]);
+                            s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
+                            if c.object.is_none() {
+                                c.object = u32::try_from(j).ok();
+                            }
+                        }
+                        SensorVerdict::PositionError
+                    } else {
+                        SensorVerdict::Ghost
                     };
                 }
             }

@@ -166,7 +166,7 @@ impl MonitorParams {
         min_cluster_cells: 2,
         conflict_association_m: 1.0,
         ghost_visible_fraction: 0.5,
-        visibility_bins: 1024,
+        visibility_bins: 720,
         motion_limits: MotionLimits {
             accel_max_mps2: 7.0,
             brake_max_mps2: -7.0,

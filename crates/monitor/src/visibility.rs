@@ -13,10 +13,25 @@ use alloc::vec::Vec;
 
 use crate::geometry::diamond_angle;
 
+/// Cell index meaning "no cell" (outside the grid or no obstacle).
+pub const NO_CELL: u32 = u32::MAX;
+
+/// What the sensor saw of a position.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sight {
+    /// Rays passed over it and returned from beyond: it is seen (to be empty, if it has no hits).
+    Visible,
+    /// It lies behind the nearest obstacle of its direction, whose grid cell is given.
+    Shadowed(u32),
+    /// No ray of its direction returned from as far: out of the sensor's reach.
+    Unreached,
+}
+
 /// Nearest-obstacle and farthest-return ranges per azimuth bin.
 #[derive(Clone, Debug)]
 pub struct VisibilityMap {
     nearest_obstacle_r2: Vec<f32>,
+    nearest_obstacle_cell: Vec<u32>,
     farthest_return_r2: Vec<f32>,
     origin: [f32; 2],
     bins_per_unit: f32,
@@ -29,6 +44,7 @@ impl VisibilityMap {
         let n = bins.max(1) as usize;
         Self {
             nearest_obstacle_r2: vec![f32::INFINITY; n],
+            nearest_obstacle_cell: vec![NO_CELL; n],
             farthest_return_r2: vec![0.0; n],
             origin: [0.0, 0.0],
             bins_per_unit: n as f32 / 4.0,
@@ -38,6 +54,7 @@ impl VisibilityMap {
     /// Clears the map and sets the sensor origin (ego frame, metres).
     pub fn reset(&mut self, origin: [f32; 2]) {
         self.nearest_obstacle_r2.fill(f32::INFINITY);
+        self.nearest_obstacle_cell.fill(NO_CELL);
         self.farthest_return_r2.fill(0.0);
         self.origin = origin;
     }
@@ -48,9 +65,10 @@ impl VisibilityMap {
         b.min(self.nearest_obstacle_r2.len().saturating_sub(1))
     }
 
-    /// Records a return at an ego-frame position; `obstacle` for points in the height band.
+    /// Records a return at an ego-frame position; `obstacle` for points in the height band, with the grid
+    /// cell it fell in (`NO_CELL` outside the grid).
     #[inline]
-    pub fn add_return(&mut self, x: f32, y: f32, obstacle: bool) {
+    pub fn add_return(&mut self, x: f32, y: f32, obstacle: bool, cell: u32) {
         let dx = x - self.origin[0];
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
@@ -64,8 +82,30 @@ impl VisibilityMap {
             if let Some(n) = self.nearest_obstacle_r2.get_mut(b) {
                 if r2 < *n {
                     *n = r2;
+                    if let Some(c) = self.nearest_obstacle_cell.get_mut(b) {
+                        *c = cell;
+                    }
                 }
             }
+        }
+    }
+
+    /// What the sensor saw of an ego-frame position.
+    #[must_use]
+    #[inline]
+    pub fn sight(&self, x: f32, y: f32) -> Sight {
+        let dx = x - self.origin[0];
+        let dy = y - self.origin[1];
+        let r2 = dx * dx + dy * dy;
+        let b = self.bin(dx, dy);
+        let near = self.nearest_obstacle_r2.get(b).copied().unwrap_or(0.0);
+        let far = self.farthest_return_r2.get(b).copied().unwrap_or(0.0);
+        if r2 >= near {
+            Sight::Shadowed(self.nearest_obstacle_cell.get(b).copied().unwrap_or(NO_CELL))
+        } else if r2 <= far {
+            Sight::Visible
+        } else {
+            Sight::Unreached
         }
     }
 
@@ -74,13 +114,7 @@ impl VisibilityMap {
     #[must_use]
     #[inline]
     pub fn is_visible(&self, x: f32, y: f32) -> bool {
-        let dx = x - self.origin[0];
-        let dy = y - self.origin[1];
-        let r2 = dx * dx + dy * dy;
-        let b = self.bin(dx, dy);
-        let near = self.nearest_obstacle_r2.get(b).copied().unwrap_or(0.0);
-        let far = self.farthest_return_r2.get(b).copied().unwrap_or(0.0);
-        r2 < near && r2 <= far
+        self.sight(x, y) == Sight::Visible
     }
 }
 
@@ -92,13 +126,13 @@ mod tests {
     fn shadow_behind_obstacle_and_reach_of_ground() {
         let mut v = VisibilityMap::new(1024);
         v.reset([0.0, 0.0]);
-        v.add_return(10.0, 0.0, true); // obstacle at 10 m straight ahead
-        v.add_return(30.0, 0.0, false); // ground return at 30 m behind it (other beam)
-        v.add_return(0.0, 20.0, false); // ground at 20 m to the left
+        v.add_return(10.0, 0.0, true, 42); // obstacle at 10 m straight ahead
+        v.add_return(30.0, 0.0, false, NO_CELL); // ground return at 30 m behind it (other beam)
+        v.add_return(0.0, 20.0, false, NO_CELL); // ground at 20 m to the left
         assert!(v.is_visible(5.0, 0.0));
-        assert!(!v.is_visible(15.0, 0.0), "in the obstacle's shadow");
+        assert_eq!(v.sight(15.0, 0.0), Sight::Shadowed(42), "in the obstacle's shadow");
         assert!(v.is_visible(0.0, 15.0));
-        assert!(!v.is_visible(0.0, 25.0), "beyond the farthest return");
+        assert_eq!(v.sight(0.0, 25.0), Sight::Unreached, "beyond the farthest return");
         assert!(!v.is_visible(-10.0, 0.0), "no return in that direction");
     }
 }

@@ -1,0 +1,189 @@
+//! Sensor checks on synthetic frames: consistency, ghosts, position errors, occlusion, missed objects, and
+//! the guarantee of eq. (gridCapabilities).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
+
+mod common;
+
+use common::*;
+use pmon_monitor::theory::dx_min_m;
+use pmon_monitor::{Frame, Monitor, MonitorParams, NotMonitoredReason, PointCloud, Pose2, SensorVerdict, Verdict};
+use proptest::prelude::*;
+
+fn run(
+    monitor: &mut Monitor,
+    objects: &[pmon_monitor::ObjectState],
+    points_ego: &[[f32; 3]],
+    roi: &[&[[f32; 2]]],
+) -> Vec<pmon_monitor::ObjectReport> {
+    let pts = to_sensor(points_ego);
+    let frame = Frame {
+        timestamp_s: 0.0,
+        world_from_ego: Pose2::default(),
+        objects,
+        cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
+        roi_in_ego: roi,
+    };
+    monitor.check(&frame).unwrap().objects.to_vec()
+}
+
+#[test]
+fn object_with_its_evidence_is_consistent() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let car = object(1, 15.0, 3.0, 0.4, 4.5, 1.9);
+    let mut pts = visible_face_points(&car, 0.1);
+    pts.extend(ground_points(45.0));
+    let r = run(&mut m, &[car], &pts, &[]);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent);
+    assert!(r[0].sensor.eta >= 0.8);
+    assert_eq!(r[0].verdict, Verdict::Consistent);
+}
+
+#[test]
+fn object_without_evidence_in_open_view_is_a_ghost() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let ghost = object(1, 12.0, -4.0, 0.0, 4.5, 1.9);
+    let r = run(&mut m, &[ghost], &ground_points(45.0), &[]);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Ghost, "{:?}", r[0].sensor);
+    assert!(r[0].sensor.eta < 0.8);
+    assert!(r[0].sensor.visible_fraction > 0.9);
+}
+
+#[test]
+fn object_hidden_behind_a_listed_truck_is_not_monitored_occluded() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let truck = object(1, 10.0, 0.0, 0.0, 2.5, 8.0);
+    let hidden = object(2, 20.0, 0.0, 0.0, 4.0, 1.8);
+    let mut pts = visible_face_points(&truck, 0.1);
+    // Ground returns only where the truck does not block them.
+    pts.extend(ground_points(45.0).into_iter().filter(|p| !(p[0] > 8.75 && (p[1] / p[0]).abs() < 4.0 / 8.75)));
+    let r = run(&mut m, &[truck, hidden], &pts, &[]);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent);
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::NotMonitored(NotMonitoredReason::Occluded), "{:?}", r[1].sensor);
+}
+
+#[test]
+fn displaced_object_is_a_position_error_and_its_evidence_is_attributed() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let truth = object(1, 14.0, 0.0, 0.0, 0.6, 0.6);
+    let mut pts = visible_face_points(&truth, 0.05);
+    pts.extend(ground_points(45.0));
+    let mut reported = truth;
+    reported.x_m += 1.5; // 1.5 m further away
+    let pts_s = to_sensor(&pts);
+    let objects = [reported];
+    let frame = Frame {
+        timestamp_s: 0.0,
+        world_from_ego: Pose2::default(),
+        objects: &objects,
+        cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
+        roi_in_ego: &[],
+    };
+    let rep = m.check(&frame).unwrap();
+    let o = rep.objects[0];
+    assert_eq!(o.verdict, Verdict::PositionError, "{:?}", o.sensor);
+    let k = o.sensor.cluster.expect("evidence cluster attributed") as usize;
+    assert_eq!(rep.clusters[k].object, Some(0));
+    assert!(!rep.clusters[k].is_missed_object());
+    // The offset points from the evidence to the reported box: roughly +x, about 1.5 m minus the half size.
+    assert!(o.sensor.offset_m[0] > 0.8 && o.sensor.offset_m[0] < 1.6, "{:?}", o.sensor.offset_m);
+}
+
+#[test]
+fn unexplained_cluster_in_roi_is_a_missed_object_outside_it_is_not() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let unlisted = object(9, 8.0, 8.0, 0.0, 0.6, 0.6);
+    let mut pts = visible_face_points(&unlisted, 0.05);
+    pts.extend(ground_points(45.0));
+    let pts_s = to_sensor(&pts);
+    let road: &[[f32; 2]] = &[[0.0, 5.0], [20.0, 5.0], [20.0, 12.0], [0.0, 12.0]];
+    let elsewhere: &[[f32; 2]] = &[[0.0, -12.0], [20.0, -12.0], [20.0, -5.0], [0.0, -5.0]];
+    for (roi, missed) in [(&[road][..], 1usize), (&[elsewhere][..], 0)] {
+        let frame = Frame {
+            timestamp_s: 0.0,
+            world_from_ego: Pose2::default(),
+            objects: &[],
+            cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
+            roi_in_ego: roi,
+        };
+        let rep = m.check(&frame).unwrap();
+        assert_eq!(rep.missed_objects(), missed);
+        assert!(rep.grid.cells_conflict >= 2);
+    }
+}
+
+#[test]
+fn reset_between_frames_leaves_no_trace() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let car = object(1, 15.0, 3.0, 0.4, 4.5, 1.9);
+    let mut pts = visible_face_points(&car, 0.1);
+    pts.extend(ground_points(45.0));
+    let first = run(&mut m, &[car], &pts, &[]);
+    // Same object, no evidence any more: must not see last frame's hits.
+    let second = run(&mut m, &[car], &ground_points(45.0), &[]);
+    assert_eq!(first[0].sensor.verdict, SensorVerdict::Consistent);
+    assert_eq!(second[0].sensor.verdict, SensorVerdict::Ghost);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, .. ProptestConfig::default() })]
+
+    /// Eq. (gridCapabilities): an object displaced so that all its LiDAR evidence lies at least dx_min from
+    /// its reported footprint is always flagged, for any position, heading, size and displacement direction.
+    #[test]
+    fn displacement_beyond_dx_min_is_always_flagged(
+        range in 5.0f32..35.0,
+        bearing in -3.1f32..3.1,
+        heading in -3.1f32..3.1,
+        length in 0.4f32..6.0,
+        width in 0.4f32..2.5,
+        direction in -3.1f32..3.1,
+        extra in 0.0f32..2.0,
+        cell in prop_oneof![Just(0.5f32), Just(0.2f32)],
+    ) {
+        let params = MonitorParams { cell_size_m: cell, ..MonitorParams::default() };
+        let mut m = Monitor::new(params).unwrap();
+        let truth = object(1, range * bearing.cos(), range * bearing.sin(), heading, length, width);
+        let evidence = visible_face_points(&truth, 0.05);
+        let u = params.default_uncertainty;
+        let delta_b = pmon_monitor::region::delta_b(&u, heading);
+        let bound = dx_min_m(cell, params.safety_margin_m, params.gamma_sens, delta_b);
+        // Smallest shift along `direction` that puts all evidence at least dx_min from the footprint.
+        let (dx, dy) = (direction.cos(), direction.sin());
+        let mut shift = 0.0f32;
+        let clear = |s: f32| {
+            let o = pmon_monitor::ObjectState { x_m: truth.x_m + s * dx, y_m: truth.y_m + s * dy, ..truth };
+            let r = pmon_monitor::geometry::OrientedRect::new(o.x_m, o.y_m, o.heading_rad, o.length_m / 2.0, o.width_m / 2.0);
+            evidence.iter().all(|p| r.distance(p[0], p[1]) >= bound)
+        };
+        while !clear(shift) && shift < 40.0 {
+            shift += 0.02;
+        }
+        shift += extra;
+        let reported = pmon_monitor::ObjectState { x_m: truth.x_m + shift * dx, y_m: truth.y_m + shift * dy, ..truth };
+        prop_assume!(reported.x_m.abs() < 40.0 && reported.y_m.abs() < 40.0);
+        let mut pts = evidence.clone();
+        pts.extend(ground_points(49.0));
+        let r = run(&mut m, &[reported], &pts, &[]);
+        prop_assert!(r[0].sensor.eta < params.tau_tp, "eta {} with evidence >= dx_min away", r[0].sensor.eta);
+        prop_assert!(r[0].verdict.is_alarm(), "not flagged: {:?}", r[0]);
+    }
+
+    /// The same object with its own evidence is never flagged (no false alarm from the geometry).
+    #[test]
+    fn exact_object_with_evidence_is_consistent(
+        range in 3.0f32..40.0,
+        bearing in -3.1f32..3.1,
+        heading in -3.1f32..3.1,
+        length in 0.4f32..8.0,
+        width in 0.4f32..2.5,
+        cell in prop_oneof![Just(0.5f32), Just(0.2f32), Just(0.1f32)],
+    ) {
+        let params = MonitorParams { cell_size_m: cell, ..MonitorParams::default() };
+        let mut m = Monitor::new(params).unwrap();
+        let truth = object(1, range * bearing.cos(), range * bearing.sin(), heading, length, width);
+        let mut pts = visible_face_points(&truth, 0.05);
+        pts.extend(ground_points(45.0));
+        let r = run(&mut m, &[truth], &pts, &[]);
+        prop_assert_eq!(r[0].verdict, Verdict::Consistent);
+    }
+}
