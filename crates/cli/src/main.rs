@@ -1,1 +1,50 @@
-fn main() {}
+//! `pmon`: the command line tool of the pmon perception monitor.
+
+mod check;
+mod config;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// pmon: a lightweight perception monitor for automated driving.
+///
+/// Checks an object list (position, heading, speed, size, uncertainty) against LiDAR evidence in an
+/// occupancy grid (sensor checks) and against a physical motion model (plausibility checks), after Buerkle
+/// et al., "Fault-Tolerant Perception for Automated Driving: A Lightweight Monitoring Approach".
+#[derive(Parser, Debug)]
+#[command(name = "pmon", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Check a recording: one verdict per object and frame, and missed objects.
+    ///
+    /// Exit status: 0 when no alarm was raised, 1 when at least one was, 2 on bad input or usage.
+    Check(check::CheckArgs),
+    /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
+    Params {
+        /// A TOML file of parameters to validate and print merged over the defaults.
+        #[arg(long)]
+        params: Option<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Check(args) => check::run(&args),
+        Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("pmon: error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,272 @@
+//! `pmon check`: run the monitor over a recording and report.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use pmon_monitor::{FrameReport, Monitor, MotionVerdict, ObjectReport, ObjectState, SensorVerdict, Verdict};
+use pmon_recording::{RecordedFrame, RecordingReader};
+use serde::Serialize;
+
+use crate::config::load_params;
+
+/// Output format of `pmon check`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// A readable per-frame alarm summary and totals.
+    Text,
+    /// One JSON record per object and frame (and one per missed object).
+    Jsonl,
+}
+
+/// Arguments of `pmon check`.
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// A pmon recording directory, or a `.jsonl` file of object lists (plausibility checks only).
+    pub recording: PathBuf,
+    /// Monitor parameters (TOML); defaults to the paper's Table I. See `pmon params`.
+    #[arg(long)]
+    pub params: Option<PathBuf>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
+    /// Write the output to this file instead of standard output.
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+    /// In text format, also list frames without alarms.
+    #[arg(long)]
+    pub all_frames: bool,
+}
+
+#[derive(Serialize)]
+struct ObjectRecord<'a> {
+    frame: u64,
+    timestamp_s: f64,
+    id: u64,
+    class: &'a str,
+    verdict: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reason: Option<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    conditions: Option<String>,
+    sensor: String,
+    motion: String,
+    eta: f32,
+    margin_length_m: f32,
+    margin_width_m: f32,
+    visible_fraction: f32,
+    offset_m: [f32; 2],
+    dt_s: f64,
+    accel_mps2: f32,
+    accel_margin_mps2: f32,
+    turn_rate_radps: f32,
+    turn_rate_margin_radps: f32,
+    predicted_world_m: [f64; 2],
+    predicted_margin_m: [f32; 2],
+    position_residual_m: f32,
+    position_allowance_m: f32,
+}
+
+#[derive(Serialize)]
+struct MissedRecord {
+    frame: u64,
+    timestamp_s: f64,
+    verdict: &'static str,
+    centroid_m: [f32; 2],
+    bounds_m: [f32; 4],
+    cells: u32,
+}
+
+fn sensor_name(v: SensorVerdict) -> String {
+    match v {
+        SensorVerdict::Consistent => "consistent".into(),
+        SensorVerdict::Ghost => "ghost".into(),
+        SensorVerdict::PositionError => "position_error".into(),
+        SensorVerdict::NotMonitored(r) => format!("not_monitored({r})"),
+    }
+}
+
+fn motion_name(v: MotionVerdict) -> String {
+    match v {
+        MotionVerdict::Plausible => "plausible".into(),
+        MotionVerdict::Implausible(c) => format!("implausible({c})"),
+        MotionVerdict::NotMonitored(r) => format!("not_monitored({r})"),
+    }
+}
+
+fn object_record<'a>(f: &RecordedFrame, o: &'a ObjectState, r: &ObjectReport) -> ObjectRecord<'a> {
+    ObjectRecord {
+        frame: f.index,
+        timestamp_s: f.timestamp_s,
+        id: r.id,
+        class: o.class.name(),
+        verdict: r.verdict.name(),
+        reason: match r.verdict {
+            Verdict::NotMonitored(reason) => Some(reason.name()),
+            _ => None,
+        },
+        conditions: match r.verdict {
+            Verdict::ImplausibleMotion(c) => Some(c.to_string()),
+            _ => None,
+        },
+        sensor: sensor_name(r.sensor.verdict),
+        motion: motion_name(r.motion.verdict),
+        eta: r.sensor.eta,
+        margin_length_m: r.sensor.margin_length_m,
+        margin_width_m: r.sensor.margin_width_m,
+        visible_fraction: r.sensor.visible_fraction,
+        offset_m: r.sensor.offset_m,
+        dt_s: r.motion.dt_s,
+        accel_mps2: r.motion.accel_mps2,
+        accel_margin_mps2: r.motion.accel_margin_mps2,
+        turn_rate_radps: r.motion.turn_rate_radps,
+        turn_rate_margin_radps: r.motion.turn_rate_margin_radps,
+        predicted_world_m: r.motion.predicted_world_m,
+        predicted_margin_m: r.motion.predicted_margin_m,
+        position_residual_m: r.motion.position_residual_m,
+        position_allowance_m: r.motion.position_allowance_m,
+    }
+}
+
+/// Totals over a run.
+#[derive(Default)]
+struct Totals {
+    frames: u64,
+    objects: u64,
+    verdicts: BTreeMap<String, u64>,
+    missed_objects: u64,
+    frames_with_alarms: u64,
+}
+
+fn describe_alarm(o: &ObjectState, r: &ObjectReport) -> String {
+    let what = match r.verdict {
+        Verdict::Ghost => format!("ghost (eta {:.2}, region {:.0} % visible)", r.sensor.eta, 100.0 * r.sensor.visible_fraction),
+        Verdict::PositionError => format!(
+            "position error (eta {:.2}, evidence {:.2} m away)",
+            r.sensor.eta,
+            r.sensor.offset_m[0].hypot(r.sensor.offset_m[1])
+        ),
+        Verdict::ImplausibleMotion(c) => format!(
+            "implausible motion [{c}]: a {:+.1}±{:.1} m/s², ω {:+.2}±{:.2} rad/s, position off by {:.2} m (allowed {:.2})",
+            r.motion.accel_mps2,
+            r.motion.accel_margin_mps2,
+            r.motion.turn_rate_radps,
+            r.motion.turn_rate_margin_radps,
+            r.motion.position_residual_m,
+            r.motion.position_allowance_m
+        ),
+        other => other.to_string(),
+    };
+    format!("{} {} at ({:.1}, {:.1}) m: {what}", o.class.name(), r.id, o.x_m, o.y_m)
+}
+
+fn write_text_frame(out: &mut dyn Write, f: &RecordedFrame, rep: &FrameReport<'_>, all: bool) -> io::Result<()> {
+    let alarms: Vec<_> = f.objects.iter().zip(rep.objects).filter(|(_, r)| r.verdict.is_alarm()).collect();
+    let missed: Vec<_> = rep.clusters.iter().filter(|c| c.is_missed_object()).collect();
+    if alarms.is_empty() && missed.is_empty() && !all {
+        return Ok(());
+    }
+    let sensor = rep.sensor_status.map_or_else(
+        || format!("{} points, {} in band", rep.grid.points_total, rep.grid.points_in_band),
+        |r| format!("sensor checks not run: {r}"),
+    );
+    writeln!(
+        out,
+        "frame {:>5}  t={:>9.3} s  {} objects, {} alarms, {} missed  ({sensor})",
+        f.index,
+        f.timestamp_s,
+        f.objects.len(),
+        alarms.len(),
+        missed.len()
+    )?;
+    for (o, r) in alarms {
+        writeln!(out, "    ALARM  {}", describe_alarm(o, r))?;
+    }
+    for c in missed {
+        writeln!(
+            out,
+            "    ALARM  missed object: {} unexplained cells around ({:.1}, {:.1}) m",
+            c.cells, c.centroid_m[0], c.centroid_m[1]
+        )?;
+    }
+    Ok(())
+}
+
+/// `pmon check`.
+pub fn run(args: &CheckArgs) -> Result<ExitCode> {
+    let params = load_params(args.params.as_deref())?;
+    let mut monitor = Monitor::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let reader = RecordingReader::open(&args.recording)?;
+    let name = reader.meta.name.clone();
+    let mut out: Box<dyn Write> = match &args.out {
+        Some(p) => Box::new(BufWriter::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?)),
+        None => Box::new(BufWriter::new(io::stdout().lock())),
+    };
+    let mut totals = Totals::default();
+    let mut roi = Vec::new();
+    for frame in reader {
+        let frame = frame?;
+        let view = frame.as_frame(&mut roi);
+        let rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;
+        totals.frames += 1;
+        totals.objects += rep.objects.len() as u64;
+        let missed = rep.missed_objects() as u64;
+        totals.missed_objects += missed;
+        if rep.object_alarms() > 0 || missed > 0 {
+            totals.frames_with_alarms += 1;
+        }
+        for r in rep.objects {
+            let key = match r.verdict {
+                Verdict::NotMonitored(reason) => format!("not_monitored({reason})"),
+                Verdict::ImplausibleMotion(c) => format!("implausible_motion({c})"),
+                v => v.name().to_string(),
+            };
+            *totals.verdicts.entry(key).or_default() += 1;
+        }
+        match args.format {
+            Format::Text => write_text_frame(&mut *out, &frame, &rep, args.all_frames)?,
+            Format::Jsonl => {
+                for (o, r) in frame.objects.iter().zip(rep.objects) {
+                    serde_json::to_writer(&mut *out, &object_record(&frame, o, r))?;
+                    writeln!(out)?;
+                }
+                for c in rep.clusters.iter().filter(|c| c.is_missed_object()) {
+                    let rec = MissedRecord {
+                        frame: frame.index,
+                        timestamp_s: frame.timestamp_s,
+                        verdict: "missed_object",
+                        centroid_m: c.centroid_m,
+                        bounds_m: c.bounds_m,
+                        cells: c.cells,
+                    };
+                    serde_json::to_writer(&mut *out, &rec)?;
+                    writeln!(out)?;
+                }
+            }
+        }
+        roi = Vec::new();
+    }
+    if args.format == Format::Text {
+        writeln!(
+            out,
+            "\n{name}: {} frames, {} object states, {} frames with alarms, {} missed-object alarms",
+            totals.frames, totals.objects, totals.frames_with_alarms, totals.missed_objects
+        )?;
+        for (k, v) in &totals.verdicts {
+            let share = 100.0 * *v as f64 / totals.objects.max(1) as f64;
+            writeln!(out, "  {k:<45} {v:>8}  {share:>5.1} %")?;
+        }
+    }
+    out.flush()?;
+    let alarms: u64 = totals
+        .verdicts
+        .iter()
+        .filter(|(k, _)| k.starts_with("ghost") || k.starts_with("position_error") || k.starts_with("implausible"))
+        .map(|(_, v)| v)
+        .sum();
+    Ok(if alarms + totals.missed_objects > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
