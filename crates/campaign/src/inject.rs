@@ -1,0 +1,333 @@
+//! Fault injectors. Each records exactly what it injected (object, frame, kind, magnitude, vector): the
+//! ground truth of the evaluation.
+
+use pmon_monitor::ObjectState;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+/// Direction of a position error.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Direction {
+    /// Increases the object's distance from the ego vehicle (the paper's setting).
+    Away,
+    /// Decreases it (the paper's admitted blind spot).
+    Towards,
+    /// A random direction, drawn per injection.
+    Random,
+}
+
+impl Direction {
+    /// Name for reports.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Away => "away",
+            Self::Towards => "towards",
+            Self::Random => "random",
+        }
+    }
+}
+
+/// What to inject into the object list.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Fault {
+    /// Nothing (clean run).
+    None,
+    /// A constant position offset on the affected tracks, in every frame.
+    PermanentPosition {
+        /// Offset, metres.
+        magnitude_m: f32,
+        /// Direction.
+        direction: Direction,
+    },
+    /// A position offset injected per object and frame with probability `rate`.
+    RandomPosition {
+        /// Offset, metres.
+        magnitude_m: f32,
+        /// Probability per object and frame, in [0, 1].
+        rate: f64,
+        /// Direction.
+        direction: Direction,
+    },
+    /// A constant speed error on the affected tracks (speed changed, direction kept).
+    PermanentSpeed {
+        /// Error, m/s (the measured speed becomes `|v + dv|`).
+        magnitude_mps: f32,
+    },
+    /// A speed error injected per object and frame with probability `rate`.
+    TransientSpeed {
+        /// Error, m/s.
+        magnitude_mps: f32,
+        /// Probability per object and frame.
+        rate: f64,
+    },
+}
+
+impl Fault {
+    /// The error's magnitude in its unit (0 for none).
+    #[must_use]
+    pub fn magnitude(&self) -> f64 {
+        match *self {
+            Self::None => 0.0,
+            Self::PermanentPosition { magnitude_m, .. } | Self::RandomPosition { magnitude_m, .. } => {
+                f64::from(magnitude_m)
+            }
+            Self::PermanentSpeed { magnitude_mps } | Self::TransientSpeed { magnitude_mps, .. } => {
+                f64::from(magnitude_mps)
+            }
+        }
+    }
+}
+
+/// Injection settings shared by a run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InjectionConfig {
+    /// The fault.
+    pub fault: Fault,
+    /// Gaussian noise on positions (both axes), metres, added to every object (the false-alarm experiment).
+    pub position_noise_m: f32,
+    /// Gaussian noise on speeds, m/s.
+    pub speed_noise_mps: f32,
+    /// Gaussian noise on headings, radians.
+    pub heading_noise_rad: f32,
+    /// Fraction of tracks that carry a permanent fault (the others stay clean, so precision means something).
+    pub permanent_track_fraction: f64,
+    /// The object list reports its uncertainty honestly: the sigma of the added noise, or the nominal value
+    /// if larger.
+    pub report_noise_in_uncertainty: bool,
+    /// Seed.
+    pub seed: u64,
+}
+
+impl InjectionConfig {
+    /// A clean configuration with the given fault.
+    #[must_use]
+    pub fn new(fault: Fault, seed: u64) -> Self {
+        Self {
+            fault,
+            position_noise_m: 0.0,
+            speed_noise_mps: 0.0,
+            heading_noise_rad: 0.0,
+            permanent_track_fraction: 0.5,
+            report_noise_in_uncertainty: true,
+            seed,
+        }
+    }
+}
+
+/// One injected error.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Injection {
+    /// Frame index.
+    pub frame: u64,
+    /// Object id.
+    pub id: u64,
+    /// Index of the object in the frame's list.
+    pub index: u32,
+    /// Position offset applied, ego frame, metres (zero for speed errors).
+    pub offset_m: [f32; 2],
+    /// Speed error applied, m/s (zero for position errors).
+    pub speed_error_mps: f32,
+}
+
+/// Seeded, per-track-stable injector.
+pub struct Injector {
+    config: InjectionConfig,
+    rng: ChaCha8Rng,
+}
+
+/// A stable hash of (seed, id) to [0, 1): decides which tracks carry a permanent fault.
+fn track_draw(seed: u64, id: u64) -> f64 {
+    // SplitMix64.
+    let mut z = seed ^ id.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+fn direction_vector(direction: Direction, o: &ObjectState, rng: &mut ChaCha8Rng, id_seed: u64) -> [f32; 2] {
+    let r = o.x_m.hypot(o.y_m);
+    let radial = if r > 1e-3 { [o.x_m / r, o.y_m / r] } else { [1.0, 0.0] };
+    match direction {
+        Direction::Away => radial,
+        Direction::Towards => [-radial[0], -radial[1]],
+        Direction::Random => {
+            // Permanent faults keep one direction per track; random faults draw per injection.
+            let a = if id_seed == u64::MAX {
+                rng.random_range(0.0..std::f32::consts::TAU)
+            } else {
+                (track_draw(id_seed, 0x5eed) * std::f64::consts::TAU) as f32
+            };
+            [a.cos(), a.sin()]
+        }
+    }
+}
+
+impl Injector {
+    /// A new injector.
+    #[must_use]
+    pub fn new(config: InjectionConfig) -> Self {
+        Self { config, rng: ChaCha8Rng::seed_from_u64(config.seed) }
+    }
+
+    /// True when the track carries the permanent fault.
+    #[must_use]
+    pub fn track_is_faulty(&self, id: u64) -> bool {
+        track_draw(self.config.seed, id) < self.config.permanent_track_fraction
+    }
+
+    /// Applies noise and the fault to a frame's object list in place; returns what was injected.
+    /// Randomness is drawn in object order, so a frame's outcome depends only on the seed and the inputs.
+    pub fn apply(&mut self, frame: u64, objects: &mut [ObjectState]) -> Vec<Injection> {
+        let c = self.config;
+        let mut out = Vec::new();
+        let noise = |sigma: f32| Normal::new(0.0f32, sigma.max(0.0)).ok();
+        let (np, nv, nh) = (noise(c.position_noise_m), noise(c.speed_noise_mps), noise(c.heading_noise_rad));
+        for (index, o) in objects.iter_mut().enumerate() {
+            if c.position_noise_m > 0.0 {
+                if let Some(n) = np {
+                    o.x_m += n.sample(&mut self.rng);
+                    o.y_m += n.sample(&mut self.rng);
+                }
+            }
+            if c.speed_noise_mps > 0.0 {
+                if let Some(n) = nv {
+                    o.speed_mps = (o.speed_mps + n.sample(&mut self.rng)).abs();
+                }
+            }
+            if c.heading_noise_rad > 0.0 {
+                if let Some(n) = nh {
+                    o.heading_rad += n.sample(&mut self.rng);
+                }
+            }
+            if c.report_noise_in_uncertainty
+                && (c.position_noise_m > 0.0 || c.speed_noise_mps > 0.0 || c.heading_noise_rad > 0.0)
+            {
+                if let Some(u) = o.uncertainty.as_mut() {
+                    u.x_m = u.x_m.max(c.position_noise_m);
+                    u.y_m = u.y_m.max(c.position_noise_m);
+                    u.speed_mps = u.speed_mps.max(c.speed_noise_mps);
+                    u.heading_rad = u.heading_rad.max(c.heading_noise_rad);
+                }
+            }
+            let id = o.id;
+            let frame_u = frame;
+            let record = |offset_m: [f32; 2], speed_error_mps: f32| Injection {
+                frame: frame_u,
+                id,
+                index: index as u32,
+                offset_m,
+                speed_error_mps,
+            };
+            match c.fault {
+                Fault::None => {}
+                Fault::PermanentPosition { magnitude_m, direction } => {
+                    if self.track_is_faulty(id) {
+                        let d = direction_vector(direction, o, &mut self.rng, c.seed ^ id);
+                        let off = [d[0] * magnitude_m, d[1] * magnitude_m];
+                        o.x_m += off[0];
+                        o.y_m += off[1];
+                        out.push(record(off, 0.0));
+                    }
+                }
+                Fault::RandomPosition { magnitude_m, rate, direction } => {
+                    if self.rng.random_bool(rate.clamp(0.0, 1.0)) {
+                        let d = direction_vector(direction, o, &mut self.rng, u64::MAX);
+                        let off = [d[0] * magnitude_m, d[1] * magnitude_m];
+                        o.x_m += off[0];
+                        o.y_m += off[1];
+                        out.push(record(off, 0.0));
+                    }
+                }
+                Fault::PermanentSpeed { magnitude_mps } => {
+                    if self.track_is_faulty(id) {
+                        o.speed_mps = (o.speed_mps + magnitude_mps).abs();
+                        out.push(record([0.0, 0.0], magnitude_mps));
+                    }
+                }
+                Fault::TransientSpeed { magnitude_mps, rate } => {
+                    if self.rng.random_bool(rate.clamp(0.0, 1.0)) {
+                        o.speed_mps = (o.speed_mps + magnitude_mps).abs();
+                        out.push(record([0.0, 0.0], magnitude_mps));
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pmon_monitor::ObjectClass;
+
+    fn obj(id: u64, x: f32, y: f32) -> ObjectState {
+        ObjectState {
+            id,
+            class: ObjectClass::Pedestrian,
+            x_m: x,
+            y_m: y,
+            heading_rad: 0.0,
+            speed_mps: 1.0,
+            length_m: 0.5,
+            width_m: 0.5,
+            uncertainty: None,
+        }
+    }
+
+    #[test]
+    fn permanent_away_offsets_increase_distance_on_the_faulty_half() {
+        let cfg = InjectionConfig::new(Fault::PermanentPosition { magnitude_m: 1.0, direction: Direction::Away }, 3);
+        let mut inj = Injector::new(cfg);
+        let mut objs: Vec<_> = (0..200).map(|i| obj(i, 5.0 + i as f32 * 0.1, -3.0)).collect();
+        let before = objs.clone();
+        let rec = inj.apply(0, &mut objs);
+        assert!(rec.len() > 70 && rec.len() < 130, "about half the tracks: {}", rec.len());
+        for r in &rec {
+            let (a, b) = (&before[r.index as usize], &objs[r.index as usize]);
+            let d = b.x_m.hypot(b.y_m) - a.x_m.hypot(a.y_m);
+            assert!((d - 1.0).abs() < 1e-3, "{d}");
+        }
+        // Same tracks next frame, same seed -> same records.
+        let mut again = before.clone();
+        let rec2 = Injector::new(cfg).apply(0, &mut again);
+        assert_eq!(rec, rec2);
+    }
+
+    #[test]
+    fn random_rate_is_respected_and_towards_reduces_distance() {
+        let cfg = InjectionConfig::new(
+            Fault::RandomPosition { magnitude_m: 0.5, rate: 0.2, direction: Direction::Towards },
+            11,
+        );
+        let mut inj = Injector::new(cfg);
+        let mut n = 0;
+        for f in 0..50 {
+            let mut objs: Vec<_> = (0..100).map(|i| obj(i, 10.0, i as f32 * 0.1)).collect();
+            let before = objs.clone();
+            for r in inj.apply(f, &mut objs) {
+                n += 1;
+                let (a, b) = (&before[r.index as usize], &objs[r.index as usize]);
+                assert!(b.x_m.hypot(b.y_m) < a.x_m.hypot(a.y_m));
+            }
+        }
+        let rate = n as f64 / 5000.0;
+        assert!((rate - 0.2).abs() < 0.03, "{rate}");
+    }
+
+    #[test]
+    fn speed_errors_keep_direction_and_magnitude() {
+        let cfg = InjectionConfig::new(Fault::TransientSpeed { magnitude_mps: -3.0, rate: 1.0 }, 1);
+        let mut objs = vec![obj(1, 10.0, 0.0)];
+        let rec = Injector::new(cfg).apply(0, &mut objs);
+        assert_eq!(rec.len(), 1);
+        assert!((objs[0].speed_mps - 2.0).abs() < 1e-6, "|1 - 3| = 2");
+        assert!(objs[0].heading_rad.abs() < 1e-9);
+    }
+}

@@ -1,0 +1,219 @@
+//! Precision, recall and false-alarm rates with 95 % confidence intervals, scored the paper's way.
+//!
+//! - An object state is **in scope** when the monitor could place its footprint in the grid (not
+//!   `outside_grid`, not `invalid_state`).
+//! - **Sensor checks**: an injected error at frame `k` is detected when the object's sensor verdict at `k` is
+//!   an alarm (ghost or position error). An alarm at a frame without an injection is a false alarm.
+//! - **Plausibility checks** may take up to `window` frames: an error at `k` is detected by an implausible
+//!   verdict at any of `k .. k + window - 1`, and an alarm at `f` is a true alarm when the object had an
+//!   injection at any of `f - window + 1 ..= f` (the paper: "up to two subsequent time steps", `window = 2`).
+//! - **Combined**: detected by either; an alarm of either kind is true when the rule of its check says so.
+//! - Errors whose object the sensor could not judge (occluded, no evidence) are counted as *not verifiable*.
+
+use std::collections::HashMap;
+
+use serde::{Deserialize, Serialize};
+
+/// A proportion with its Wilson score 95 % interval.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Rate {
+    /// Successes.
+    pub k: u64,
+    /// Trials.
+    pub n: u64,
+    /// `k / n` (NaN when `n = 0`).
+    pub value: f64,
+    /// Lower bound of the 95 % interval.
+    pub lo: f64,
+    /// Upper bound of the 95 % interval.
+    pub hi: f64,
+}
+
+impl Rate {
+    /// Wilson score interval for `k` of `n`.
+    #[must_use]
+    pub fn wilson(k: u64, n: u64) -> Self {
+        if n == 0 {
+            return Self { k, n, value: f64::NAN, lo: f64::NAN, hi: f64::NAN };
+        }
+        let z = 1.959_963_984_540_054_f64;
+        let nf = n as f64;
+        let p = k as f64 / nf;
+        let z2n = z * z / nf;
+        let center = (p + z2n / 2.0) / (1.0 + z2n);
+        let half = z * (p * (1.0 - p) / nf + z2n / (4.0 * nf)).sqrt() / (1.0 + z2n);
+        Self { k, n, value: p, lo: (center - half).max(0.0), hi: (center + half).min(1.0) }
+    }
+}
+
+/// One object in one frame, as the evaluation sees it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Outcome {
+    /// Frame index within the run.
+    pub frame: u64,
+    /// Object id.
+    pub id: u64,
+    /// In scope (see module docs).
+    pub in_scope: bool,
+    /// An error was injected into this object in this frame.
+    pub injected: bool,
+    /// Sensor checks raised an alarm.
+    pub sensor_alarm: bool,
+    /// Sensor checks could judge the object (verdict not "not monitored").
+    pub sensor_judged: bool,
+    /// Plausibility checks raised an alarm.
+    pub plausibility_alarm: bool,
+}
+
+/// Detection and alarm counts of one check.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Score {
+    /// Injected errors in scope.
+    pub injected: u64,
+    /// Of those, detected.
+    pub detected: u64,
+    /// Alarms on object states in scope.
+    pub alarms: u64,
+    /// Of those, explained by an injection.
+    pub true_alarms: u64,
+}
+
+impl Score {
+    /// Recall `detected / injected`.
+    #[must_use]
+    pub fn recall(&self) -> Rate {
+        Rate::wilson(self.detected, self.injected)
+    }
+
+    /// Precision `true_alarms / alarms`.
+    #[must_use]
+    pub fn precision(&self) -> Rate {
+        Rate::wilson(self.true_alarms, self.alarms)
+    }
+
+    /// False alarms.
+    #[must_use]
+    pub fn false_alarms(&self) -> u64 {
+        self.alarms - self.true_alarms
+    }
+}
+
+/// Everything scored over one run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Metrics {
+    /// Frames.
+    pub frames: u64,
+    /// Object states in scope.
+    pub states_in_scope: u64,
+    /// Object states in scope that carry no injection (the denominator of false-alarm rates).
+    pub clean_states_in_scope: u64,
+    /// Sensor checks.
+    pub sensor: Score,
+    /// Plausibility checks.
+    pub plausibility: Score,
+    /// Both.
+    pub combined: Score,
+    /// Injected errors in scope whose object the sensor checks could not judge.
+    pub not_verifiable: u64,
+    /// Injected errors the sensor could judge, and of those detected.
+    pub sensor_verifiable: Score,
+    /// Missed-object alarms (unattributed conflict clusters in the region of interest).
+    pub missed_object_alarms: u64,
+}
+
+impl Metrics {
+    /// False-alarm rate of a check on clean object states: false alarms / clean states in scope.
+    #[must_use]
+    pub fn false_alarm_rate(&self, score: &Score) -> Rate {
+        Rate::wilson(score.false_alarms(), self.clean_states_in_scope)
+    }
+}
+
+/// Scores a run's outcomes (any order) with a plausibility window of `window >= 1` frames.
+#[must_use]
+pub fn score(outcomes: &[Outcome], window: u64, frames: u64, missed_object_alarms: u64) -> Metrics {
+    let window = window.max(1);
+    let by_key: HashMap<(u64, u64), &Outcome> = outcomes.iter().map(|o| ((o.id, o.frame), o)).collect();
+    let mut m = Metrics { frames, missed_object_alarms, ..Metrics::default() };
+    for o in outcomes.iter().filter(|o| o.in_scope) {
+        m.states_in_scope += 1;
+        if !o.injected {
+            m.clean_states_in_scope += 1;
+        }
+        let later_plaus = (0..window)
+            .any(|j| o.frame.checked_add(j).and_then(|f| by_key.get(&(o.id, f))).is_some_and(|x| x.plausibility_alarm));
+        let earlier_injection = (0..window)
+            .any(|j| o.frame.checked_sub(j).and_then(|f| by_key.get(&(o.id, f))).is_some_and(|x| x.injected));
+        if o.injected {
+            m.sensor.injected += 1;
+            m.plausibility.injected += 1;
+            m.combined.injected += 1;
+            m.sensor.detected += u64::from(o.sensor_alarm);
+            m.plausibility.detected += u64::from(later_plaus);
+            m.combined.detected += u64::from(o.sensor_alarm || later_plaus);
+            if o.sensor_judged {
+                m.sensor_verifiable.injected += 1;
+                m.sensor_verifiable.detected += u64::from(o.sensor_alarm);
+            } else {
+                m.not_verifiable += 1;
+            }
+        }
+        if o.sensor_alarm {
+            m.sensor.alarms += 1;
+            m.sensor.true_alarms += u64::from(o.injected);
+        }
+        if o.plausibility_alarm {
+            m.plausibility.alarms += 1;
+            m.plausibility.true_alarms += u64::from(earlier_injection);
+        }
+        if o.sensor_alarm || o.plausibility_alarm {
+            m.combined.alarms += 1;
+            let explained = (o.sensor_alarm && o.injected) || (o.plausibility_alarm && earlier_injection);
+            m.combined.true_alarms += u64::from(explained);
+        }
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wilson_matches_known_values() {
+        // 8 of 10: Wilson 95 % interval (0.4902, 0.9433).
+        let r = Rate::wilson(8, 10);
+        assert!((r.lo - 0.4902).abs() < 1e-3 && (r.hi - 0.9433).abs() < 1e-3, "{r:?}");
+        let r = Rate::wilson(0, 100);
+        assert!(r.lo.abs() < 1e-12 && (r.hi - 0.0370).abs() < 1e-3, "{r:?}");
+        assert!(Rate::wilson(0, 0).value.is_nan());
+    }
+
+    fn o(frame: u64, injected: bool, s: bool, p: bool) -> Outcome {
+        Outcome { frame, id: 1, in_scope: true, injected, sensor_alarm: s, sensor_judged: true, plausibility_alarm: p }
+    }
+
+    #[test]
+    fn plausibility_gets_one_extra_frame() {
+        // Error at frame 2, plausibility alarm at frame 3: detected, and the alarm is true.
+        let outs =
+            [o(1, false, false, false), o(2, true, false, false), o(3, false, false, true), o(4, false, false, false)];
+        let m = score(&outs, 2, 4, 0);
+        assert_eq!(m.plausibility.detected, 1);
+        assert_eq!(m.plausibility.true_alarms, 1);
+        assert_eq!(m.plausibility.false_alarms(), 0);
+        // With a window of 1 the same alarm is false and the error missed.
+        let m = score(&outs, 1, 4, 0);
+        assert_eq!(m.plausibility.detected, 0);
+        assert_eq!(m.plausibility.false_alarms(), 1);
+        assert_eq!(m.clean_states_in_scope, 3);
+    }
+
+    #[test]
+    fn sensor_alarms_count_only_at_the_same_frame() {
+        let outs = [o(1, true, true, false), o(2, false, true, false), o(3, true, false, false)];
+        let m = score(&outs, 2, 3, 0);
+        assert_eq!((m.sensor.injected, m.sensor.detected, m.sensor.alarms, m.sensor.true_alarms), (2, 1, 2, 1));
+        assert_eq!((m.combined.detected, m.combined.false_alarms()), (1, 1));
+    }
+}
