@@ -69,18 +69,20 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
     let mut missed = 0u64;
     let mut times = Vec::with_capacity(scene.frames.len());
     let (mut detected_example, mut missed_example, mut false_alarm_example) = (None, None, None);
-    let mut frame = RecordedFrame::empty(0, 0.0, Default::default());
+    let mut objects = Vec::new();
     for (k, clean) in scene.frames.iter().enumerate() {
-        frame.clone_from(clean);
-        let injections = injector.apply(k as u64, &mut frame.objects);
-        let mut injected = vec![false; frame.objects.len()];
+        // Only the object list changes: copy it, lend the clean cloud.
+        objects.clone_from(&clean.objects);
+        let injections = injector.apply(k as u64, &mut objects);
+        let mut injected = vec![false; objects.len()];
         for i in &injections {
             if let Some(x) = injected.get_mut(i.index as usize) {
                 *x = true;
             }
         }
         let mut roi = Vec::new();
-        let view = frame.as_frame(&mut roi);
+        let mut view = clean.as_frame(&mut roi);
+        view.objects = &objects;
         let t0 = Instant::now();
         let report = monitor.check(&view).map_err(|e| format!("{}: frame {k}: {e}", scene.name))?;
         times.push(t0.elapsed().as_secs_f64() * 1e6);
