@@ -1,5 +1,12 @@
 //! `Monitor::check` allocates nothing: counted through a global allocator.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic, unsafe_code, clippy::std_instead_of_core)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic,
+    unsafe_code,
+    clippy::std_instead_of_core
+)]
 
 mod common;
 

@@ -1,6 +1,12 @@
 //! Sensor checks on synthetic frames: consistency, ghosts, position errors, occlusion, missed objects, and
 //! the guarantee of eq. (gridCapabilities).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic, clippy::std_instead_of_core)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic,
+    clippy::std_instead_of_core
+)]
 
 mod common;
 

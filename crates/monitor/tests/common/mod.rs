@@ -1,5 +1,12 @@
 //! Synthetic frames for the monitor's integration tests: boxes seen by an idealised LiDAR.
-#![allow(dead_code, clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic, clippy::std_instead_of_core)]
+#![allow(
+    dead_code,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    clippy::panic,
+    clippy::std_instead_of_core
+)]
 
 use pmon_monitor::{Isometry3, ObjectClass, ObjectState};
 
