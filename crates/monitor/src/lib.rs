@@ -48,5 +48,5 @@ pub mod theory;
 pub mod visibility;
 
 pub use grid::{CellState, GridGeometry, OccupancyGrid};
-pub use monitor::{object_is_valid, Monitor};
+pub use monitor::{object_is_valid, Monitor, Stage};
 pub use region::Region;

@@ -13,6 +13,38 @@ use crate::verdict::{
 };
 use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
+/// The stages of [`Monitor::check`], in order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Stage {
+    /// Reset of the touched cells, points into the ego frame, height band, hits, visibility map.
+    Rasterize,
+    /// Object regions `A_o` and consistency `eta(o)`.
+    Regions,
+    /// Conflict cells, their clusters, and their attribution to objects.
+    Conflicts,
+    /// Track bookkeeping and the plausibility conditions.
+    Plausibility,
+    /// Occlusion test of evidence-free objects and the combined verdicts.
+    Verdicts,
+}
+
+impl Stage {
+    /// All stages in order.
+    pub const ALL: [Self; 5] = [Self::Rasterize, Self::Regions, Self::Conflicts, Self::Plausibility, Self::Verdicts];
+
+    /// Name.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Rasterize => "rasterize",
+            Self::Regions => "regions",
+            Self::Conflicts => "conflicts",
+            Self::Plausibility => "plausibility",
+            Self::Verdicts => "verdicts",
+        }
+    }
+}
+
 /// Per-object state of the sensor checks within one frame.
 #[derive(Clone, Copy, Debug)]
 struct ObjectScratch {
@@ -132,17 +164,33 @@ impl Monitor {
     /// [`FrameError::TooManyObjects`] when the list exceeds `max_objects` (no object is judged then; the
     /// tracks are left unchanged).
     pub fn check(&mut self, frame: &Frame<'_>) -> Result<FrameReport<'_>, FrameError> {
+        self.check_with_stages(frame, &mut |_| {})
+    }
+
+    /// [`Monitor::check`], calling `on_stage` as each [`Stage`] ends (for profiling: the caller reads its
+    /// own clock; the core has none).
+    ///
+    /// # Errors
+    /// As [`Monitor::check`].
+    pub fn check_with_stages(
+        &mut self,
+        frame: &Frame<'_>,
+        on_stage: &mut dyn FnMut(Stage),
+    ) -> Result<FrameReport<'_>, FrameError> {
         let n = frame.objects.len();
         if n > self.params.max_objects as usize {
             return Err(FrameError::TooManyObjects { got: n, max: self.params.max_objects });
         }
         self.begin_frame(frame);
         self.rasterize(frame);
+        on_stage(Stage::Rasterize);
         self.object_regions(frame);
+        on_stage(Stage::Regions);
         if self.sensor_status.is_none() {
             self.cluster_conflicts(frame);
             self.attribute_clusters();
         }
+        on_stage(Stage::Conflicts);
         self.tracks.check_frame(
             frame.timestamp_s,
             &frame.world_from_ego,
@@ -151,7 +199,9 @@ impl Monitor {
             &mut self.motion,
             &self.params,
         );
+        on_stage(Stage::Plausibility);
         self.finish_reports(frame);
+        on_stage(Stage::Verdicts);
         Ok(FrameReport {
             objects: &self.reports,
             clusters: &self.clusters,
