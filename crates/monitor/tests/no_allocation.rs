@@ -11,6 +11,7 @@
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use common::*;
@@ -20,10 +21,21 @@ struct Counting;
 
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
 
+thread_local! {
+    // Only the test's own thread counts: the test harness allocates on other threads meanwhile.
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+}
+
+fn count() {
+    if COUNTING.with(Cell::get) {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
 // SAFETY: forwards to the system allocator and only counts calls.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        count();
         // SAFETY: same contract as the caller's.
         unsafe { System.alloc(layout) }
     }
@@ -32,7 +44,7 @@ unsafe impl GlobalAlloc for Counting {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        count();
         // SAFETY: same contract as the caller's.
         unsafe { System.realloc(ptr, layout, new_size) }
     }
@@ -80,13 +92,21 @@ fn check_allocates_nothing_after_construction() {
         .collect();
     // Warm up once (nothing is lazily allocated, but be fair to first-use effects of the test harness).
     let _ = monitor.check(&frames[0]).unwrap().objects.len();
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
     let mut alarms = 0;
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    COUNTING.with(|c| c.set(true));
     for f in &frames {
         let report = monitor.check(f).unwrap();
         alarms += report.object_alarms() + report.missed_objects();
     }
+    COUNTING.with(|c| c.set(false));
     let after = ALLOCATIONS.load(Ordering::SeqCst);
     assert_eq!(after - before, 0, "check() allocated {} times", after - before);
     assert!(alarms > 0, "the frames exercise the alarm paths");
+    // The counter works: an allocation on this thread while counting is seen.
+    COUNTING.with(|c| c.set(true));
+    let v: Vec<u8> = Vec::with_capacity(16);
+    COUNTING.with(|c| c.set(false));
+    drop(v);
+    assert_eq!(ALLOCATIONS.load(Ordering::SeqCst), after + 1);
 }
