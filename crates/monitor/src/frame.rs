@@ -212,7 +212,11 @@ pub struct Frame<'a> {
     pub objects: &'a [ObjectState],
     /// The LiDAR sweep, or `None` when there is none this frame (only the plausibility checks run).
     pub cloud: Option<PointCloud<'a>>,
-    /// Optional region of interest in the ego frame: polygons (each at least 3 vertices) inside which an
-    /// unexplained conflict cluster is reported as a missed object. Empty: the whole grid.
+    /// Optional region of interest in the ego frame: polygons (each at least 3 vertices) where road users
+    /// can be (roads, sidewalks, crosswalks). Only evidence inside it can be a missed object or be
+    /// attributed to a displaced object. Empty: the whole grid.
     pub roi_in_ego: &'a [&'a [[f32; 2]]],
+    /// Optional known static scenery in the ego frame (poles, tree trunks, walls, buildings from a map):
+    /// evidence inside these polygons is scenery, never a missed object nor a displaced object's evidence.
+    pub static_in_ego: &'a [&'a [[f32; 2]]],
 }

@@ -22,6 +22,8 @@ pub const MAX_HITS: u16 = 255;
 pub const FLAG_EXPLAINED: u8 = 1;
 /// Cell flag: visited by the conflict clustering.
 pub const FLAG_VISITED: u8 = 2;
+/// Cell flag: part of a reported conflict cluster in the region of interest (not scenery).
+pub const FLAG_ROI_CONFLICT: u8 = 4;
 
 /// The state of one cell, for display and inspection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -109,6 +111,17 @@ impl GridGeometry {
     pub fn contains_box(&self, b: [f32; 4]) -> bool {
         let hi = self.origin_m + self.size_m();
         b[0] >= self.origin_m && b[1] >= self.origin_m && b[2] < hi && b[3] < hi
+    }
+
+    /// Inclusive cell range covering the part of a box that lies inside the grid, `None` if none does.
+    #[must_use]
+    pub fn cell_range_clipped(&self, b: [f32; 4]) -> Option<(u32, u32, u32, u32)> {
+        let hi = self.origin_m + self.size_m();
+        if !(b[0] < hi && b[1] < hi && b[2] >= self.origin_m && b[3] >= self.origin_m) {
+            return None;
+        }
+        let clamp = |v: f32| v.clamp(self.origin_m, hi - 0.5 * self.cell_size_m);
+        self.cell_range([clamp(b[0]), clamp(b[1]), clamp(b[2]), clamp(b[3])])
     }
 
     /// Inclusive cell range `(ix0, iy0, ix1, iy1)` covering a box that lies inside the grid.

@@ -3,7 +3,7 @@
 use alloc::vec::Vec;
 
 use crate::frame::{Frame, ObjectState, Uncertainty};
-use crate::grid::{GridGeometry, OccupancyGrid, FLAG_EXPLAINED, FLAG_VISITED};
+use crate::grid::{GridGeometry, OccupancyGrid, FLAG_EXPLAINED, FLAG_ROI_CONFLICT, FLAG_VISITED};
 use crate::params::{MonitorParams, ParamError};
 use crate::plausibility::TrackTable;
 use crate::region::Region;
@@ -282,7 +282,13 @@ impl Monitor {
                 out.margin_width_m = region.margin_width_m;
                 let bounds = region.grown.aabb();
                 match geometry.cell_range(bounds).filter(|_| geometry.contains_box(bounds)) {
-                    None => out.verdict = SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid),
+                    None => {
+                        out.verdict = SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid);
+                        // Not judged, but its evidence inside the grid is explained: no conflict at the edge.
+                        if self.sensor_status.is_none() {
+                            self.explain_cells(&region, geometry.cell_range_clipped(bounds));
+                        }
+                    }
                     Some(_) if self.sensor_status.is_some() => {
                         out.verdict =
                             SensorVerdict::NotMonitored(self.sensor_status.unwrap_or(NotMonitoredReason::NoLidarData));
@@ -318,6 +324,22 @@ impl Monitor {
                 sensor: report,
                 motion: MotionOutcome::not_monitored(NotMonitoredReason::InvalidState),
             });
+        }
+    }
+
+    /// Marks the hit cells of a cell range that overlap a region as explained.
+    fn explain_cells(&mut self, region: &Region, range: Option<(u32, u32, u32, u32)>) {
+        let Some((ix0, iy0, ix1, iy1)) = range else { return };
+        let geometry = self.grid.geometry;
+        let half = 0.5 * geometry.cell_size_m;
+        for iy in iy0..=iy1 {
+            let cy = geometry.cell_center_axis(iy);
+            for ix in ix0..=ix1 {
+                let cx = geometry.cell_center_axis(ix);
+                if region.grown.overlaps_square(cx, cy, half) {
+                    self.grid.set_flags(iy * geometry.cells_per_side + ix, FLAG_EXPLAINED);
+                }
+            }
         }
     }
 
@@ -382,14 +404,24 @@ impl Monitor {
             }
             let (mut sx, mut sy) = (0.0f32, 0.0f32);
             let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-            let mut in_roi = frame.roi_in_ego.is_empty();
+            // In the region of interest: some cell inside the ROI (or no ROI) and outside known scenery.
+            let mut in_roi = false;
             for &c in self.queue.get(start..end).unwrap_or(&[]) {
                 let (x, y) = geometry.cell_center(c);
                 sx += x;
                 sy += y;
                 b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 if !in_roi {
-                    in_roi = frame.roi_in_ego.iter().any(|poly| crate::geometry::polygon_contains(poly, x, y));
+                    let inside =
+                        |polys: &[&[[f32; 2]]]| polys.iter().any(|p| crate::geometry::polygon_contains(p, x, y));
+                    in_roi = (frame.roi_in_ego.is_empty() || inside(frame.roi_in_ego)) && !inside(frame.static_in_ego);
+                }
+            }
+            if in_roi {
+                for k in start..end {
+                    if let Some(&c) = self.queue.get(k) {
+                        self.grid.set_flags(c, FLAG_ROI_CONFLICT);
+                    }
                 }
             }
             let inv = 1.0 / cells as f32;
@@ -404,13 +436,12 @@ impl Monitor {
         }
     }
 
-    /// Attributes each cluster to the nearest object region within `conflict_association_m`: any cluster to an
-    /// inconsistent object (its evidence moved out), and, when it lies in the region of interest, also to a
-    /// consistent one (its evidence spills over the region's edge).
+    /// Attributes each cluster in the region of interest to the nearest object region within
+    /// `conflict_association_m`: for an inconsistent object its evidence moved out, for a consistent one its
+    /// evidence spills over the region's edge. Evidence outside the ROI or in known scenery is nobody's.
     fn attribute_clusters(&mut self) {
         let geometry = self.grid.geometry;
         let reach = self.params.conflict_association_m;
-        let tau_tp = self.params.tau_tp;
         let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         for (k, cluster) in self.clusters.iter_mut().enumerate() {
             let Some(&(start, end)) = self.cluster_spans.get(k) else { continue };
@@ -418,8 +449,8 @@ impl Monitor {
             let mut best: Option<(usize, f32)> = None;
             for (j, s) in self.scratch.iter().enumerate() {
                 let Some(region) = &s.region else { continue };
-                let consistent = self.reports.get(j).is_some_and(|r| r.sensor.eta >= tau_tp);
-                if consistent && !cluster.in_roi {
+                // Evidence outside the region of interest (or in known scenery) is nobody's.
+                if !cluster.in_roi {
                     continue;
                 }
                 let rb = region.grown.aabb();
@@ -490,9 +521,8 @@ impl Monitor {
                                     match self.visibility.sight(cx, cy) {
                                         Sight::Visible => visible += 1,
                                         Sight::Shadowed(c) if c != NO_CELL => {
-                                            if self.grid.flags(c) & FLAG_EXPLAINED == 0
-                                                && self.grid.probability(c) > self.params.tau_fn
-                                            {
+                                            // Behind evidence nobody explains, in the region of interest.
+                                            if self.grid.flags(c) & FLAG_ROI_CONFLICT != 0 {
                                                 unexplained_shadow += 1;
                                                 occluder = c;
                                             }
@@ -507,7 +537,9 @@ impl Monitor {
                     s.visible_fraction = frac(visible);
                     s.verdict = if frac(visible + unexplained_shadow) < self.params.ghost_visible_fraction {
                         SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
-                    } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, occluder) {
+                    } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, occluder)
+                        .filter(|&k| self.clusters.get(k).is_some_and(|c| c.in_roi))
+                    {
                         // Hidden behind evidence no object explains: that evidence is the object, displaced.
                         s.cluster = u16::try_from(k).ok();
                         if let Some(c) = self.clusters.get_mut(k) {

@@ -88,6 +88,7 @@ fn check_allocates_nothing_after_construction() {
                 _ => Some(PointCloud { points_in_sensor: &points, ego_from_sensor: extrinsic() }),
             },
             roi_in_ego: &roi,
+            static_in_ego: &[],
         })
         .collect();
     // Warm up once (nothing is lazily allocated, but be fair to first-use effects of the test harness).

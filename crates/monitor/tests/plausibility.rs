@@ -18,7 +18,14 @@ use pmon_monitor::{
 use proptest::prelude::*;
 
 fn frame(t: f64, objects: &[ObjectState]) -> Frame<'_> {
-    Frame { timestamp_s: t, world_from_ego: Pose2::default(), objects, cloud: None, roi_in_ego: &[] }
+    Frame {
+        timestamp_s: t,
+        world_from_ego: Pose2::default(),
+        objects,
+        cloud: None,
+        roi_in_ego: &[],
+        static_in_ego: &[],
+    }
 }
 
 fn moving(id: u64, x: f32, v: f32) -> ObjectState {
@@ -50,7 +57,14 @@ fn ego_motion_is_removed_through_the_pose() {
         let t = k as f64 * 0.1;
         let pose = Pose2 { x_m: 10.0 * t, y_m: 0.0, yaw_rad: 0.0 };
         let objects = [moving(1, 20.0, 10.0)];
-        let f = Frame { timestamp_s: t, world_from_ego: pose, objects: &objects, cloud: None, roi_in_ego: &[] };
+        let f = Frame {
+            timestamp_s: t,
+            world_from_ego: pose,
+            objects: &objects,
+            cloud: None,
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
         let r = m.check(&f).unwrap();
         if k > 0 {
             assert_eq!(r.objects[0].motion.verdict, MotionVerdict::Plausible, "frame {k}");

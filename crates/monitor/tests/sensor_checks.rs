@@ -28,6 +28,7 @@ fn run(
         objects,
         cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
         roi_in_ego: roi,
+        static_in_ego: &[],
     };
     monitor.check(&frame).unwrap().objects.to_vec()
 }
@@ -83,6 +84,7 @@ fn displaced_object_is_a_position_error_and_its_evidence_is_attributed() {
         objects: &objects,
         cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
         roi_in_ego: &[],
+        static_in_ego: &[],
     };
     let rep = m.check(&frame).unwrap();
     let o = rep.objects[0];
@@ -110,6 +112,7 @@ fn unexplained_cluster_in_roi_is_a_missed_object_outside_it_is_not() {
             objects: &[],
             cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
             roi_in_ego: roi,
+            static_in_ego: &[],
         };
         let rep = m.check(&frame).unwrap();
         assert_eq!(rep.missed_objects(), missed);
@@ -191,5 +194,65 @@ proptest! {
         pts.extend(ground_points(45.0));
         let r = run(&mut m, &[truth], &pts, &[]);
         prop_assert_eq!(r[0].verdict, Verdict::Consistent);
+    }
+}
+
+#[test]
+fn object_straddling_the_grid_edge_explains_its_evidence() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    // Centre 50.5 m ahead: outside the 100 m grid, its near face inside it.
+    let truck = object(1, 50.5, 0.0, 0.0, 4.0, 2.0);
+    let pts = to_sensor(&visible_face_points(&truck, 0.05));
+    let objects = [truck];
+    let frame = Frame {
+        timestamp_s: 0.0,
+        world_from_ego: Pose2::default(),
+        objects: &objects,
+        cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
+        roi_in_ego: &[],
+        static_in_ego: &[],
+    };
+    let rep = m.check(&frame).unwrap();
+    assert_eq!(rep.objects[0].verdict, Verdict::NotMonitored(NotMonitoredReason::OutsideGrid));
+    assert!(rep.grid.cells_occupied > 0, "its near face is in the grid");
+    assert_eq!(rep.grid.cells_conflict, 0, "and explained by it");
+    assert_eq!(rep.missed_objects(), 0);
+}
+
+#[test]
+fn known_scenery_is_nobodys_evidence_and_its_shadow_is_occlusion() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    // A wall 10 m ahead, listed as static scenery; a car hidden behind it; a pedestrian 0.8 m beside the wall
+    // whose own evidence is missing (nothing at its position).
+    let wall = object(100, 10.0, 0.0, 0.0, 0.4, 6.0);
+    let hidden = object(1, 16.0, 0.0, 0.0, 4.0, 1.8);
+    let mut pts = visible_face_points(&wall, 0.05);
+    pts.extend(ground_points(45.0).into_iter().filter(|p| !(p[0] > 9.8 && (p[1] / p[0]).abs() < 3.0 / 9.8)));
+    let pts_s = to_sensor(&pts);
+    let wall_poly: &[[f32; 2]] = &[[9.5, -3.5], [10.5, -3.5], [10.5, 3.5], [9.5, 3.5]];
+    let objects = [hidden];
+    for (scenery, want_missed) in [(&[wall_poly][..], 0usize), (&[][..], 1)] {
+        let frame = Frame {
+            timestamp_s: 0.0,
+            world_from_ego: Pose2::default(),
+            objects: &objects,
+            cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
+            roi_in_ego: &[],
+            static_in_ego: scenery,
+        };
+        let rep = m.check(&frame).unwrap();
+        assert_eq!(rep.missed_objects() + usize::from(rep.objects[0].sensor.cluster.is_some()), want_missed);
+        if want_missed == 0 {
+            // Behind known scenery: occluded, not an alarm.
+            assert_eq!(
+                rep.objects[0].verdict,
+                Verdict::NotMonitored(NotMonitoredReason::Occluded),
+                "{:?}",
+                rep.objects[0].sensor
+            );
+        } else {
+            // Behind evidence nobody explains: that evidence may be the car itself (a position error).
+            assert!(rep.objects[0].verdict.is_alarm(), "{:?}", rep.objects[0]);
+        }
     }
 }

@@ -48,20 +48,32 @@ pub struct RecordedFrame {
     pub cloud: Option<OwnedCloud>,
     /// Region of interest polygons, ego frame.
     pub roi_in_ego: Vec<Vec<[f32; 2]>>,
+    /// Known static scenery polygons, ego frame.
+    pub static_in_ego: Vec<Vec<[f32; 2]>>,
 }
 
 impl RecordedFrame {
     /// A frame with no objects, cloud or ROI.
     #[must_use]
     pub fn empty(index: u64, timestamp_s: f64, world_from_ego: Pose2) -> Self {
-        Self { index, timestamp_s, world_from_ego, objects: Vec::new(), cloud: None, roi_in_ego: Vec::new() }
+        Self {
+            index,
+            timestamp_s,
+            world_from_ego,
+            objects: Vec::new(),
+            cloud: None,
+            roi_in_ego: Vec::new(),
+            static_in_ego: Vec::new(),
+        }
     }
 
-    /// Lends the frame to the monitor. `roi` is scratch space for the ROI slices (reused across calls).
+    /// Lends the frame to the monitor. `polygons` is scratch space for the ROI and scenery slices.
     #[must_use]
-    pub fn as_frame<'a>(&'a self, roi: &'a mut Vec<&'a [[f32; 2]]>) -> Frame<'a> {
-        roi.clear();
-        roi.extend(self.roi_in_ego.iter().map(Vec::as_slice));
+    pub fn as_frame<'a>(&'a self, polygons: &'a mut Vec<&'a [[f32; 2]]>) -> Frame<'a> {
+        polygons.clear();
+        polygons.extend(self.roi_in_ego.iter().map(Vec::as_slice));
+        polygons.extend(self.static_in_ego.iter().map(Vec::as_slice));
+        let (roi, scenery) = polygons.split_at(self.roi_in_ego.len().min(polygons.len()));
         Frame {
             timestamp_s: self.timestamp_s,
             world_from_ego: self.world_from_ego,
@@ -70,7 +82,8 @@ impl RecordedFrame {
                 .cloud
                 .as_ref()
                 .map(|c| PointCloud { points_in_sensor: &c.points_in_sensor, ego_from_sensor: c.ego_from_sensor }),
-            roi_in_ego: roi.as_slice(),
+            roi_in_ego: roi,
+            static_in_ego: scenery,
         }
     }
 }
@@ -182,6 +195,8 @@ struct JsonFrame {
     cloud: Option<JsonCloud>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     roi_in_ego: Vec<Vec<[f32; 2]>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    static_in_ego: Vec<Vec<[f32; 2]>>,
 }
 
 fn object_from_json(o: JsonObject) -> Result<ObjectState, String> {
@@ -353,6 +368,7 @@ impl RecordingWriter {
             objects: frame.objects.iter().map(object_to_json).collect(),
             cloud,
             roi_in_ego: frame.roi_in_ego.clone(),
+            static_in_ego: frame.static_in_ego.clone(),
         };
         let line = serde_json::to_string(&json)
             .map_err(|e| RecordingError::malformed(&self.frames_path, 0, format!("cannot serialise frame: {e}")))?;
@@ -484,6 +500,7 @@ impl RecordingReader {
             objects,
             cloud,
             roi_in_ego: json.roi_in_ego,
+            static_in_ego: json.static_in_ego,
         })
     }
 }
@@ -566,6 +583,7 @@ mod tests {
             ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
         });
         f.roi_in_ego = vec![vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]]];
+        f.static_in_ego = vec![vec![[1.0, 1.0], [2.0, 1.0], [2.0, 2.0]]];
         f
     }
 
