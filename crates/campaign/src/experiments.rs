@@ -142,6 +142,8 @@ pub enum Scale {
     Full,
     /// Coarser sweeps (first contact, CI).
     Quick,
+    /// Three points per sweep: for end-to-end tests of the pipeline, not for conclusions.
+    Smoke,
 }
 
 fn steps(from: f64, to: f64, step: f64) -> Vec<f64> {
@@ -268,6 +270,7 @@ pub fn figure_specs() -> Vec<FigureSpec> {
 #[must_use]
 pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec<PlannedRun> {
     let quick = scale == Scale::Quick;
+    let smoke = scale == Scale::Smoke;
     let mut runs = Vec::new();
     let mut push = |scene: usize, params: MonitorParams, fault: Fault, noise: f32, probes: Vec<Probe>| {
         let k = runs.len() as u64;
@@ -279,7 +282,13 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
     let p02 = MonitorParams { cell_size_m: 0.2, ..*base };
 
     // Fig. NoError: false alarms against noise.
-    let noise = if quick { steps(0.0, 0.5, 0.1) } else { steps(0.0, 0.5, 0.05) };
+    let noise = if smoke {
+        vec![0.0, 0.3]
+    } else if quick {
+        steps(0.0, 0.5, 0.1)
+    } else {
+        steps(0.0, 0.5, 0.05)
+    };
     for &s in &noise {
         push(
             ids.pedestrians,
@@ -294,7 +303,13 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
     }
 
     // Fig. PositionError: permanent errors away from the ego, two cell sizes.
-    let mags = if quick { steps(0.2, 2.0, 0.2) } else { steps(0.1, 2.0, 0.1) };
+    let mags = if smoke {
+        vec![0.4, 1.2, 2.0]
+    } else if quick {
+        steps(0.2, 2.0, 0.2)
+    } else {
+        steps(0.1, 2.0, 0.1)
+    };
     for &m in &mags {
         let f = Fault::PermanentPosition { magnitude_m: m as f32, direction: Direction::Away };
         push(
@@ -368,7 +383,13 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
     }
 
     // Fig. velocityError: permanent and transient (10 %) speed errors.
-    let dvs = if quick { steps(1.0, 10.0, 1.0) } else { steps(0.5, 10.0, 0.5) };
+    let dvs = if smoke {
+        vec![2.0, 8.0]
+    } else if quick {
+        steps(1.0, 10.0, 1.0)
+    } else {
+        steps(0.5, 10.0, 0.5)
+    };
     for &dv in &dvs {
         for (scene, name) in [(ids.pedestrians, "pedestrians"), (ids.intersection, "intersection")] {
             push(

@@ -12,4 +12,4 @@ pub mod run;
 
 pub use inject::{Direction, Fault, Injection, InjectionConfig, Injector};
 pub use metrics::{score, Metrics, Outcome, Rate, Score};
-pub use run::{run_all, run_one, Example, RunResult, RunSpec, Scene};
+pub use run::{replay_to, run_all, run_one, Example, Replay, RunResult, RunSpec, Scene};

@@ -146,3 +146,44 @@ pub fn run_all(scenes: &[Scene], specs: &[RunSpec], progress: &(dyn Fn() + Sync)
         })
         .collect()
 }
+
+/// The monitor's view of one frame of a run, for pictures: the injected object list, what was injected,
+/// the reports, and the monitor (whose grid holds that frame).
+pub struct Replay {
+    /// The monitor after the frame.
+    pub monitor: Monitor,
+    /// The frame as the monitor saw it (object list with the errors).
+    pub frame: RecordedFrame,
+    /// What was injected in that frame.
+    pub injections: Vec<crate::inject::Injection>,
+    /// Reports, one per object.
+    pub objects: Vec<pmon_monitor::ObjectReport>,
+    /// Conflict clusters.
+    pub clusters: Vec<pmon_monitor::ClusterReport>,
+}
+
+/// Runs a spec up to and including frame `k` and returns the monitor's view of that frame.
+///
+/// # Errors
+/// As [`run_one`], or `k` beyond the scene.
+pub fn replay_to(scene: &Scene, spec: &RunSpec, k: usize) -> Result<Replay, String> {
+    if k >= scene.frames.len() {
+        return Err(format!("{} has {} frames, no frame {k}", scene.name, scene.frames.len()));
+    }
+    let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
+    let mut injector = Injector::new(spec.injection);
+    for (i, clean) in scene.frames.iter().enumerate().take(k + 1) {
+        let mut frame = clean.clone();
+        let injections = injector.apply(i as u64, &mut frame.objects);
+        let (objects, clusters) = {
+            let mut roi = Vec::new();
+            let view = frame.as_frame(&mut roi);
+            let report = monitor.check(&view).map_err(|e| format!("{}: frame {i}: {e}", scene.name))?;
+            (report.objects.to_vec(), report.clusters.to_vec())
+        };
+        if i == k {
+            return Ok(Replay { monitor, frame, injections, objects, clusters });
+        }
+    }
+    Err(format!("{}: frame {k} not reached", scene.name))
+}

@@ -2,6 +2,9 @@
 
 mod check;
 mod config;
+mod reproduce;
+mod simulate;
+mod view;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -22,10 +25,16 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Run every experiment of the paper on the built-in scenarios and write a report (the main job).
+    Reproduce(reproduce::ReproduceArgs),
+    /// Simulate a built-in (or your own) scenario with a ray-cast LiDAR and write a pmon recording.
+    Simulate(simulate::SimulateArgs),
     /// Check a recording: one verdict per object and frame, and missed objects.
     ///
     /// Exit status: 0 when no alarm was raised, 1 when at least one was, 2 on bad input or usage.
     Check(check::CheckArgs),
+    /// Draw a top view of one frame: grid cells, LiDAR points, footprints coloured by verdict, clusters.
+    View(view::ViewArgs),
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
         /// A TOML file of parameters to validate and print merged over the defaults.
@@ -37,7 +46,10 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Reproduce(args) => reproduce::run(&args),
+        Command::Simulate(args) => simulate::run(&args),
         Command::Check(args) => check::run(&args),
+        Command::View(args) => view::run(&args),
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
     };
     match result {

@@ -1,0 +1,191 @@
+//! `pmon view`: a top view of one frame, and the picture builder the report reuses.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use pmon_campaign::Injection;
+use pmon_monitor::{
+    CellState, ClusterReport, Monitor, MotionVerdict, ObjectReport, ObjectState, SensorVerdict, Verdict,
+};
+use pmon_recording::{RecordedFrame, RecordingReader};
+use pmon_report::{BoxKind, TopView, ViewBox, ViewCell, ViewCluster};
+
+use crate::config::load_params;
+
+/// Arguments of `pmon view`.
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// A pmon recording directory.
+    pub recording: PathBuf,
+    /// Frame number to draw (the monitor runs over the frames before it for the motion history).
+    #[arg(long, default_value_t = 0)]
+    pub frame: u64,
+    /// Output image: `.png` or `.svg`.
+    #[arg(long, short, default_value = "frame.png")]
+    pub out: PathBuf,
+    /// Half width of the drawn area around the centre, metres.
+    #[arg(long, default_value_t = 25.0)]
+    pub radius_m: f32,
+    /// Centre the picture on this object id instead of the ego vehicle.
+    #[arg(long)]
+    pub object: Option<u64>,
+    /// Monitor parameters (TOML); defaults to the paper's Table I.
+    #[arg(long)]
+    pub params: Option<PathBuf>,
+}
+
+fn box_kind(r: &ObjectReport) -> BoxKind {
+    match r.verdict {
+        Verdict::Consistent => BoxKind::Consistent,
+        Verdict::Ghost => BoxKind::Ghost,
+        Verdict::PositionError => BoxKind::PositionError,
+        Verdict::ImplausibleMotion(_) => BoxKind::Implausible,
+        Verdict::NotMonitored(_) => BoxKind::NotMonitored,
+    }
+}
+
+fn short_verdict(r: &ObjectReport) -> String {
+    match (r.verdict, r.sensor.verdict, r.motion.verdict) {
+        (Verdict::NotMonitored(reason), _, _) => format!("not monitored: {reason}"),
+        (Verdict::ImplausibleMotion(c), _, _) => format!("implausible {c}"),
+        (Verdict::Consistent, SensorVerdict::NotMonitored(reason), MotionVerdict::Plausible) => {
+            format!("plausible (sensor: {reason})")
+        }
+        (v, _, _) => format!("{} (eta {:.2})", v.name(), r.sensor.eta),
+    }
+}
+
+/// Builds the top view of a checked frame. `injections` (may be empty) are drawn as arrows from the true
+/// position to the reported one, with the true footprint.
+pub fn top_view(
+    title: &str,
+    monitor: &Monitor,
+    frame: &RecordedFrame,
+    objects: &[ObjectReport],
+    clusters: &[ClusterReport],
+    injections: &[Injection],
+    centre: (f32, f32),
+    radius_m: f32,
+) -> TopView {
+    let extent = (centre.0 - radius_m, centre.1 - radius_m, centre.0 + radius_m, centre.1 + radius_m);
+    let inside = |x: f32, y: f32| x >= extent.0 && x <= extent.2 && y >= extent.1 && y <= extent.3;
+    let params = monitor.params();
+    let grid = monitor.grid();
+    let mut view = TopView::new(title, extent, grid.geometry.cell_size_m);
+    for &idx in grid.touched() {
+        let (x, y) = grid.geometry.cell_center(idx);
+        if !inside(x, y) {
+            continue;
+        }
+        let state = match grid.state(idx, params.tau_fn) {
+            CellState::Unknown => continue,
+            CellState::Weak => pmon_report::CellState::Unknown,
+            CellState::Occupied => pmon_report::CellState::Occupied,
+            CellState::Conflict => pmon_report::CellState::Conflict,
+        };
+        view.cells.push(ViewCell { x_m: x, y_m: y, state });
+    }
+    if let Some(cloud) = &frame.cloud {
+        let lo = params.ground_z_m + params.min_obstacle_height_m;
+        let hi = params.ground_z_m + params.max_obstacle_height_m;
+        for p in &cloud.points_in_sensor {
+            let q = cloud.ego_from_sensor.transform(*p);
+            if q[2] >= lo && q[2] <= hi && inside(q[0], q[1]) {
+                view.points.push([q[0], q[1]]);
+            }
+        }
+    }
+    for (o, r) in frame.objects.iter().zip(objects) {
+        if !inside(o.x_m, o.y_m) {
+            continue;
+        }
+        view.boxes.push(ViewBox {
+            x_m: o.x_m,
+            y_m: o.y_m,
+            heading_rad: o.heading_rad,
+            length_m: o.length_m,
+            width_m: o.width_m,
+            grown_length_m: o.length_m + 2.0 * r.sensor.margin_length_m,
+            grown_width_m: o.width_m + 2.0 * r.sensor.margin_width_m,
+            label: format!("{} {}: {}", o.class.name(), o.id, short_verdict(r)),
+            kind: box_kind(r),
+        });
+    }
+    for inj in injections {
+        let Some(o) = frame.objects.get(inj.index as usize) else { continue };
+        if inj.offset_m == [0.0, 0.0] {
+            continue;
+        }
+        let truth = [o.x_m - inj.offset_m[0], o.y_m - inj.offset_m[1]];
+        view.arrows.push((truth, [o.x_m, o.y_m]));
+        view.boxes.push(ViewBox {
+            x_m: truth[0],
+            y_m: truth[1],
+            heading_rad: o.heading_rad,
+            length_m: o.length_m,
+            width_m: o.width_m,
+            grown_length_m: o.length_m,
+            grown_width_m: o.width_m,
+            label: format!("true position of {}", o.id),
+            kind: BoxKind::InjectedTruth,
+        });
+    }
+    for c in clusters {
+        let [x0, y0, x1, y1] = c.bounds_m;
+        if !(inside(x0, y0) || inside(x1, y1)) {
+            continue;
+        }
+        let label = match c.object {
+            Some(j) => format!("evidence of {}", frame.objects.get(j as usize).map_or(0, |o: &ObjectState| o.id)),
+            None if c.in_roi => "missed object".to_string(),
+            None => "unexplained (outside ROI)".to_string(),
+        };
+        let h = 0.5 * grid.geometry.cell_size_m;
+        view.clusters.push(ViewCluster { bounds_m: [x0 - h, y0 - h, x1 + h, y1 + h], label });
+    }
+    view
+}
+
+/// Writes a view as PNG or SVG by the file's extension.
+pub fn write_view(view: &TopView, path: &std::path::Path) -> Result<()> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("svg") => view.render_svg(path)?,
+        Some("png") | None => view.render_png(path, 1400, 1400)?,
+        Some(other) => bail!("{}: unknown image type `.{other}` (use .png or .svg)", path.display()),
+    }
+    Ok(())
+}
+
+/// `pmon view`.
+pub fn run(args: &ViewArgs) -> Result<ExitCode> {
+    let params = load_params(args.params.as_deref())?;
+    let mut monitor = Monitor::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let reader = RecordingReader::open(&args.recording)?;
+    for frame in reader {
+        let frame = frame?;
+        let mut roi = Vec::new();
+        let view = frame.as_frame(&mut roi);
+        let report = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;
+        if frame.index != args.frame {
+            continue;
+        }
+        let (objects, clusters) = (report.objects.to_vec(), report.clusters.to_vec());
+        let centre = match args.object {
+            None => (0.0, 0.0),
+            Some(id) => frame
+                .objects
+                .iter()
+                .find(|o| o.id == id)
+                .map(|o| (o.x_m, o.y_m))
+                .with_context(|| format!("frame {} has no object {id}", frame.index))?,
+        };
+        let title = format!("{} frame {} (t = {:.2} s)", args.recording.display(), frame.index, frame.timestamp_s);
+        let picture = top_view(&title, &monitor, &frame, &objects, &clusters, &[], centre, args.radius_m);
+        write_view(&picture, &args.out)?;
+        eprintln!("wrote {}", args.out.display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    bail!("{}: no frame {}", args.recording.display(), args.frame)
+}
