@@ -24,6 +24,8 @@ pub const FLAG_EXPLAINED: u8 = 1;
 pub const FLAG_VISITED: u8 = 2;
 /// Cell flag: part of a reported conflict cluster in the region of interest (not scenery).
 pub const FLAG_ROI_CONFLICT: u8 = 4;
+/// Cell flag: inside known static scenery; its evidence is explained by the map and confirms no object.
+pub const FLAG_STATIC: u8 = 8;
 
 /// The state of one cell, for display and inspection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -3,7 +3,7 @@
 use alloc::vec::Vec;
 
 use crate::frame::{Frame, ObjectState, Uncertainty};
-use crate::grid::{GridGeometry, OccupancyGrid, FLAG_EXPLAINED, FLAG_ROI_CONFLICT, FLAG_VISITED};
+use crate::grid::{GridGeometry, OccupancyGrid, FLAG_EXPLAINED, FLAG_ROI_CONFLICT, FLAG_STATIC, FLAG_VISITED};
 use crate::params::{MonitorParams, ParamError};
 use crate::plausibility::TrackTable;
 use crate::region::Region;
@@ -183,6 +183,7 @@ impl Monitor {
         }
         self.begin_frame(frame);
         self.rasterize(frame);
+        self.mark_scenery(frame);
         on_stage(Stage::Rasterize);
         self.object_regions(frame);
         on_stage(Stage::Regions);
@@ -268,6 +269,33 @@ impl Monitor {
         self.stats.cells_hit = u32::try_from(self.grid.touched().len()).unwrap_or(u32::MAX);
     }
 
+    /// Hit cells whose centre lies in known static scenery: explained by the map, and no evidence for objects.
+    /// Visits each polygon's bounding box once (bounded by the grid).
+    fn mark_scenery(&mut self, frame: &Frame<'_>) {
+        if self.sensor_status.is_some() {
+            return;
+        }
+        let geometry = self.grid.geometry;
+        for poly in frame.static_in_ego {
+            let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+            for p in poly.iter() {
+                b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
+            }
+            let Some((ix0, iy0, ix1, iy1)) = geometry.cell_range_clipped(b) else { continue };
+            for iy in iy0..=iy1 {
+                let cy = geometry.cell_center_axis(iy);
+                for ix in ix0..=ix1 {
+                    let idx = iy * geometry.cells_per_side + ix;
+                    if self.grid.hits(idx) > 0
+                        && crate::geometry::polygon_contains(poly, geometry.cell_center_axis(ix), cy)
+                    {
+                        self.grid.set_flags(idx, FLAG_STATIC | FLAG_EXPLAINED);
+                    }
+                }
+            }
+        }
+    }
+
     /// Regions `A_o`, consistency `eta(o)` (eq. consistency), and the cells they explain.
     fn object_regions(&mut self, frame: &Frame<'_>) {
         let geometry = self.grid.geometry;
@@ -304,7 +332,7 @@ impl Monitor {
                                 }
                                 let idx = iy * geometry.cells_per_side + ix;
                                 let hits = self.grid.hits(idx);
-                                if hits > 0 {
+                                if hits > 0 && self.grid.flags(idx) & FLAG_STATIC == 0 {
                                     eta = eta.max(self.grid.probability_of_hits(hits));
                                     self.grid.set_flags(idx, FLAG_EXPLAINED);
                                 }
@@ -404,17 +432,16 @@ impl Monitor {
             }
             let (mut sx, mut sy) = (0.0f32, 0.0f32);
             let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-            // In the region of interest: some cell inside the ROI (or no ROI) and outside known scenery.
-            let mut in_roi = false;
+            // In the region of interest: some cell inside the ROI, or no ROI. (Cells of known scenery are
+            // explained by the map and never part of a cluster.)
+            let mut in_roi = frame.roi_in_ego.is_empty();
             for &c in self.queue.get(start..end).unwrap_or(&[]) {
                 let (x, y) = geometry.cell_center(c);
                 sx += x;
                 sy += y;
                 b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 if !in_roi {
-                    let inside =
-                        |polys: &[&[[f32; 2]]]| polys.iter().any(|p| crate::geometry::polygon_contains(p, x, y));
-                    in_roi = (frame.roi_in_ego.is_empty() || inside(frame.roi_in_ego)) && !inside(frame.static_in_ego);
+                    in_roi = frame.roi_in_ego.iter().any(|p| crate::geometry::polygon_contains(p, x, y));
                 }
             }
             if in_roi {
@@ -443,10 +470,15 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let reach = self.params.conflict_association_m;
         let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
+        let tau_tp = self.params.tau_tp;
+        // A cluster "touches" a region when a cell of it is adjacent to the region.
+        let spill = 0.5 * geometry.cell_size_m;
         for (k, cluster) in self.clusters.iter_mut().enumerate() {
             let Some(&(start, end)) = self.cluster_spans.get(k) else { continue };
             let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
-            let mut best: Option<(usize, f32)> = None;
+            // Prefer an object without evidence of its own (its evidence moved out) within reach; a consistent
+            // object only when the cluster touches its region (its evidence spills over the edge).
+            let mut best: Option<(usize, f32, bool)> = None;
             for (j, s) in self.scratch.iter().enumerate() {
                 let Some(region) = &s.region else { continue };
                 // Evidence outside the region of interest (or in known scenery) is nobody's.
@@ -466,11 +498,17 @@ impl Monitor {
                     let (x, y) = geometry.cell_center(c);
                     d = d.min((region.grown.distance(x, y) - half_diagonal).max(0.0));
                 }
-                if d <= reach && best.is_none_or(|(_, bd)| d < bd) {
-                    best = Some((j, d));
+                let inconsistent = self.reports.get(j).is_some_and(|r| r.sensor.eta < tau_tp);
+                let within = if inconsistent { reach } else { spill };
+                let better = match best {
+                    None => true,
+                    Some((_, bd, b_inc)) => (inconsistent && !b_inc) || (inconsistent == b_inc && d < bd),
+                };
+                if d <= within && better {
+                    best = Some((j, d, inconsistent));
                 }
             }
-            if let Some((j, _)) = best {
+            if let Some((j, _, _)) = best {
                 cluster.object = u32::try_from(j).ok();
                 if let Some(s) = self.scratch.get_mut(j) {
                     if s.cluster.is_none_or(|(_, size)| cluster.cells > size) {

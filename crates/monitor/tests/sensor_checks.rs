@@ -256,3 +256,33 @@ fn known_scenery_is_nobodys_evidence_and_its_shadow_is_occlusion() {
         }
     }
 }
+
+#[test]
+fn evidence_of_known_scenery_does_not_confirm_an_object() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    // A pedestrian reported inside a mapped wall (say, displaced off the sidewalk): the wall's points lie in
+    // its region but must not make it consistent.
+    let wall = object(100, 12.0, 0.0, 0.0, 0.4, 8.0);
+    let mut pts = visible_face_points(&wall, 0.05);
+    pts.extend(ground_points(11.0));
+    let pts_s = to_sensor(&pts);
+    let wall_poly: &[[f32; 2]] = &[[11.5, -4.5], [12.5, -4.5], [12.5, 4.5], [11.5, 4.5]];
+    let ped = pmon_monitor::ObjectState {
+        class: pmon_monitor::ObjectClass::Pedestrian,
+        ..object(1, 12.0, 1.0, 0.0, 0.5, 0.5)
+    };
+    let objects = [ped];
+    let frame = |scenery| Frame {
+        timestamp_s: 0.0,
+        world_from_ego: Pose2::default(),
+        objects: &objects,
+        cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
+        roi_in_ego: &[],
+        static_in_ego: scenery,
+    };
+    // Without the map the wall confirms it; with the map it does not.
+    assert_eq!(m.check(&frame(&[])).unwrap().objects[0].verdict, Verdict::Consistent);
+    let r = m.check(&frame(&[wall_poly])).unwrap().objects[0];
+    assert!(r.sensor.eta < 0.8, "{:?}", r.sensor);
+    assert_ne!(r.verdict, Verdict::Consistent);
+}
