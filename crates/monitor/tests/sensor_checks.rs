@@ -280,8 +280,9 @@ fn evidence_of_known_scenery_does_not_confirm_an_object() {
         roi_in_ego: &[],
         static_in_ego: scenery,
     };
-    // Without the map the wall confirms it; with the map it does not.
-    assert_eq!(m.check(&frame(&[])).unwrap().objects[0].verdict, Verdict::Consistent);
+    // Without the map the wall confirms it (and the rest of the wall, adjacent to its region, spills over);
+    // with the map it does not.
+    assert!(m.check(&frame(&[])).unwrap().objects[0].sensor.eta >= 0.8);
     let r = m.check(&frame(&[wall_poly])).unwrap().objects[0];
     assert!(r.sensor.eta < 0.8, "{:?}", r.sensor);
     assert_ne!(r.verdict, Verdict::Consistent);
