@@ -35,6 +35,24 @@ enum Command {
     Check(check::CheckArgs),
     /// Draw a top view of one frame: grid cells, LiDAR points, footprints coloured by verdict, clusters.
     View(view::ViewArgs),
+    /// Measure the monitor's latency per stage on synthetic and real frames, beside the paper's figures.
+    Bench {
+        /// Print JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+        /// Timed checks per case.
+        #[arg(long, default_value_t = 300)]
+        iterations: usize,
+        /// At most this many seconds per case.
+        #[arg(long, default_value_t = 2.0)]
+        max_seconds_per_case: f64,
+        /// Also measure the largest accepted frame (400,000 points, 1,024 objects).
+        #[arg(long)]
+        worst_case: bool,
+        /// Skip the real sweeps even when ../shared/data (or PMON_DATA_DIR) has them.
+        #[arg(long)]
+        no_real_data: bool,
+    },
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
         /// A TOML file of parameters to validate and print merged over the defaults.
@@ -50,6 +68,23 @@ fn main() -> ExitCode {
         Command::Simulate(args) => simulate::run(&args),
         Command::Check(args) => check::run(&args),
         Command::View(args) => view::run(&args),
+        Command::Bench { json, iterations, max_seconds_per_case, worst_case, no_real_data } => {
+            let opts = pmon_bench::BenchOptions {
+                iterations,
+                max_seconds_per_case,
+                data_dir: None,
+                real_data: !no_real_data,
+                worst_case,
+            };
+            pmon_bench::run_bench(&opts).map_err(anyhow::Error::from).and_then(|r| {
+                if json {
+                    println!("{}", serde_json::to_string_pretty(&r)?);
+                } else {
+                    print!("{}", r.to_table());
+                }
+                Ok(ExitCode::SUCCESS)
+            })
+        }
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
     };
     match result {

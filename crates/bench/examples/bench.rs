@@ -1,0 +1,48 @@
+//! Runs the latency benchmarks and prints the table (or JSON), like `pmon bench`:
+//! `cargo run --release -p pmon-bench --example bench -- [--json] [--iterations N]`.
+
+use std::process::ExitCode;
+
+use pmon_bench::{run_bench, BenchOptions};
+
+fn main() -> ExitCode {
+    let mut opts = BenchOptions::default();
+    let mut json = false;
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        match arg.as_str() {
+            "--json" => json = true,
+            "--iterations" => match args.next().and_then(|v| v.parse().ok()) {
+                Some(n) => opts.iterations = n,
+                None => {
+                    eprintln!("--iterations needs a whole number");
+                    return ExitCode::from(2);
+                }
+            },
+            other => {
+                eprintln!("unknown argument `{other}`; usage: bench [--json] [--iterations N]");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    match run_bench(&opts) {
+        Ok(report) if json => match serde_json::to_string_pretty(&report) {
+            Ok(text) => {
+                println!("{text}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: cannot serialise the report: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        Ok(report) => {
+            print!("{}", report.to_table());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

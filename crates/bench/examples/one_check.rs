@@ -1,0 +1,62 @@
+//! Runs `Monitor::check` on the synthetic 64-beam frame (120,000 points, 100 objects, paper parameters), for
+//! instruction counts under callgrind (see docs/performance.md):
+//!
+//! ```text
+//! cargo build --release -p pmon-bench --example one_check
+//! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Monitor::check_with_stages*' \
+//!     target/release/examples/one_check [CHECKS] [CELL_SIZE_M]
+//! ```
+//!
+//! `CHECKS` (default 1) checks run on consecutive frames of the sequence with one reused monitor; the instruction
+//! count of one steady-state check is the difference between the runs with 2 and 1 checks.
+
+use std::process::ExitCode;
+
+use pmon_bench::{Sequence, SyntheticSpec};
+use pmon_monitor::{Monitor, MonitorParams};
+
+fn main() -> ExitCode {
+    let mut args = std::env::args().skip(1);
+    let checks: usize = match args.next().map(|a| a.parse()) {
+        None => 1,
+        Some(Ok(n)) => n,
+        Some(Err(_)) => {
+            eprintln!("usage: one_check [CHECKS] [CELL_SIZE_M]");
+            return ExitCode::from(2);
+        }
+    };
+    let cell_size_m: f32 = match args.next().map(|a| a.parse()) {
+        None => 0.5,
+        Some(Ok(c)) => c,
+        Some(Err(_)) => {
+            eprintln!("usage: one_check [CHECKS] [CELL_SIZE_M]");
+            return ExitCode::from(2);
+        }
+    };
+    let seq = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
+    let mut monitor = match Monitor::new(MonitorParams { cell_size_m, ..MonitorParams::PAPER }) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    for i in 0..checks {
+        let Some(frame) = seq.frame(i, Sequence::timestamp_s(i)) else { return ExitCode::FAILURE };
+        match monitor.check(&frame) {
+            Ok(r) => println!(
+                "check {i}: {} points, {} in band, {} cells hit, {} clusters, {} object alarms",
+                r.grid.points_total,
+                r.grid.points_in_band,
+                r.grid.cells_hit,
+                r.grid.clusters_total,
+                r.object_alarms()
+            ),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    ExitCode::SUCCESS
+}

@@ -1,0 +1,652 @@
+//! # pmon-bench: how fast is the monitor on this machine?
+//!
+//! [`run_bench`] builds deterministic frames (a synthetic 64-beam and 32-beam LiDAR scene, object lists without a
+//! cloud, the largest frame the paper parameters accept, and the real KITTI and nuScenes sweeps of the shared
+//! data when present), runs [`Monitor::check_with_stages`] on them many times on one thread, reads
+//! [`Instant`] at every stage boundary, and reports per stage the median and the spread (10th and 90th
+//! percentiles) in microseconds, beside the frame sizes, the machine, the paper's figures and a floor: the time
+//! to read every point of the sweep once ([`frames::coordinate_sum`]).
+//!
+//! The `pmon bench [--json] [--iterations N]` command prints [`BenchReport::to_table`] (or the report as JSON).
+//! How the figures were measured and what they mean is in `docs/performance.md`.
+//!
+//! Each case reuses one [`Monitor`] across its iterations, cycling through the case's frames with timestamps
+//! `i * 0.1 s`; after each cycle the objects jump back to their first positions, which the plausibility checks
+//! flag for that frame (same arithmetic, so the same cost).
+
+pub mod frames;
+mod machine;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use pmon_monitor::{FrameError, Monitor, MonitorParams, ParamError, Stage};
+use serde::{Deserialize, Serialize};
+
+pub use frames::{Sequence, SyntheticSpec};
+pub use machine::{cpu_model_of, Machine};
+
+/// What to measure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BenchOptions {
+    /// Timed checks per case, after a warm-up of one cycle through the case's frames; `>= 1`.
+    pub iterations: usize,
+    /// A case stops early once its timed checks have taken this long (at least 10 run), seconds.
+    pub max_seconds_per_case: f64,
+    /// Folder of the shared real data; `None`: `PMON_DATA_DIR`, else `<workspace>/../shared/data`.
+    pub data_dir: Option<PathBuf>,
+    /// Measure the real sweeps (KITTI, nuScenes) when they are present.
+    pub real_data: bool,
+    /// Measure the largest accepted frame (400,000 points, 1,024 objects).
+    pub worst_case: bool,
+}
+
+impl Default for BenchOptions {
+    /// 300 iterations per case, at most 2 s per case, real data and worst case included: about 10 s in a
+    /// release build on a 2-core machine.
+    fn default() -> Self {
+        Self { iterations: 300, max_seconds_per_case: 2.0, data_dir: None, real_data: true, worst_case: true }
+    }
+}
+
+/// Why a benchmark run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// An option out of range.
+    #[error("invalid benchmark option: {0}")]
+    Options(String),
+    /// The monitor rejected a case's parameters (a bug in this crate).
+    #[error("case `{case}`: monitor parameters rejected: {source}")]
+    Params {
+        /// The case.
+        case: String,
+        /// The monitor's reason.
+        source: ParamError,
+    },
+    /// The monitor rejected a case's frame (a bug in this crate).
+    #[error("case `{case}`: frame rejected: {source}")]
+    Frame {
+        /// The case.
+        case: String,
+        /// The monitor's reason.
+        source: FrameError,
+    },
+    /// A real sweep is present but cannot be read.
+    #[error("real data: {0}")]
+    Data(String),
+}
+
+/// Median and spread of a duration over the iterations of a case, microseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Timing {
+    /// Median, microseconds.
+    pub median_us: f64,
+    /// 10th percentile, microseconds.
+    pub p10_us: f64,
+    /// 90th percentile, microseconds.
+    pub p90_us: f64,
+}
+
+impl Timing {
+    /// Median and nearest-rank percentiles of samples in microseconds, rounded to nanoseconds (all zero for no
+    /// sample).
+    #[must_use]
+    pub fn of(samples_us: &[f64]) -> Self {
+        let mut s = samples_us.to_vec();
+        s.sort_by(f64::total_cmp);
+        let rank = |q: f64| -> f64 {
+            if s.is_empty() {
+                return 0.0;
+            }
+            let i = ((q * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1;
+            s.get(i).copied().unwrap_or(0.0)
+        };
+        let median_us = match s.len() {
+            0 => 0.0,
+            n if n % 2 == 1 => s.get(n / 2).copied().unwrap_or(0.0),
+            n => 0.5 * (s.get(n / 2 - 1).copied().unwrap_or(0.0) + s.get(n / 2).copied().unwrap_or(0.0)),
+        };
+        // Nanoseconds are the clock's resolution: round to them (short, readable JSON).
+        let ns = |v: f64| (v * 1e3).round() / 1e3;
+        Self { median_us: ns(median_us), p10_us: ns(rank(0.1)), p90_us: ns(rank(0.9)) }
+    }
+}
+
+/// One stage's timing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StageTiming {
+    /// The stage's name ([`Stage::name`]).
+    pub stage: String,
+    /// Its timing.
+    pub timing: Timing,
+}
+
+/// The monitor's figures on one kind of frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CaseReport {
+    /// Short name, e.g. `synthetic-64/0.5m`.
+    pub name: String,
+    /// What the frames are.
+    pub description: String,
+    /// Frames the case cycles through.
+    pub frames: usize,
+    /// Points per sweep (median over iterations); 0 without a cloud.
+    pub points: u32,
+    /// Points in the height band and the grid (median).
+    pub points_in_band: u32,
+    /// Objects per frame.
+    pub objects: usize,
+    /// Cell side, metres.
+    pub cell_size_m: f32,
+    /// Grid side, metres.
+    pub grid_size_m: f32,
+    /// Cells of the grid.
+    pub grid_cells: u64,
+    /// Cells with at least one hit (median): the cells the next frame resets.
+    pub cells_hit: u32,
+    /// Conflict clusters (median).
+    pub clusters: u32,
+    /// Timed iterations.
+    pub samples: usize,
+    /// Per stage, in the order of [`Stage::ALL`].
+    pub stages: Vec<StageTiming>,
+    /// The sensor checks: rasterize + regions + conflicts + verdicts (per iteration, then median).
+    pub sensor_checks: Timing,
+    /// The plausibility checks (the plausibility stage).
+    pub plausibility: Timing,
+    /// The whole `check`.
+    pub total: Timing,
+    /// The floor: reading every point once ([`frames::coordinate_sum`]); `None` without a cloud.
+    pub floor: Option<Timing>,
+    /// Median sensor checks over median floor.
+    pub sensor_over_floor: Option<f64>,
+}
+
+/// A figure of the paper's runtime evaluation (Section IV-G): averages, Python plausibility checks.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperFigure {
+    /// The machine.
+    pub machine: String,
+    /// Average latency of the sensor checks, 100 m x 100 m grid, 0.5 m cells, milliseconds.
+    pub sensor_checks_ms: f64,
+    /// Average latency of the plausibility checks for about 30 objects, milliseconds.
+    pub plausibility_ms: f64,
+}
+
+/// The paper's figures.
+#[must_use]
+pub fn paper_figures() -> Vec<PaperFigure> {
+    vec![
+        PaperFigure {
+            machine: "Intel Core i9-7900X @ 3.30GHz".to_string(),
+            sensor_checks_ms: 12.0,
+            plausibility_ms: 5.0,
+        },
+        PaperFigure {
+            machine: "Intel Atom C3934 @ 2.00GHz".to_string(),
+            sensor_checks_ms: 18.0,
+            plausibility_ms: 13.0,
+        },
+    ]
+}
+
+/// A paper figure beside this machine's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperComparison {
+    /// What is compared.
+    pub what: String,
+    /// The case measured here.
+    pub case: String,
+    /// This machine's median, microseconds.
+    pub measured_us: f64,
+    /// The paper's machine.
+    pub paper_machine: String,
+    /// The paper's average, microseconds.
+    pub paper_us: f64,
+    /// Paper over this machine (how many times faster here).
+    pub ratio: f64,
+}
+
+/// A latency goal of the project and whether this run met it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GoalResult {
+    /// The goal.
+    pub goal: String,
+    /// What was measured, in words and numbers.
+    pub measured: String,
+    /// Met on this machine in this run.
+    pub met: bool,
+}
+
+/// Everything one benchmark run found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BenchReport {
+    /// `pmon-bench` version.
+    pub version: String,
+    /// The machine.
+    pub machine: Machine,
+    /// Requested iterations per case.
+    pub iterations: usize,
+    /// One entry per case.
+    pub cases: Vec<CaseReport>,
+    /// The paper's figures beside this machine's (cases with the paper's grid).
+    pub paper: Vec<PaperComparison>,
+    /// The project's latency goals.
+    pub goals: Vec<GoalResult>,
+    /// What was skipped, and caveats.
+    pub notes: Vec<String>,
+}
+
+struct CaseDef<'a> {
+    name: String,
+    sequence: &'a Sequence,
+    cell_size_m: f32,
+    grid_size_m: f32,
+}
+
+fn params(cell_size_m: f32, grid_size_m: f32) -> MonitorParams {
+    MonitorParams { cell_size_m, grid_size_m, ..MonitorParams::PAPER }
+}
+
+/// Runs the benchmarks (see the crate documentation).
+///
+/// # Errors
+/// [`BenchError::Options`] for zero iterations or a non-positive time limit; [`BenchError::Data`] when a real
+/// sweep is present but malformed; the others only on a bug.
+pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
+    if opts.iterations == 0 {
+        return Err(BenchError::Options("iterations must be at least 1".to_string()));
+    }
+    if !(opts.max_seconds_per_case.is_finite() && opts.max_seconds_per_case > 0.0) {
+        return Err(BenchError::Options("max_seconds_per_case must be finite and > 0".to_string()));
+    }
+    let machine = Machine::current();
+    let mut notes = Vec::new();
+    if !machine.optimized_build {
+        notes.push("DEBUG BUILD: figures are not representative; build with --release".to_string());
+    }
+
+    // Real data first: a malformed file fails the run before anything slow happens.
+    let (kitti, nuscenes) = if opts.real_data { real_sequences(opts, &mut notes)? } else { (None, None) };
+    let syn64 = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
+    let syn32 = Sequence::synthetic(&SyntheticSpec::BEAMS_32);
+    let lists: Vec<Sequence> =
+        [30, 100, 300, 1000].iter().map(|&n| Sequence::synthetic(&SyntheticSpec::objects_only(n))).collect();
+    let worst = opts.worst_case.then(|| Sequence::synthetic(&SyntheticSpec::WORST_CASE));
+    if !opts.real_data {
+        notes.push("real sweeps not measured (disabled)".to_string());
+    }
+    notes.push("Argoverse 2 sweeps (Feather) are not measured: they need an Arrow reader".to_string());
+
+    let mut defs = vec![
+        CaseDef { name: "synthetic-64/0.5m".into(), sequence: &syn64, cell_size_m: 0.5, grid_size_m: 100.0 },
+        CaseDef { name: "synthetic-64/0.2m".into(), sequence: &syn64, cell_size_m: 0.2, grid_size_m: 100.0 },
+        CaseDef { name: "synthetic-64/0.1m".into(), sequence: &syn64, cell_size_m: 0.1, grid_size_m: 100.0 },
+        CaseDef { name: "synthetic-64/0.2m/200m".into(), sequence: &syn64, cell_size_m: 0.2, grid_size_m: 200.0 },
+        CaseDef { name: "synthetic-32/0.5m".into(), sequence: &syn32, cell_size_m: 0.5, grid_size_m: 100.0 },
+    ];
+    for seq in &lists {
+        let name = format!("objects-{}/no-cloud", seq.max_objects());
+        defs.push(CaseDef { name, sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
+    }
+    if let Some(seq) = &kitti {
+        defs.push(CaseDef { name: "kitti/0.5m".into(), sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
+    }
+    if let Some(seq) = &nuscenes {
+        defs.push(CaseDef { name: "nuscenes/0.5m".into(), sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
+    }
+    if let Some(seq) = &worst {
+        defs.push(CaseDef { name: "worst-case/0.5m".into(), sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
+    }
+
+    let mut cases = Vec::with_capacity(defs.len());
+    for def in &defs {
+        cases.push(measure_case(def, opts)?);
+    }
+    let paper = compare_with_paper(&cases);
+    let goals = goals(&cases);
+    Ok(BenchReport {
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        machine,
+        iterations: opts.iterations,
+        cases,
+        paper,
+        goals,
+        notes,
+    })
+}
+
+type RealSequences = (Option<Sequence>, Option<Sequence>);
+
+fn real_sequences(opts: &BenchOptions, notes: &mut Vec<String>) -> Result<RealSequences, BenchError> {
+    let dir = opts.data_dir.clone().unwrap_or_else(frames::data_dir);
+    let dir = dir.canonicalize().unwrap_or(dir);
+    if !dir.is_dir() {
+        notes.push(format!("real sweeps skipped: no data folder at {} (set PMON_DATA_DIR)", dir.display()));
+        return Ok((None, None));
+    }
+    let kitti = frames::kitti_sweeps(&dir).map_err(BenchError::Data)?;
+    let nuscenes = frames::nuscenes_sweeps(&dir).map_err(BenchError::Data)?;
+    let describe = |what: &str, sweeps: &[frames::Sweep]| {
+        let names: Vec<&str> = sweeps.iter().map(|s| s.label.as_str()).collect();
+        format!("{what}: {} sweep(s) from {} ({})", sweeps.len(), dir.display(), names.join(", "))
+    };
+    if kitti.is_empty() {
+        notes
+            .push(format!("KITTI sweeps skipped: none under {}", dir.join("kitti/object/training/velodyne").display()));
+    } else {
+        notes.push(describe("KITTI", &kitti));
+    }
+    if nuscenes.is_empty() {
+        notes.push(format!("nuScenes sweeps skipped: none under {}", dir.join("nuscenes").display()));
+    } else {
+        notes.push(describe("nuScenes", &nuscenes));
+    }
+    notes.push(
+        "real sweeps carry synthetic object lists of the goal sizes (KITTI 100, nuScenes 30) that do not match \
+         the scene: most objects are evidence-free, so the occlusion test runs for nearly all"
+            .to_string(),
+    );
+    let kitti = Sequence::real("KITTI HDL-64E sweeps, 100 synthetic objects", kitti, &SyntheticSpec::BEAMS_64);
+    let nuscenes = Sequence::real("nuScenes 32-beam sweep, 30 synthetic objects", nuscenes, &SyntheticSpec::BEAMS_32);
+    Ok((kitti, nuscenes))
+}
+
+fn us(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e6
+}
+
+fn median_u32(v: &mut [u32]) -> u32 {
+    v.sort_unstable();
+    v.get(v.len() / 2).copied().unwrap_or(0)
+}
+
+fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, BenchError> {
+    let p = params(def.cell_size_m, def.grid_size_m);
+    let mut monitor = Monitor::new(p).map_err(|source| BenchError::Params { case: def.name.clone(), source })?;
+    let seq = def.sequence;
+    let n = seq.frames.len().max(1);
+    let frame_err = |source| BenchError::Frame { case: def.name.clone(), source };
+
+    // Warm-up: one cycle (fills the tracks, touches the buffers).
+    for i in 0..n {
+        if let Some(f) = seq.frame(i, Sequence::timestamp_s(i)) {
+            monitor.check(&f).map_err(frame_err)?;
+        }
+    }
+
+    let mut stage_us: Vec<[f64; 5]> = Vec::with_capacity(opts.iterations);
+    let mut total_us = Vec::with_capacity(opts.iterations);
+    let (mut points, mut in_band, mut cells_hit, mut clusters) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let started = Instant::now();
+    for i in n..n + opts.iterations {
+        let Some(frame) = seq.frame(i, Sequence::timestamp_s(i)) else { break };
+        let mut marks: [Option<Instant>; 5] = [None; 5];
+        let t0 = Instant::now();
+        let report = monitor
+            .check_with_stages(&frame, &mut |s| {
+                let now = Instant::now();
+                if let Some(m) = Stage::ALL.iter().position(|x| *x == s).and_then(|k| marks.get_mut(k)) {
+                    *m = Some(now);
+                }
+            })
+            .map_err(frame_err)?;
+        points.push(report.grid.points_total);
+        in_band.push(report.grid.points_in_band);
+        cells_hit.push(report.grid.cells_hit);
+        clusters.push(report.grid.clusters_total);
+        let mut row = [0.0; 5];
+        let mut prev = t0;
+        for (slot, mark) in row.iter_mut().zip(marks) {
+            let mark = mark.unwrap_or(prev);
+            *slot = us(mark.saturating_duration_since(prev));
+            prev = mark;
+        }
+        stage_us.push(row);
+        total_us.push(us(prev.saturating_duration_since(t0)));
+        if i >= n + 10 && started.elapsed().as_secs_f64() > opts.max_seconds_per_case {
+            break;
+        }
+    }
+    let samples = stage_us.len();
+
+    // The floor, cycling through the same sweeps in the same order (same cache behaviour).
+    let mut floor_us = Vec::new();
+    if seq.max_points() > 0 {
+        for i in n..n + samples {
+            let Some(cloud) = seq.frame(i, 0.0).and_then(|f| f.cloud) else { continue };
+            let t0 = Instant::now();
+            std::hint::black_box(frames::coordinate_sum(std::hint::black_box(cloud.points_in_sensor)));
+            floor_us.push(us(t0.elapsed()));
+        }
+    }
+
+    let column = |k: usize| -> Vec<f64> { stage_us.iter().map(|r| r.get(k).copied().unwrap_or(0.0)).collect() };
+    let stages = Stage::ALL
+        .iter()
+        .enumerate()
+        .map(|(k, s)| StageTiming { stage: s.name().to_string(), timing: Timing::of(&column(k)) })
+        .collect();
+    let plausibility_k = Stage::ALL.iter().position(|s| *s == Stage::Plausibility).unwrap_or(3);
+    let sensor: Vec<f64> = stage_us
+        .iter()
+        .map(|r| r.iter().enumerate().filter(|(k, _)| *k != plausibility_k).map(|(_, v)| v).sum())
+        .collect();
+    let sensor_checks = Timing::of(&sensor);
+    let floor = (!floor_us.is_empty()).then(|| Timing::of(&floor_us));
+    let sensor_over_floor = floor.filter(|f| f.median_us > 0.0).map(|f| sensor_checks.median_us / f.median_us);
+    let geometry_cells = u64::from(p.grid_cells_per_side()) * u64::from(p.grid_cells_per_side());
+    Ok(CaseReport {
+        name: def.name.clone(),
+        description: seq.name.clone(),
+        frames: seq.frames.len(),
+        points: median_u32(&mut points),
+        points_in_band: median_u32(&mut in_band),
+        objects: seq.max_objects(),
+        cell_size_m: def.cell_size_m,
+        grid_size_m: def.grid_size_m,
+        grid_cells: geometry_cells,
+        cells_hit: median_u32(&mut cells_hit),
+        clusters: median_u32(&mut clusters),
+        samples,
+        stages,
+        sensor_checks,
+        plausibility: Timing::of(&column(plausibility_k)),
+        total: Timing::of(&total_us),
+        floor,
+        sensor_over_floor,
+    })
+}
+
+fn find<'a>(cases: &'a [CaseReport], name: &str) -> Option<&'a CaseReport> {
+    cases.iter().find(|c| c.name == name)
+}
+
+fn compare_with_paper(cases: &[CaseReport]) -> Vec<PaperComparison> {
+    let mut out = Vec::new();
+    for figure in paper_figures() {
+        for c in cases
+            .iter()
+            .filter(|c| c.points > 0 && (c.cell_size_m - 0.5).abs() < 1e-6 && (c.grid_size_m - 100.0).abs() < 1e-3)
+        {
+            let paper_us = figure.sensor_checks_ms * 1e3;
+            out.push(PaperComparison {
+                what: "sensor checks".to_string(),
+                case: c.name.clone(),
+                measured_us: c.sensor_checks.median_us,
+                paper_machine: figure.machine.clone(),
+                paper_us,
+                ratio: paper_us / c.sensor_checks.median_us.max(1e-9),
+            });
+        }
+        for name in ["objects-30/no-cloud", "synthetic-32/0.5m"] {
+            if let Some(c) = find(cases, name) {
+                let paper_us = figure.plausibility_ms * 1e3;
+                out.push(PaperComparison {
+                    what: "plausibility checks, ~30 objects".to_string(),
+                    case: c.name.clone(),
+                    measured_us: c.plausibility.median_us,
+                    paper_machine: figure.machine.clone(),
+                    paper_us,
+                    ratio: paper_us / c.plausibility.median_us.max(1e-9),
+                });
+            }
+        }
+    }
+    out
+}
+
+fn goals(cases: &[CaseReport]) -> Vec<GoalResult> {
+    let mut out = Vec::new();
+    let mut sensor_goal = |goal: &str, name: &str, limit_us: f64| {
+        if let Some(c) = find(cases, name) {
+            let m = c.sensor_checks.median_us;
+            out.push(GoalResult {
+                goal: goal.to_string(),
+                measured: format!("{name}: median {m:.1} us ({} points, {} objects)", c.points, c.objects),
+                met: m <= limit_us,
+            });
+        }
+    };
+    sensor_goal("sensor checks, 64-beam, 100 objects, 0.5 m cells <= 500 us", "synthetic-64/0.5m", 500.0);
+    sensor_goal("sensor checks, 64-beam, 100 objects, 0.2 m cells <= 1000 us", "synthetic-64/0.2m", 1000.0);
+    sensor_goal("sensor checks, 32-beam, 30 objects, 0.5 m cells <= 200 us", "synthetic-32/0.5m", 200.0);
+    if let Some(c) = find(cases, "objects-30/no-cloud") {
+        let m = c.plausibility.median_us;
+        out.push(GoalResult {
+            goal: "plausibility checks, 30 objects <= 5 us".to_string(),
+            measured: format!("objects-30/no-cloud: median {m:.2} us"),
+            met: m <= 5.0,
+        });
+    }
+    if let (Some(a), Some(b)) = (find(cases, "objects-30/no-cloud"), find(cases, "objects-1000/no-cloud")) {
+        let (pa, pb) = (a.plausibility.median_us / 30.0, b.plausibility.median_us / 1000.0);
+        out.push(GoalResult {
+            goal: "plausibility checks linear in objects: per-object time at 1000 <= 1.5 x at 30".to_string(),
+            measured: format!("{:.1} ns/object at 30, {:.1} ns/object at 1000", pa * 1e3, pb * 1e3),
+            met: pb <= 1.5 * pa,
+        });
+    }
+    if let (Some(a), Some(b)) = (find(cases, "synthetic-64/0.2m"), find(cases, "synthetic-64/0.2m/200m")) {
+        let (ma, mb) = (a.sensor_checks.median_us, b.sensor_checks.median_us);
+        out.push(GoalResult {
+            goal: "sensor checks independent of grid area: 200 m grid <= 1.2 x 100 m grid (0.2 m cells)".to_string(),
+            measured: format!(
+                "{} cells: {ma:.1} us; {} cells: {mb:.1} us ({:.2}x for {:.0}x the area)",
+                a.grid_cells,
+                b.grid_cells,
+                mb / ma.max(1e-9),
+                b.grid_cells as f64 / a.grid_cells.max(1) as f64
+            ),
+            met: mb <= 1.2 * ma,
+        });
+    }
+    out
+}
+
+impl BenchReport {
+    /// A plain-text report to paste into a bug report: machine, frame sizes, per-stage medians, spreads, the
+    /// paper's figures and the goals. ASCII only; times in microseconds.
+    #[must_use]
+    pub fn to_table(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let m = &self.machine;
+        let _ =
+            writeln!(s, "pmon bench {} ({} build)", self.version, if m.optimized_build { "release" } else { "DEBUG" });
+        let load = m.load_average_1min.map_or_else(|| "n/a".to_string(), |l| format!("{l:.2}"));
+        let _ = writeln!(
+            s,
+            "machine: {} | {} logical cores | {} | load average {load} | single thread",
+            m.cpu_model, m.logical_cores, m.platform
+        );
+        let _ = writeln!(
+            s,
+            "iterations: {} per case (median; spread p10-p90); times in microseconds (us)\n",
+            self.iterations
+        );
+
+        let w = self.cases.iter().map(|c| c.name.len()).max().unwrap_or(4).max(4);
+        let _ = writeln!(s, "Frames");
+        let _ = writeln!(
+            s,
+            "{:<w$} {:>7} {:>7} {:>7} {:>5} {:>5} {:>9} {:>9} {:>8} {:>7}",
+            "case", "frames", "points", "in band", "objs", "cell", "grid", "cells", "cell hit", "clusters"
+        );
+        for c in &self.cases {
+            let _ = writeln!(
+                s,
+                "{:<w$} {:>7} {:>7} {:>7} {:>5} {:>4}m {:>8}m {:>9} {:>8} {:>7}",
+                c.name,
+                c.frames,
+                c.points,
+                c.points_in_band,
+                c.objects,
+                c.cell_size_m,
+                c.grid_size_m,
+                c.grid_cells,
+                c.cells_hit,
+                c.clusters
+            );
+        }
+
+        let _ = writeln!(s, "\nMedian per stage (us)");
+        let _ = write!(s, "{:<w$}", "case");
+        for st in Stage::ALL {
+            let _ = write!(s, " {:>12}", st.name());
+        }
+        let _ = writeln!(s, " {:>9} {:>9} {:>8} {:>8}", "sensor", "total", "floor", "sens/flr");
+        for c in &self.cases {
+            let _ = write!(s, "{:<w$}", c.name);
+            for st in &c.stages {
+                let _ = write!(s, " {:>12.2}", st.timing.median_us);
+            }
+            let floor = c.floor.map_or_else(|| "-".to_string(), |f| format!("{:.2}", f.median_us));
+            let ratio = c.sensor_over_floor.map_or_else(|| "-".to_string(), |r| format!("{r:.1}x"));
+            let _ =
+                writeln!(s, " {:>9.2} {:>9.2} {:>8} {:>8}", c.sensor_checks.median_us, c.total.median_us, floor, ratio);
+        }
+
+        let _ = writeln!(s, "\nSpread p10-p90 (us)");
+        let _ = writeln!(s, "{:<w$} {:>19} {:>19} {:>19} {:>7}", "case", "sensor", "plausibility", "total", "samples");
+        let span = |t: &Timing| format!("{:.2}-{:.2}", t.p10_us, t.p90_us);
+        for c in &self.cases {
+            let _ = writeln!(
+                s,
+                "{:<w$} {:>19} {:>19} {:>19} {:>7}",
+                c.name,
+                span(&c.sensor_checks),
+                span(&c.plausibility),
+                span(&c.total),
+                c.samples
+            );
+        }
+
+        if !self.paper.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nPaper (Buerkle et al., Sec. IV-G: averages; 100 m grid, 0.5 m cells; Python plausibility)"
+            );
+            for p in &self.paper {
+                let _ = writeln!(
+                    s,
+                    "{:<34} {:<w$} here {:>9.2} us | {:<30} {:>8.0} us | {:>7.0}x faster here",
+                    p.what, p.case, p.measured_us, p.paper_machine, p.paper_us, p.ratio
+                );
+            }
+        }
+        if !self.goals.is_empty() {
+            let _ = writeln!(s, "\nGoals");
+            for g in &self.goals {
+                let _ = writeln!(s, "[{}] {}: {}", if g.met { "met" } else { "MISSED" }, g.goal, g.measured);
+            }
+        }
+        if !self.notes.is_empty() {
+            let _ = writeln!(s, "\nNotes");
+            for n in &self.notes {
+                let _ = writeln!(s, "- {n}");
+            }
+        }
+        s
+    }
+}

@@ -1,0 +1,97 @@
+//! `run_bench` produces a complete report (figures are not asserted: they depend on the machine).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use pmon_bench::{run_bench, BenchError, BenchOptions, BenchReport, Timing};
+use pmon_monitor::Stage;
+
+fn quick() -> BenchOptions {
+    BenchOptions { iterations: 3, max_seconds_per_case: 1.0, data_dir: None, real_data: false, worst_case: false }
+}
+
+#[test]
+fn report_has_every_case_stage_and_goal_and_round_trips_through_json() {
+    let report = run_bench(&quick()).unwrap();
+    let names: Vec<&str> = report.cases.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "synthetic-64/0.5m",
+            "synthetic-64/0.2m",
+            "synthetic-64/0.1m",
+            "synthetic-64/0.2m/200m",
+            "synthetic-32/0.5m",
+            "objects-30/no-cloud",
+            "objects-100/no-cloud",
+            "objects-300/no-cloud",
+            "objects-1000/no-cloud",
+        ]
+    );
+    for c in &report.cases {
+        assert_eq!(c.samples, 3, "{}", c.name);
+        let stages: Vec<&str> = c.stages.iter().map(|s| s.stage.as_str()).collect();
+        let expected: Vec<&str> = Stage::ALL.iter().map(|s| s.name()).collect();
+        assert_eq!(stages, expected);
+        assert!(c.total.median_us > 0.0 && c.total.p10_us <= c.total.median_us && c.total.median_us <= c.total.p90_us);
+        assert_eq!(c.floor.is_some(), c.points > 0, "{}", c.name);
+    }
+    let c64 = &report.cases[0];
+    assert_eq!((c64.points, c64.objects, c64.grid_cells), (120_000, 100, 40_000));
+    assert_eq!(report.cases[2].grid_cells, 1_000_000);
+    assert_eq!(report.cases[4].points, 34_720);
+    assert_eq!(report.goals.len(), 6, "{:?}", report.goals);
+    assert!(report.paper.iter().any(|p| p.paper_us == 12_000.0 && p.case == "synthetic-64/0.5m"));
+
+    let json = serde_json::to_string(&report).unwrap();
+    let back: BenchReport = serde_json::from_str(&json).unwrap();
+    // serde_json parses floats to within an ulp, not always exactly: compare everything else exactly.
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
+    assert_eq!((&back.machine, &back.goals, &back.notes), (&report.machine, &report.goals, &report.notes));
+    assert_eq!(back.cases.len(), report.cases.len());
+    for (b, r) in back.cases.iter().zip(&report.cases) {
+        assert_eq!(
+            (&b.name, b.points, b.objects, b.grid_cells, b.samples),
+            (&r.name, r.points, r.objects, r.grid_cells, r.samples)
+        );
+        for (tb, tr) in b.stages.iter().zip(&r.stages).map(|(x, y)| (x.timing, y.timing)).chain([(b.total, r.total)]) {
+            assert!(close(tb.median_us, tr.median_us) && close(tb.p10_us, tr.p10_us) && close(tb.p90_us, tr.p90_us));
+        }
+    }
+
+    let table = report.to_table();
+    for name in names {
+        assert!(table.contains(name), "table lacks {name}");
+    }
+    for heading in ["Frames", "Median per stage", "Spread p10-p90", "Paper", "Goals", "i9-7900X", "Atom C3934"] {
+        assert!(table.contains(heading), "table lacks {heading}:\n{table}");
+    }
+    assert!(table.is_ascii());
+}
+
+#[test]
+fn zero_iterations_is_an_error() {
+    let err = run_bench(&BenchOptions { iterations: 0, ..quick() }).unwrap_err();
+    assert!(matches!(err, BenchError::Options(_)), "{err}");
+    let err = run_bench(&BenchOptions { max_seconds_per_case: f64::NAN, ..quick() }).unwrap_err();
+    assert!(err.to_string().contains("max_seconds_per_case"), "{err}");
+}
+
+#[test]
+fn malformed_real_sweep_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let velodyne = dir.path().join("kitti/object/training/velodyne");
+    std::fs::create_dir_all(&velodyne).unwrap();
+    std::fs::write(velodyne.join("000000.bin"), [0u8; 17]).unwrap();
+    let err =
+        run_bench(&BenchOptions { data_dir: Some(dir.path().to_path_buf()), real_data: true, ..quick() }).unwrap_err();
+    let text = err.to_string();
+    assert!(text.contains("000000.bin") && text.contains("whole number"), "{text}");
+}
+
+#[test]
+fn percentiles_are_nearest_rank() {
+    let samples: Vec<f64> = (1..=10).rev().map(f64::from).collect();
+    let t = Timing::of(&samples);
+    assert_eq!((t.p10_us, t.median_us, t.p90_us), (1.0, 5.5, 9.0));
+    assert_eq!(Timing::of(&[]), Timing::default());
+    assert_eq!(Timing::of(&[2.0, 1.0, 3.0]).median_us, 2.0);
+}

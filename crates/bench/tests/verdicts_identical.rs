@@ -1,0 +1,167 @@
+//! The optimised path of the monitor (one reused `Monitor` that resets only the cells touched by the previous
+//! frame) gives exactly the same reports as the straightforward path (a new `Monitor`, with its freshly zeroed
+//! grid, for every frame), and repeated runs give the same reports: on the synthetic benchmark frames and, when
+//! present, on the real sweeps of the shared data.
+//!
+//! The new monitor of frame `k` first sees frame `k - 1` without its cloud, so that its tracks hold the same last
+//! states as the reused monitor's (every object is in every frame, so the tracks hold nothing older), while its
+//! grid stays untouched until frame `k`.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+use std::collections::BTreeSet;
+
+use pmon_bench::frames::{self, Sequence, SequenceFrame, SyntheticSpec};
+use pmon_monitor::{
+    ClusterReport, FrameReport, GridStats, Monitor, MonitorParams, NotMonitoredReason, ObjectReport, Verdict,
+};
+
+#[derive(Clone, Debug, PartialEq)]
+struct Outcome {
+    objects: Vec<ObjectReport>,
+    clusters: Vec<ClusterReport>,
+    grid: GridStats,
+    sensor_status: Option<NotMonitoredReason>,
+}
+
+impl From<FrameReport<'_>> for Outcome {
+    fn from(r: FrameReport<'_>) -> Self {
+        Self {
+            objects: r.objects.to_vec(),
+            clusters: r.clusters.to_vec(),
+            grid: r.grid,
+            sensor_status: r.sensor_status,
+        }
+    }
+}
+
+fn params(cell_size_m: f32) -> MonitorParams {
+    MonitorParams { cell_size_m, ..MonitorParams::PAPER }
+}
+
+/// Runs `iterations` frames through one reused monitor.
+fn reused_run(seq: &Sequence, p: MonitorParams, iterations: usize) -> Vec<Outcome> {
+    let mut m = Monitor::new(p).unwrap();
+    (0..iterations).map(|i| m.check(&seq.frame(i, Sequence::timestamp_s(i)).unwrap()).unwrap().into()).collect()
+}
+
+/// Compares the reused monitor with a new monitor per frame, report by report and cell by cell.
+fn assert_paths_agree(seq: &Sequence, p: MonitorParams, iterations: usize) -> Vec<Outcome> {
+    let mut reused = Monitor::new(p).unwrap();
+    let mut outcomes = Vec::new();
+    for i in 0..iterations {
+        let frame = seq.frame(i, Sequence::timestamp_s(i)).unwrap();
+        let optimised: Outcome = reused.check(&frame).unwrap().into();
+        let mut fresh = Monitor::new(p).unwrap();
+        if i > 0 {
+            let previous = seq.frame_without_cloud(i - 1, Sequence::timestamp_s(i - 1)).unwrap();
+            fresh.check(&previous).unwrap();
+            assert!(fresh.grid().touched().is_empty(), "a frame without cloud touches no cell");
+        }
+        let straightforward: Outcome = fresh.check(&frame).unwrap().into();
+        assert_eq!(optimised, straightforward, "{}: frame {i} (cell {} m)", seq.name, p.cell_size_m);
+        // Every cell, not only the touched ones: a stale hit or flag anywhere would show here.
+        let cells = u32::try_from(reused.grid().geometry.cell_count()).unwrap();
+        let stale = (0..cells).find(|&c| {
+            reused.grid().hits(c) != fresh.grid().hits(c) || reused.grid().flags(c) != fresh.grid().flags(c)
+        });
+        assert_eq!(stale, None, "{}: frame {i}: grids differ at this cell", seq.name);
+        outcomes.push(optimised);
+    }
+    outcomes
+}
+
+fn verdict_names(outcomes: &[Outcome]) -> BTreeSet<&'static str> {
+    outcomes.iter().flat_map(|o| o.objects.iter().map(|r| r.verdict.name())).collect()
+}
+
+/// The synthetic 64-beam frames, alternating with the 32-beam ones: consecutive frames touch very different
+/// cells, so an incomplete reset would leave stale evidence behind.
+fn alternating_sequence() -> Sequence {
+    let a = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
+    let b = Sequence::synthetic(&SyntheticSpec::BEAMS_32);
+    let offset = a.sweeps.len();
+    let mut sweeps = a.sweeps.clone();
+    sweeps.extend(b.sweeps.iter().cloned());
+    let frames = a
+        .frames
+        .iter()
+        .zip(&b.frames)
+        .enumerate()
+        .map(|(k, (fa, fb))| {
+            // Objects always from the 64-beam scene (tracks continue), the sweep alternates.
+            let sweep = if k % 2 == 0 { fa.sweep } else { fb.sweep.map(|s| s + offset) };
+            SequenceFrame { objects: fa.objects.clone(), sweep }
+        })
+        .collect();
+    Sequence { name: "alternating 64/32-beam".to_string(), sweeps, frames }
+}
+
+#[test]
+fn synthetic_frames_are_deterministic() {
+    assert_eq!(Sequence::synthetic(&SyntheticSpec::BEAMS_32), Sequence::synthetic(&SyntheticSpec::BEAMS_32));
+    let seq = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
+    assert_eq!(seq.sweeps.len(), 6);
+    assert!(seq.sweeps.iter().all(|s| s.points_in_sensor.len() == 120_000));
+    assert!(seq.frames.iter().all(|f| f.objects.len() == 100));
+}
+
+#[test]
+fn reused_and_fresh_monitors_agree_on_synthetic_frames() {
+    let seq = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
+    // Two cycles: the second starts with the objects jumping back (implausible motion).
+    let iterations = 2 * seq.frames.len();
+    for cell in [0.5, 0.1] {
+        let outcomes = assert_paths_agree(&seq, params(cell), iterations);
+        let names = verdict_names(&outcomes);
+        for expected in ["consistent", "ghost", "position_error", "implausible_motion"] {
+            assert!(names.contains(expected), "cell {cell} m: no `{expected}` verdict among {names:?}");
+        }
+        assert!(outcomes.iter().all(|o| o.grid.cells_hit > 0 && o.sensor_status.is_none()));
+        assert!(outcomes.iter().any(|o| !o.clusters.is_empty()), "no conflict cluster at all");
+        assert!(
+            outcomes.iter().skip(1).flat_map(|o| &o.objects).any(|r| r.verdict == Verdict::Consistent
+                && matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Plausible)),
+            "no plausible track"
+        );
+        assert_eq!(outcomes, reused_run(&seq, params(cell), iterations), "a repeated run differs");
+    }
+}
+
+#[test]
+fn reused_and_fresh_monitors_agree_when_the_cloud_changes_a_lot() {
+    let seq = alternating_sequence();
+    let outcomes = assert_paths_agree(&seq, params(0.2), seq.frames.len());
+    let hit: Vec<u32> = outcomes.iter().map(|o| o.grid.cells_hit).collect();
+    assert!(hit.windows(2).all(|w| w[0] != w[1]), "consecutive frames should touch different cells: {hit:?}");
+}
+
+#[test]
+fn reused_and_fresh_monitors_agree_on_object_lists_without_cloud() {
+    let seq = Sequence::synthetic(&SyntheticSpec::objects_only(300));
+    let outcomes = assert_paths_agree(&seq, params(0.5), 2 * seq.frames.len());
+    assert!(outcomes.iter().all(|o| o.sensor_status == Some(NotMonitoredReason::NoLidarData)));
+}
+
+#[test]
+fn reused_and_fresh_monitors_agree_on_real_sweeps() {
+    let dir = frames::data_dir();
+    let kitti = frames::kitti_sweeps(&dir).expect("readable KITTI sweeps");
+    let nuscenes = frames::nuscenes_sweeps(&dir).expect("readable nuScenes sweeps");
+    if kitti.is_empty() && nuscenes.is_empty() {
+        eprintln!("skipped: no KITTI or nuScenes sweeps under {} (set PMON_DATA_DIR)", dir.display());
+        return;
+    }
+    for (seq, expected_points) in [
+        (Sequence::real("kitti", kitti, &SyntheticSpec::BEAMS_64), 100_000..130_000),
+        (Sequence::real("nuscenes", nuscenes, &SyntheticSpec::BEAMS_32), 34_000..35_000),
+    ] {
+        let Some(seq) = seq else { continue };
+        let iterations = seq.frames.len() + 2;
+        let outcomes = assert_paths_agree(&seq, params(0.5), iterations);
+        for o in &outcomes {
+            assert!(expected_points.contains(&o.grid.points_total), "{}: {} points", seq.name, o.grid.points_total);
+            assert!(o.grid.points_in_band > 1000, "{}: ground plane wrong? {:?}", seq.name, o.grid);
+        }
+        assert_eq!(outcomes, reused_run(&seq, params(0.5), iterations), "{}: a repeated run differs", seq.name);
+    }
+}

@@ -1,0 +1,46 @@
+//! Breaks down the monitor's verdicts on injected objects for one fault (a development aid):
+//! `cargo run --release -p pmon-campaign --example diagnose -- RECORDING MAGNITUDE_M DIRECTION`
+//! where DIRECTION is away, towards or random.
+use std::collections::BTreeMap;
+
+use pmon_campaign::{Direction, Fault, InjectionConfig, Injector};
+use pmon_monitor::{Monitor, MonitorParams};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let path = args.get(1).ok_or("usage: diagnose RECORDING MAGNITUDE_M DIRECTION")?;
+    let magnitude_m: f32 = args.get(2).map_or(Ok(1.0), |s| s.parse())?;
+    let direction = match args.get(3).map_or("away", String::as_str) {
+        "towards" => Direction::Towards,
+        "random" => Direction::Random,
+        _ => Direction::Away,
+    };
+    let (_, frames) = pmon_recording::read_recording(std::path::Path::new(path))?;
+    let mut monitor = Monitor::new(MonitorParams::default())?;
+    let mut injector = Injector::new(InjectionConfig::new(Fault::PermanentPosition { magnitude_m, direction }, 7));
+    let mut by: BTreeMap<String, u64> = BTreeMap::new();
+    let mut clean: BTreeMap<String, u64> = BTreeMap::new();
+    for (k, f) in frames.iter().enumerate() {
+        let mut f = f.clone();
+        let inj = injector.apply(k as u64, &mut f.objects);
+        let mut roi = Vec::new();
+        let view = f.as_frame(&mut roi);
+        let rep = monitor.check(&view)?;
+        for (i, r) in rep.objects.iter().enumerate() {
+            let injected = inj.iter().any(|x| x.index as usize == i);
+            let o = &f.objects[i];
+            let range = o.x_m.hypot(o.y_m);
+            let key = format!("{:<11} {:>2}0 m {:?}", o.class.name(), (range / 10.0) as u32, r.sensor.verdict);
+            *(if injected { &mut by } else { &mut clean }).entry(key).or_default() += 1;
+        }
+    }
+    println!("-- injected");
+    for (k, v) in &by {
+        println!("{v:>6}  {k}");
+    }
+    println!("-- clean");
+    for (k, v) in &clean {
+        println!("{v:>6}  {k}");
+    }
+    Ok(())
+}
