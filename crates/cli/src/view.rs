@@ -57,18 +57,21 @@ fn short_verdict(r: &ObjectReport) -> String {
     }
 }
 
-/// Builds the top view of a checked frame. `injections` (may be empty) are drawn as arrows from the true
-/// position to the reported one, with the true footprint.
-pub fn top_view(
-    title: &str,
-    monitor: &Monitor,
-    frame: &RecordedFrame,
-    objects: &[ObjectReport],
-    clusters: &[ClusterReport],
-    injections: &[Injection],
-    centre: (f32, f32),
-    radius_m: f32,
-) -> TopView {
+/// A frame and what the monitor said about it.
+pub struct Checked<'a> {
+    /// The frame as checked.
+    pub frame: &'a RecordedFrame,
+    /// One report per object.
+    pub objects: &'a [ObjectReport],
+    /// Conflict clusters.
+    pub clusters: &'a [ClusterReport],
+    /// Injected errors (may be empty): drawn as arrows from the true position, with the true footprint.
+    pub injections: &'a [Injection],
+}
+
+/// Builds the top view of a checked frame around `centre` (ego frame), `radius_m` each way.
+pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (f32, f32), radius_m: f32) -> TopView {
+    let Checked { frame, objects, clusters, injections } = *checked;
     let extent = (centre.0 - radius_m, centre.1 - radius_m, centre.0 + radius_m, centre.1 + radius_m);
     let inside = |x: f32, y: f32| x >= extent.0 && x <= extent.2 && y >= extent.1 && y <= extent.3;
     let params = monitor.params();
@@ -182,7 +185,8 @@ pub fn run(args: &ViewArgs) -> Result<ExitCode> {
                 .with_context(|| format!("frame {} has no object {id}", frame.index))?,
         };
         let title = format!("{} frame {} (t = {:.2} s)", args.recording.display(), frame.index, frame.timestamp_s);
-        let picture = top_view(&title, &monitor, &frame, &objects, &clusters, &[], centre, args.radius_m);
+        let checked = Checked { frame: &frame, objects: &objects, clusters: &clusters, injections: &[] };
+        let picture = top_view(&title, &monitor, &checked, centre, args.radius_m);
         write_view(&picture, &args.out)?;
         eprintln!("wrote {}", args.out.display());
         return Ok(ExitCode::SUCCESS);
