@@ -18,7 +18,7 @@ use pmon_scenario::{ScenarioConfig, Simulator};
 use serde::Serialize;
 
 use crate::config::load_params;
-use crate::view::{top_view, write_view};
+use crate::view::{top_view, write_view, Checked};
 
 /// Arguments of `pmon reproduce`.
 #[derive(Args, Debug, Clone)]
@@ -362,16 +362,13 @@ fn render_examples(
         let replay = replay_to(scene, &spec, ex.frame as usize).map_err(|e| anyhow::anyhow!(e))?;
         let centre = replay.frame.objects.iter().find(|o| o.id == ex.id).map_or((0.0, 0.0), |o| (o.x_m, o.y_m));
         let title = format!("{} frame {}, object {}", scene.name, ex.frame, ex.id);
-        let view = top_view(
-            &title,
-            &replay.monitor,
-            &replay.frame,
-            &replay.objects,
-            &replay.clusters,
-            &replay.injections,
-            centre,
-            12.0,
-        );
+        let checked = Checked {
+            frame: &replay.frame,
+            objects: &replay.objects,
+            clusters: &replay.clusters,
+            injections: &replay.injections,
+        };
+        let view = top_view(&title, &replay.monitor, &checked, centre, 12.0);
         write_view(&view, &dir.join(format!("{id}.png")))?;
         write_view(&view, &dir.join(format!("{id}.svg")))?;
         report.figure(&format!("{id}.png"), caption);
