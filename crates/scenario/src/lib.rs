@@ -28,7 +28,7 @@ mod traffic;
 mod world;
 
 pub use config::{
-    AgentsConfig, EgoConfig, EgoMode, Layout, LidarConfig, LidarModel, LidarPreset, NoiseConfig, RoadConfig,
+    AgentsConfig, EgoConfig, EgoMode, Layout, LidarConfig, LidarModel, LidarPreset, NoiseConfig, RoadConfig, RoiMode,
     ScenarioConfig, SignalConfig, Turn, BUILTIN_NAMES,
 };
 pub use error::ScenarioError;

@@ -267,7 +267,10 @@ impl Simulator {
                 lidar_points: hits.get(i).copied().unwrap_or(0),
                 in_grid,
             });
-            if in_grid {
+            // List every object whose footprint can reach into the grid, so that its evidence at the grid's
+            // edge is explained (the monitor judges only those wholly inside; see NotMonitoredReason::OutsideGrid).
+            let reach = 0.5 * a.size[0].hypot(a.size[1]) + 1.0;
+            if ex.abs() <= half + reach && ey.abs() <= half + reach {
                 let mut o = ObjectState {
                     id: a.id,
                     class: a.class,

@@ -28,10 +28,13 @@ fn builtins_have_well_over_1000_in_grid_object_states() {
                 moving += 1;
                 *classes.entry(o.class).or_insert(0usize) += 1;
             }
-            // The object list is exactly the in-grid truth.
-            assert_eq!(f.frame.objects.len(), f.truth.iter().filter(|o| o.in_grid).count());
+            // The object list holds every in-grid object, and those outside whose footprint reaches the grid.
+            for t in f.truth.iter().filter(|o| o.in_grid) {
+                assert!(f.frame.objects.iter().any(|o| o.id == t.id), "in-grid object {} not listed", t.id);
+            }
             for o in &f.frame.objects {
-                assert!(o.x_m.abs() <= 50.0 && o.y_m.abs() <= 50.0);
+                let reach = 0.5 * o.length_m.hypot(o.width_m) + 1.0 + 1e-3;
+                assert!(o.x_m.abs() <= 50.0 + reach && o.y_m.abs() <= 50.0 + reach);
             }
         }
         assert!(moving > 5000, "{name}: {moving} moving in-grid states ({all} with parked cars)");
@@ -218,7 +221,11 @@ fn recording_reads_back_with_truth_beside_it() {
         let objs = t["objects"].as_array().unwrap();
         for o in &f.objects {
             let tr = objs.iter().find(|x| x["id"].as_u64() == Some(o.id)).unwrap();
-            assert_eq!(tr["in_grid"].as_bool(), Some(true));
+            // (Positions are f32 in the list, f64 in the truth: only compare away from the 50 m border.)
+            let m = o.x_m.abs().max(o.y_m.abs());
+            if (m - 50.0).abs() > 1e-3 {
+                assert_eq!(tr["in_grid"].as_bool(), Some(m < 50.0));
+            }
             assert!(tr["lidar_points"].as_u64().is_some());
             assert!(o.uncertainty.is_some());
         }
@@ -238,6 +245,7 @@ fn walkable_roi_adds_the_sidewalks() {
     };
     let mut cfg = no_lidar("pedestrians");
     cfg.duration_s = 0.1;
+    cfg.roi = pmon_scenario::RoiMode::Carriageway;
     let a = Simulator::new(&cfg).unwrap().step().unwrap().frame;
     cfg.roi = pmon_scenario::RoiMode::Walkable;
     let b = Simulator::new(&cfg).unwrap().step().unwrap().frame;
