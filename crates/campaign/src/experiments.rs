@@ -126,6 +126,9 @@ pub struct Figure {
     pub curves: Vec<Curve>,
 }
 
+/// Correlation time of the correlated position noise of the false-alarm experiment, seconds.
+pub const NOISE_CORRELATION_S: f32 = 1.0;
+
 /// Scene indices the plan refers to.
 #[derive(Clone, Copy, Debug)]
 pub struct SceneIds {
@@ -133,6 +136,8 @@ pub struct SceneIds {
     pub pedestrians: usize,
     /// The urban intersection.
     pub intersection: usize,
+    /// The residential street seen by a 32-beam LiDAR at 20 Hz (dt = 0.05 s), for the speed errors.
+    pub pedestrians_20hz: Option<usize>,
 }
 
 /// How much to run.
@@ -190,7 +195,7 @@ pub fn figure_specs() -> Vec<FigureSpec> {
                 (false, 0.3, "paper: sensor FA-free up to 0.3 m".into()),
                 (true, 0.005, "paper: plausibility < 5 per mille".into()),
             ],
-            (0.0, 0.05),
+            (0.0, 0.16),
         ),
         fig(
             "permanent_position",
@@ -272,10 +277,12 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
     let quick = scale == Scale::Quick;
     let smoke = scale == Scale::Smoke;
     let mut runs = Vec::new();
-    let mut push = |scene: usize, params: MonitorParams, fault: Fault, noise: f32, probes: Vec<Probe>| {
+    // `noise`: (position sigma in metres, correlation time in seconds).
+    let mut push = |scene: usize, params: MonitorParams, fault: Fault, noise: (f32, f32), probes: Vec<Probe>| {
         let k = runs.len() as u64;
         let mut injection = InjectionConfig::new(fault, seed.wrapping_mul(1_000_003).wrapping_add(k));
-        injection.position_noise_m = noise;
+        injection.position_noise_m = noise.0;
+        injection.noise_correlation_s = noise.1;
         runs.push(PlannedRun { spec: RunSpec { scene, params, injection, window: 2 }, probes });
     };
     let p05 = MonitorParams { cell_size_m: 0.5, ..*base };
@@ -290,16 +297,23 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
         steps(0.0, 0.5, 0.05)
     };
     for &s in &noise {
-        push(
-            ids.pedestrians,
-            p05,
-            Fault::None,
-            s as f32,
-            vec![
-                probe("false_alarms", "sensor checks", s, Measure::SensorFalseAlarmRate),
-                probe("false_alarms", "plausibility checks", s, Measure::PlausibilityFalseAlarmRate),
-            ],
-        );
+        for (tau, model) in [(0.0, "white noise"), (NOISE_CORRELATION_S, "correlated noise")] {
+            push(
+                ids.pedestrians,
+                p05,
+                Fault::None,
+                (s as f32, tau),
+                vec![
+                    probe("false_alarms", &format!("sensor checks, {model}"), s, Measure::SensorFalseAlarmRate),
+                    probe(
+                        "false_alarms",
+                        &format!("plausibility checks, {model}"),
+                        s,
+                        Measure::PlausibilityFalseAlarmRate,
+                    ),
+                ],
+            );
+        }
     }
 
     // Fig. PositionError: permanent errors away from the ego, two cell sizes.
@@ -316,7 +330,7 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
             ids.pedestrians,
             p05,
             f,
-            0.0,
+            (0.0, 0.0),
             vec![
                 probe("permanent_position", "sensor recall, 0.5 m cells", m, Measure::SensorRecall),
                 probe("permanent_position", "sensor precision, 0.5 m cells", m, Measure::SensorPrecision),
@@ -328,7 +342,7 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
             ids.pedestrians,
             p02,
             f,
-            0.0,
+            (0.0, 0.0),
             vec![
                 probe("permanent_position", "sensor recall, 0.2 m cells", m, Measure::SensorRecall),
                 probe("permanent_position", "sensor precision, 0.2 m cells", m, Measure::SensorPrecision),
@@ -340,7 +354,7 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
                 ids.pedestrians,
                 p05,
                 f,
-                0.0,
+                (0.0, 0.0),
                 vec![probe("position_direction", &format!("{} (0.5 m cells)", dir.name()), m, Measure::SensorRecall)],
             );
         }
@@ -377,7 +391,7 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
                     ));
                     probes.push(probe("occlusion", "share not verifiable (occluded)", m, Measure::NotVerifiable));
                 }
-                push(scene, p05, f, 0.0, probes);
+                push(scene, p05, f, (0.0, 0.0), probes);
             }
         }
     }
@@ -390,20 +404,24 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
     } else {
         steps(0.5, 10.0, 0.5)
     };
+    let mut speed_scenes = vec![(ids.pedestrians, "pedestrians"), (ids.intersection, "intersection")];
+    if let Some(i) = ids.pedestrians_20hz {
+        speed_scenes.push((i, "pedestrians 20 Hz"));
+    }
     for &dv in &dvs {
-        for (scene, name) in [(ids.pedestrians, "pedestrians"), (ids.intersection, "intersection")] {
+        for &(scene, name) in &speed_scenes {
             push(
                 scene,
                 p05,
                 Fault::PermanentSpeed { magnitude_mps: dv as f32 },
-                0.0,
+                (0.0, 0.0),
                 vec![probe("speed_errors", &format!("permanent, {name}"), dv, Measure::PlausibilityRecall)],
             );
             push(
                 scene,
                 p05,
                 Fault::TransientSpeed { magnitude_mps: dv as f32, rate: 0.1 },
-                0.0,
+                (0.0, 0.0),
                 vec![
                     probe("speed_errors", &format!("transient 10 %, {name}"), dv, Measure::PlausibilityRecall),
                     probe("speed_errors", &format!("transient precision, {name}"), dv, Measure::PlausibilityPrecision),
@@ -453,7 +471,7 @@ pub fn dv_theory(params: &MonitorParams, kind: SpeedError, dts: &[f64], speeds: 
         .map(|&dt| {
             let pts = speeds
                 .iter()
-                .filter_map(|&v| dv_min_mps(kind, dt, v, params, &Margins::PAPER, 0.02, 60.0).map(|d| (v, d)))
+                .filter_map(|&v| dv_min_mps(kind, dt, v, params, &Margins::PAPER, 0.02, 60.0).map(|d| (v, d.abs())))
                 .collect();
             (dt, pts)
         })
@@ -524,7 +542,7 @@ fn fmt_rate(r: &Rate) -> String {
 pub fn claims(figs: &[Figure], latency_ms: Option<(f64, f64)>) -> Vec<Claim> {
     let mut out = Vec::new();
     // 1. Sensor checks free of false alarms up to 0.3 m noise.
-    if let Some(c) = curve(figs, "false_alarms", "sensor checks") {
+    if let Some(c) = curve(figs, "false_alarms", "sensor checks, white noise") {
         let pts: Vec<_> = c.points.iter().filter(|p| p.x <= 0.3 + 1e-9).collect();
         let fa: u64 = pts.iter().map(|p| p.rate.k).sum();
         let n: u64 = pts.iter().map(|p| p.rate.n).sum();
@@ -534,17 +552,23 @@ pub fn claims(figs: &[Figure], latency_ms: Option<(f64, f64)>) -> Vec<Claim> {
             met: Some(fa == 0 && n > 0),
         });
     }
-    // 2. Plausibility false alarm rate below 5 per mille.
-    if let Some(c) = curve(figs, "false_alarms", "plausibility checks") {
-        let worst = c.points.iter().max_by(|a, b| a.rate.value.total_cmp(&b.rate.value));
-        out.push(Claim {
-            paper: "Plausibility checks: false alarm rate below 5 per mille (pedestrian scenario, noise 0 to 0.5 m)"
-                .into(),
-            pmon: worst.map_or("not measured".into(), |p| {
-                format!("worst {:.2} per mille at sigma {:.2} m ({})", 1000.0 * p.rate.value, p.x, fmt_rate(&p.rate))
-            }),
-            met: worst.map(|p| p.rate.value < 0.005),
-        });
+    // 2. Plausibility false alarm rate below 5 per mille, under both noise models.
+    for (label, model) in [
+        ("plausibility checks, white noise", "noise drawn afresh every frame"),
+        ("plausibility checks, correlated noise", "noise correlated over 1 s, like a tracker's errors"),
+    ] {
+        if let Some(c) = curve(figs, "false_alarms", label) {
+            let worst = c.points.iter().max_by(|a, b| a.rate.value.total_cmp(&b.rate.value));
+            out.push(Claim {
+                paper: format!(
+                    "Plausibility checks: false alarm rate below 5 per mille (pedestrian scenario, noise 0 to 0.5 m; pmon: {model})"
+                ),
+                pmon: worst.map_or("not measured".into(), |p| {
+                    format!("worst {:.2} per mille at sigma {:.2} m ({})", 1000.0 * p.rate.value, p.x, fmt_rate(&p.rate))
+                }),
+                met: worst.map(|p| p.rate.value < 0.005),
+            });
+        }
     }
     // 3-4. Permanent position errors.
     for (cells, paper_from) in [("0.5", 0.7), ("0.2", 0.4)] {
@@ -581,7 +605,7 @@ pub fn claims(figs: &[Figure], latency_ms: Option<(f64, f64)>) -> Vec<Claim> {
         let mut parts = Vec::new();
         let mut all_met = true;
         let mut any = false;
-        for scene in ["pedestrians", "intersection"] {
+        for scene in ["pedestrians", "intersection", "pedestrians 20 Hz"] {
             if let Some(c) = curve(figs, "speed_errors", &format!("{label}, {scene}")) {
                 any = true;
                 let from = threshold_from(c, 0.9);
@@ -632,7 +656,7 @@ mod tests {
 
     #[test]
     fn plan_is_deterministic_and_covers_every_figure() {
-        let ids = SceneIds { pedestrians: 0, intersection: 1 };
+        let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: Some(2) };
         let a = plan(Scale::Quick, ids, &MonitorParams::default(), 7);
         let b = plan(Scale::Quick, ids, &MonitorParams::default(), 7);
         assert_eq!(

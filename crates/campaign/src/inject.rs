@@ -90,6 +90,10 @@ pub struct InjectionConfig {
     pub fault: Fault,
     /// Gaussian noise on positions (both axes), metres, added to every object (the false-alarm experiment).
     pub position_noise_m: f32,
+    /// Correlation time of the position noise, seconds: 0 draws it afresh every frame (white noise); `tau > 0`
+    /// makes it a first-order Gauss-Markov process per object, `n_k = rho n_(k-1) + sqrt(1 - rho^2) sigma e_k`
+    /// with `rho = exp(-dt / tau)`, the way a tracker's errors drift rather than jump.
+    pub noise_correlation_s: f32,
     /// Gaussian noise on speeds, m/s.
     pub speed_noise_mps: f32,
     /// Gaussian noise on headings, radians.
@@ -110,6 +114,7 @@ impl InjectionConfig {
         Self {
             fault,
             position_noise_m: 0.0,
+            noise_correlation_s: 0.0,
             speed_noise_mps: 0.0,
             heading_noise_rad: 0.0,
             permanent_track_fraction: 0.5,
@@ -138,6 +143,9 @@ pub struct Injection {
 pub struct Injector {
     config: InjectionConfig,
     rng: ChaCha8Rng,
+    /// Per object: the position noise last drawn and when (only for correlated noise; looked up, never
+    /// iterated, so its order does not matter).
+    noise_state: std::collections::HashMap<u64, (f64, [f32; 2])>,
 }
 
 /// A stable hash of (seed, id) to [0, 1): decides which tracks carry a permanent fault.
@@ -172,7 +180,7 @@ impl Injector {
     /// A new injector.
     #[must_use]
     pub fn new(config: InjectionConfig) -> Self {
-        Self { config, rng: ChaCha8Rng::seed_from_u64(config.seed) }
+        Self { config, rng: ChaCha8Rng::seed_from_u64(config.seed), noise_state: std::collections::HashMap::new() }
     }
 
     /// True when the track carries the permanent fault.
@@ -181,9 +189,15 @@ impl Injector {
         track_draw(self.config.seed, id) < self.config.permanent_track_fraction
     }
 
+    /// [`Injector::apply_at`] without a timestamp: correlated noise is drawn afresh.
+    pub fn apply(&mut self, frame: u64, objects: &mut [ObjectState]) -> Vec<Injection> {
+        self.apply_at(frame, f64::NAN, objects)
+    }
+
     /// Applies noise and the fault to a frame's object list in place; returns what was injected.
     /// Randomness is drawn in object order, so a frame's outcome depends only on the seed and the inputs.
-    pub fn apply(&mut self, frame: u64, objects: &mut [ObjectState]) -> Vec<Injection> {
+    /// `t_s` is the frame's timestamp (for correlated noise).
+    pub fn apply_at(&mut self, frame: u64, t_s: f64, objects: &mut [ObjectState]) -> Vec<Injection> {
         let c = self.config;
         let mut out = Vec::new();
         let noise = |sigma: f32| Normal::new(0.0f32, sigma.max(0.0)).ok();
@@ -191,8 +205,23 @@ impl Injector {
         for (index, o) in objects.iter_mut().enumerate() {
             if c.position_noise_m > 0.0 {
                 if let Some(n) = np {
-                    o.x_m += n.sample(&mut self.rng);
-                    o.y_m += n.sample(&mut self.rng);
+                    let fresh = [n.sample(&mut self.rng), n.sample(&mut self.rng)];
+                    let noise = if c.noise_correlation_s > 0.0 {
+                        let next = match self.noise_state.get(&o.id) {
+                            Some(&(t0, prev)) if t_s > t0 => {
+                                let rho = (-(t_s - t0) / f64::from(c.noise_correlation_s)).exp() as f32;
+                                let k = (1.0 - rho * rho).max(0.0).sqrt();
+                                [rho * prev[0] + k * fresh[0], rho * prev[1] + k * fresh[1]]
+                            }
+                            _ => fresh,
+                        };
+                        self.noise_state.insert(o.id, (t_s, next));
+                        next
+                    } else {
+                        fresh
+                    };
+                    o.x_m += noise[0];
+                    o.y_m += noise[1];
                 }
             }
             if c.speed_noise_mps > 0.0 {
@@ -319,6 +348,34 @@ mod tests {
         }
         let rate = n as f64 / 5000.0;
         assert!((rate - 0.2).abs() < 0.03, "{rate}");
+    }
+
+    #[test]
+    fn correlated_noise_has_the_right_spread_and_small_steps() {
+        let mut cfg = InjectionConfig::new(Fault::None, 5);
+        cfg.position_noise_m = 0.3;
+        cfg.noise_correlation_s = 1.0;
+        let mut inj = Injector::new(cfg);
+        let (mut sum2, mut step2, mut n) = (0.0f64, 0.0f64, 0.0f64);
+        let mut last: Vec<f32> = vec![0.0; 50];
+        for k in 0..2000u64 {
+            let mut objs: Vec<_> = (0..50).map(|i| obj(i, 10.0, 0.0)).collect();
+            inj.apply_at(k, k as f64 * 0.1, &mut objs);
+            for (i, o) in objs.iter().enumerate() {
+                let e = o.x_m - 10.0;
+                if k > 50 {
+                    sum2 += f64::from(e * e);
+                    step2 += f64::from((e - last[i]) * (e - last[i]));
+                    n += 1.0;
+                }
+                last[i] = e;
+            }
+        }
+        let sd = (sum2 / n).sqrt();
+        let step = (step2 / n).sqrt();
+        // Stationary spread 0.3 m; frame-to-frame steps sigma sqrt(2 (1 - exp(-0.1))) = 0.131 m.
+        assert!((sd - 0.3).abs() < 0.03, "{sd}");
+        assert!((step - 0.131).abs() < 0.01, "{step}");
     }
 
     #[test]

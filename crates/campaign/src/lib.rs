@@ -8,6 +8,7 @@
 pub mod experiments;
 pub mod inject;
 pub mod metrics;
+pub mod real_data;
 pub mod run;
 
 pub use inject::{Direction, Fault, Injection, InjectionConfig, Injector};

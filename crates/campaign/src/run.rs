@@ -73,7 +73,7 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
     for (k, clean) in scene.frames.iter().enumerate() {
         // Only the object list changes: copy it, lend the clean cloud.
         objects.clone_from(&clean.objects);
-        let injections = injector.apply(k as u64, &mut objects);
+        let injections = injector.apply_at(k as u64, clean.timestamp_s, &mut objects);
         let mut injected = vec![false; objects.len()];
         for i in &injections {
             if let Some(x) = injected.get_mut(i.index as usize) {
@@ -174,7 +174,7 @@ pub fn replay_to(scene: &Scene, spec: &RunSpec, k: usize) -> Result<Replay, Stri
     let mut injector = Injector::new(spec.injection);
     for (i, clean) in scene.frames.iter().enumerate().take(k + 1) {
         let mut frame = clean.clone();
-        let injections = injector.apply(i as u64, &mut frame.objects);
+        let injections = injector.apply_at(i as u64, clean.timestamp_s, &mut frame.objects);
         let (objects, clusters) = {
             let mut roi = Vec::new();
             let view = frame.as_frame(&mut roi);

@@ -139,3 +139,55 @@ fn object_list_without_clouds_runs_plausibility_only() {
     assert!(text(&o).contains("implausible motion [position]"), "{}", text(&o));
     assert!(text(&o).contains("consistent"), "{}", text(&o));
 }
+
+/// `pmon reproduce --smoke` runs every experiment end to end (tiny scenes, three points per sweep) and writes
+/// the report; its numbers come from the runs: a deliberately weakened monitor turns the permanent position
+/// claims into misses and lowers the measured recall.
+#[test]
+fn reproduce_writes_a_report_derived_from_the_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, params: Option<&str>| -> serde_json::Value {
+        let out = dir.path().join(name);
+        let mut args = vec!["reproduce", "--smoke", "--seed", "3", "--out", out.to_str().unwrap()];
+        let p = dir.path().join(format!("{name}.toml"));
+        if let Some(text) = params {
+            std::fs::write(&p, text).unwrap();
+            args.extend(["--params", p.to_str().unwrap()]);
+        }
+        let o = pmon(&args);
+        assert!(o.status.success(), "{}", text(&o));
+        for f in [
+            "index.html",
+            "results.json",
+            "permanent_position.svg",
+            "permanent_position.png",
+            "permanent_position.csv",
+            "latency.png",
+            "dv_theory_transient.png",
+        ] {
+            let path = out.join(f);
+            assert!(std::fs::metadata(&path).map(|m| m.len() > 0).unwrap_or(false), "{} missing", path.display());
+        }
+        let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+        assert!(html.contains("Paper vs pmon"));
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap()
+    };
+    let recall_at = |r: &serde_json::Value, curve: &str, x: f64| -> f64 {
+        let figs = r["figures"].as_array().unwrap();
+        let fig = figs.iter().find(|f| f["spec"]["id"] == "permanent_position").unwrap();
+        let c = fig["curves"].as_array().unwrap().iter().find(|c| c["label"] == curve).unwrap();
+        let p = c["points"].as_array().unwrap().iter().find(|p| (p["x"].as_f64().unwrap() - x).abs() < 1e-9).unwrap();
+        p["rate"]["value"].as_f64().unwrap()
+    };
+    let normal = run("normal", None);
+    // A monitor whose safety margin swallows every displacement.
+    let weak = run("weak", Some("safety_margin_m = 3.0\n"));
+    let r_normal = recall_at(&normal, "sensor recall, 0.5 m cells", 2.0);
+    let r_weak = recall_at(&weak, "sensor recall, 0.5 m cells", 2.0);
+    assert!(r_normal > r_weak + 0.2, "normal {r_normal} vs weakened {r_weak}");
+    let claims = weak["claims"].as_array().unwrap();
+    let permanent: Vec<_> =
+        claims.iter().filter(|c| c["paper"].as_str().unwrap().starts_with("Permanent position")).collect();
+    assert_eq!(permanent.len(), 2);
+    assert!(permanent.iter().all(|c| c["met"] == serde_json::Value::Bool(false)), "{permanent:?}");
+}

@@ -130,6 +130,31 @@ pub fn polygon_contains(polygon: &[[f32; 2]], x: f32, y: f32) -> bool {
     inside
 }
 
+/// Distance from a point to a polygon: 0 inside (even-odd rule), else the distance to its nearest edge.
+/// A polygon with fewer than 3 vertices is infinitely far.
+#[must_use]
+pub fn polygon_distance(polygon: &[[f32; 2]], x: f32, y: f32) -> f32 {
+    if polygon.len() < 3 {
+        return f32::INFINITY;
+    }
+    if polygon_contains(polygon, x, y) {
+        return 0.0;
+    }
+    let mut best = f32::INFINITY;
+    let mut prev = match polygon.last() {
+        Some(p) => *p,
+        None => return f32::INFINITY,
+    };
+    for &p in polygon {
+        let (ex, ey) = (p[0] - prev[0], p[1] - prev[1]);
+        let len2 = ex * ex + ey * ey;
+        let t = if len2 > 0.0 { (((x - prev[0]) * ex + (y - prev[1]) * ey) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        best = best.min(libm::hypotf(x - prev[0] - t * ex, y - prev[1] - t * ey));
+        prev = p;
+    }
+    best
+}
+
 /// A monotonic pseudo-angle in `[0, 4)` of the direction `(dx, dy)` (the "diamond angle"): cheaper than
 /// `atan2`, no trigonometry, same ordering. `(0, 0)` maps to 0.
 #[must_use]
@@ -149,6 +174,37 @@ pub fn diamond_angle(dx: f32, dy: f32) -> f32 {
         2.0 - dy / s
     } else {
         3.0 + dx / s
+    }
+}
+
+/// [`diamond_angle`] without branches, for loops the compiler should vectorise: the same value for every input
+/// (as `==`; a `-0.0` of the original may come out `+0.0`), including 0 for `(0, 0)`, for non-finite input
+/// and for `|dx| + |dy|` overflowing to infinity (which finite `dx`, `dy` can do, so the test is not redundant).
+///
+/// Why the same bits: per quadrant the original computes `dy / s`, `1 - dx / s`, `2 - dy / s` or `3 + dx / s`;
+/// with `num = |dx|` or `|dy|` these are `base + num / s` exactly, since IEEE division and subtraction are
+/// symmetric in the sign (`-(a / s) == (-a) / s`, `b - a == b + (-a)`), and `0 + x == x` as a value.
+#[must_use]
+#[inline(always)]
+pub(crate) fn diamond_angle_select(dx: f32, dy: f32) -> f32 {
+    let (ax, ay) = (dx.abs(), dy.abs());
+    let s = ax + ay;
+    let upper = dy >= 0.0;
+    let left = dx < 0.0;
+    let base = match (upper, left) {
+        (true, false) => 0.0,
+        (true, true) => 1.0,
+        (false, true) => 2.0,
+        (false, false) => 3.0,
+    };
+    let num = if upper == left { ax } else { ay };
+    let d = base + num / s;
+    // NaN fails both comparisons; (0, 0) the first; an infinite s the second. (`s < INFINITY` would be the
+    // same, but the compiler turns it into integer operations on the bits.)
+    if (s > 0.0) & (s <= f32::MAX) {
+        d
+    } else {
+        0.0
     }
 }
 
@@ -192,6 +248,15 @@ mod tests {
         assert!(polygon_contains(&sq, 1.0, 1.0));
         assert!(!polygon_contains(&sq, 3.0, 1.0));
         assert!(!polygon_contains(&sq[..2], 1.0, 0.0));
+    }
+
+    #[test]
+    fn polygon_distance_inside_and_outside() {
+        let sq = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+        assert!(polygon_distance(&sq, 1.0, 1.0).abs() < 1e-6);
+        assert!((polygon_distance(&sq, 3.0, 1.0) - 1.0).abs() < 1e-6);
+        assert!((polygon_distance(&sq, 3.0, 3.0) - 2f32.sqrt()).abs() < 1e-6);
+        assert!(polygon_distance(&sq[..2], 0.0, 0.0).is_infinite());
     }
 
     #[test]

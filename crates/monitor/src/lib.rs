@@ -43,10 +43,12 @@ pub mod grid;
 pub mod monitor;
 pub mod motion;
 pub mod plausibility;
+mod rasterize;
 pub mod region;
 pub mod theory;
 pub mod visibility;
 
 pub use grid::{CellState, GridGeometry, OccupancyGrid};
 pub use monitor::{object_is_valid, Monitor, Stage};
+pub use rasterize::Rasterizer;
 pub use region::Region;

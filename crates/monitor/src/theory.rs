@@ -75,10 +75,10 @@ pub fn fired_for_speed_error(
     check_motion(&base, &next, &p.motion_limits, f64::from(p.gamma_plaus)).fired
 }
 
-/// The minimal detectable speed error `dv_min` (Fig. dv_theo): the smallest `|dv|`, positive or negative,
-/// that the plausibility checks flag in the setup of [`fired_for_speed_error`]. Scans `|dv|` upward in steps of
-/// `step_mps` up to `max_mps` (bounded loop), then refines by bisection to `1e-4` m/s. `None` if nothing up to
-/// `max_mps` is detected.
+/// The minimal detectable speed error `dv_min` (Fig. dv_theo): of the errors, positive or negative, that the
+/// plausibility checks flag in the setup of [`fired_for_speed_error`], the one with the smallest `|dv|`,
+/// returned with its sign. Scans `|dv|` upward in steps of `step_mps` up to `max_mps` (bounded loop), then
+/// refines by bisection to `1e-4` m/s. `None` if nothing up to `max_mps` is detected.
 #[must_use]
 pub fn dv_min_mps(
     kind: SpeedError,
@@ -99,7 +99,7 @@ pub fn dv_min_mps(
         let mut lo = 0.0;
         for i in 1..=steps {
             let hi = f64::from(i) * step_mps;
-            if best.is_some_and(|b| hi > b) {
+            if best.is_some_and(|b| hi > b.abs()) {
                 break;
             }
             if detected(hi) {
@@ -115,7 +115,8 @@ pub fn dv_min_mps(
                         break;
                     }
                 }
-                best = Some(best.map_or(hi, |b: f64| b.min(hi)));
+                let signed = sign * hi;
+                best = Some(best.map_or(signed, |b: f64| if hi < b.abs() { signed } else { b }));
                 break;
             }
             lo = hi;
@@ -141,7 +142,7 @@ mod tests {
         let dt = 0.05;
         let bound = dv_min_transient_accel_only_mps(&p.motion_limits, dt, 1.0);
         assert!((bound - (0.35 + 2f64.sqrt())).abs() < 1e-12);
-        let found = dv_min_mps(SpeedError::Transient, dt, 5.0, &p, &Margins::PAPER, 0.05, 30.0).unwrap();
+        let found = dv_min_mps(SpeedError::Transient, dt, 5.0, &p, &Margins::PAPER, 0.05, 30.0).unwrap().abs();
         assert!(found <= bound + 1e-3, "found {found}, bound {bound}");
     }
 
@@ -149,13 +150,13 @@ mod tests {
     fn permanent_errors_need_larger_magnitudes_and_grow_with_speed() {
         let p = MonitorParams::default();
         let m = Margins::PAPER;
-        let slow = dv_min_mps(SpeedError::Permanent, 0.1, 2.0, &p, &m, 0.05, 60.0).unwrap();
-        let fast = dv_min_mps(SpeedError::Permanent, 0.1, 15.0, &p, &m, 0.05, 60.0).unwrap();
-        let transient = dv_min_mps(SpeedError::Transient, 0.1, 15.0, &p, &m, 0.05, 60.0).unwrap();
+        let slow = dv_min_mps(SpeedError::Permanent, 0.1, 2.0, &p, &m, 0.05, 60.0).unwrap().abs();
+        let fast = dv_min_mps(SpeedError::Permanent, 0.1, 15.0, &p, &m, 0.05, 60.0).unwrap().abs();
+        let transient = dv_min_mps(SpeedError::Transient, 0.1, 15.0, &p, &m, 0.05, 60.0).unwrap().abs();
         assert!(fast > slow, "permanent dv_min grows with speed: {slow} -> {fast}");
         assert!(transient < fast, "transient errors are easier: {transient} vs {fast}");
         // Longer intervals help against permanent errors (the paper's observation).
-        let longer = dv_min_mps(SpeedError::Permanent, 0.2, 15.0, &p, &m, 0.05, 60.0).unwrap();
+        let longer = dv_min_mps(SpeedError::Permanent, 0.2, 15.0, &p, &m, 0.05, 60.0).unwrap().abs();
         assert!(longer < fast, "{longer} vs {fast}");
     }
 }

@@ -16,6 +16,17 @@ use crate::geometry::diamond_angle;
 /// Cell index meaning "no cell" (outside the grid or no obstacle).
 pub const NO_CELL: u32 = u32::MAX;
 
+/// The binning of a [`VisibilityMap`], copied out so that a loop can bin many returns without borrowing the map.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct BinParams {
+    /// Sensor origin, ego frame, metres.
+    pub origin: [f32; 2],
+    /// Bins per unit of diamond angle.
+    pub bins_per_unit: f32,
+    /// Index of the last bin.
+    pub last_bin: usize,
+}
+
 /// What the sensor saw of a position.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Sight {
@@ -57,6 +68,48 @@ impl VisibilityMap {
         self.nearest_obstacle_cell.fill(NO_CELL);
         self.farthest_return_r2.fill(0.0);
         self.origin = origin;
+    }
+
+    /// What the blocked rasteriser needs to bin returns itself (see `crate::rasterize`).
+    #[must_use]
+    pub(crate) fn bin_params(&self) -> BinParams {
+        BinParams {
+            origin: self.origin,
+            bins_per_unit: self.bins_per_unit,
+            last_bin: self.nearest_obstacle_r2.len().saturating_sub(1),
+        }
+    }
+
+    /// Records a block of returns already binned (see [`BinParams`]), in order. Per return: its bin, its
+    /// squared range as a candidate farthest return (`0.0` for a point that is no return: it never wins), as a
+    /// candidate nearest obstacle (`f32::INFINITY` for a point that is no obstacle: it never wins), and the
+    /// obstacle's grid cell. Same effect as [`VisibilityMap::add_return`] on each return in turn; ties keep the
+    /// first, as there.
+    #[inline]
+    pub(crate) fn add_binned(&mut self, bins: &[u32], far_r2: &[f32], near_r2: &[f32], cells: &[u32]) {
+        let returns = bins.iter().zip(far_r2).zip(near_r2).zip(cells);
+        for (((&b, &far), &near), &cell) in returns {
+            let b = b as usize;
+            if let Some(f) = self.farthest_return_r2.get_mut(b) {
+                if far > *f {
+                    *f = far;
+                }
+            }
+            if let Some(n) = self.nearest_obstacle_r2.get_mut(b) {
+                if near < *n {
+                    *n = near;
+                    if let Some(c) = self.nearest_obstacle_cell.get_mut(b) {
+                        *c = cell;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The three arrays (nearest obstacle r^2, its cell, farthest return r^2), for bit-exact comparisons.
+    #[cfg(test)]
+    pub(crate) fn arrays(&self) -> (&[f32], &[u32], &[f32]) {
+        (&self.nearest_obstacle_r2, &self.nearest_obstacle_cell, &self.farthest_return_r2)
     }
 
     #[inline]

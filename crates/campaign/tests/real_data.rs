@@ -1,0 +1,187 @@
+//! The real-data experiments on the shared data extracts (see the data folder's README). Every test that needs
+//! the data prints a SKIPPED message and returns when the folder is absent (`PMON_DATA_DIR`, default
+//! `<workspace>/../shared/data`).
+//!
+//! The full experiment (every magnitude, ten seeds) is `#[ignore]`d; run it with
+//! `cargo test -p pmon-campaign --release --test real_data -- --ignored --nocapture`.
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+use std::time::Instant;
+
+use pmon_campaign::experiments::{Curve, Figure};
+use pmon_campaign::real_data::{real_data_experiments_with, RealDataOptions, RealDataResults};
+use pmon_monitor::MonitorParams;
+
+const SEED: u64 = 20_240_611;
+
+/// `PMON_DATA_DIR`, or `<workspace root>/../shared/data`.
+fn data_dir() -> PathBuf {
+    std::env::var_os("PMON_DATA_DIR")
+        .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"), PathBuf::from)
+}
+
+/// The data folder, or `None` after printing why the test is skipped.
+fn data() -> Option<PathBuf> {
+    let d = data_dir();
+    if d.join("nuscenes").exists() {
+        Some(d)
+    } else {
+        eprintln!("SKIPPED: real data not found at {} (set PMON_DATA_DIR to the shared data folder)", d.display());
+        None
+    }
+}
+
+/// The smoke-sized run, computed once for all tests of this file.
+fn smoke() -> Option<&'static RealDataResults> {
+    static RESULT: OnceLock<Option<RealDataResults>> = OnceLock::new();
+    RESULT
+        .get_or_init(|| {
+            let dir = data()?;
+            let t0 = Instant::now();
+            let r = real_data_experiments_with(&dir, &MonitorParams::PAPER, SEED, &RealDataOptions::smoke())
+                .unwrap_or_else(|e| panic!("real-data experiments failed: {e}"));
+            eprintln!("smoke real-data experiments: {:.1} s", t0.elapsed().as_secs_f64());
+            Some(r)
+        })
+        .as_ref()
+}
+
+fn figure<'a>(r: &'a RealDataResults, id: &str) -> &'a Figure {
+    r.figures.iter().find(|f| f.spec.id == id).unwrap_or_else(|| panic!("no figure {id}"))
+}
+
+fn curve<'a>(f: &'a Figure, prefix: &str) -> &'a Curve {
+    f.curves.iter().find(|c| c.label.starts_with(prefix)).unwrap_or_else(|| panic!("{}: no curve {prefix}", f.spec.id))
+}
+
+fn print(r: &RealDataResults) {
+    for (title, headers, rows) in &r.tables {
+        eprintln!("\n## {title}\n| {} |", headers.join(" | "));
+        for row in rows {
+            eprintln!("| {} |", row.join(" | "));
+        }
+    }
+    for f in &r.figures {
+        eprintln!("\n# figure {}: {}", f.spec.id, f.spec.title);
+        for c in &f.curves {
+            let pts: Vec<String> =
+                c.points.iter().map(|p| format!("{:.1}:{:.2}(n{})", p.x, p.rate.value, p.rate.n)).collect();
+            eprintln!("  {:<60} {}", c.label, pts.join(" "));
+        }
+    }
+    for c in &r.claims {
+        eprintln!("\nCLAIM {:?}: {}\n   pmon: {}", c.met, c.paper, c.pmon);
+    }
+    for n in &r.notes {
+        eprintln!("NOTE {n}");
+    }
+}
+
+#[test]
+fn every_dataset_gives_figures_with_samples() {
+    let Some(r) = smoke() else { return };
+    for id in [
+        "real_position_nuscenes",
+        "real_position_kitti",
+        "real_position_av2",
+        "real_speed_errors_av2",
+        "real_speed_errors_commonroad",
+        "real_random_position_av2",
+        "real_random_position_commonroad",
+    ] {
+        let f = figure(r, id);
+        assert!(!f.curves.is_empty(), "{id} has no curves");
+        for c in &f.curves {
+            assert!(c.points.iter().any(|p| p.rate.n > 0), "{id}: curve {} has no samples", c.label);
+            assert!(c.points.windows(2).all(|w| w[0].x < w[1].x), "{id}: {} not sorted by x", c.label);
+        }
+    }
+    assert!(r.notes.iter().all(|n| !n.contains("skipped, not found")), "{:?}", r.notes);
+    // nuScenes: one keyframe of 69 boxes; the all-boxes run displaces every box in scope.
+    let f = figure(r, "real_position_nuscenes");
+    let all = curve(f, "sensor recall, all boxes");
+    assert!(all.points.iter().all(|p| p.rate.n > 0 && p.rate.n <= 69), "{all:?}");
+    // Clean frames: one verdict row per sensor dataset, and flagged boxes come with a reason.
+    let (_, headers, rows) =
+        r.tables.iter().find(|t| t.0.starts_with("Clean real frames: sensor-check verdicts")).expect("clean table");
+    assert_eq!(rows.len(), 3, "nuScenes, KITTI, AV2");
+    assert!(rows.iter().all(|row| row.len() == headers.len()));
+    let (_, _, flagged) = r.tables.iter().find(|t| t.0.starts_with("Clean real frames: every box")).expect("flagged");
+    assert!(flagged.iter().all(|row| row.last().is_some_and(|why| why.len() > 20)));
+    // Claims: the nuScenes saturation claim is decided, the clean-data claim is informational.
+    let sat = r.claims.iter().find(|c| c.paper.starts_with("Real sensor (nuScenes)")).expect("saturation claim");
+    assert!(sat.met.is_some());
+    let clean = r.claims.iter().find(|c| c.paper.starts_with("Clean real data")).expect("clean claim");
+    assert!(clean.met.is_none());
+    assert!(r.claims.iter().filter(|c| c.paper.starts_with("Clean real tracks")).count() == 2);
+}
+
+#[test]
+fn nuscenes_verifiable_recall_grows_with_the_error() {
+    let Some(r) = smoke() else { return };
+    let c = curve(figure(r, "real_position_nuscenes"), "sensor recall, verifiable boxes");
+    let at = |x: f64| c.points.iter().find(|p| (p.x - x).abs() < 1e-9).expect("magnitude present").rate;
+    let (small, large) = (at(0.1), at(2.0));
+    assert!(small.n > 0 && large.n > 0);
+    assert!(large.value > small.value, "recall at 2.0 m ({large:?}) must exceed recall at 0.1 m ({small:?})");
+    // Verifiable recall is never below recall over all boxes (the not-verifiable boxes can only be misses there).
+    let all = curve(figure(r, "real_position_nuscenes"), "sensor recall, all boxes");
+    for (a, v) in all.points.iter().zip(&c.points) {
+        assert!(v.rate.value + 1e-12 >= a.rate.value * (a.rate.n as f64 / v.rate.n.max(1) as f64) - 1e-9);
+    }
+}
+
+#[test]
+fn plausibility_detects_large_transient_speed_errors_better_than_small_ones() {
+    let Some(r) = smoke() else { return };
+    for fam in ["av2", "commonroad"] {
+        let c = curve(figure(r, &format!("real_speed_errors_{fam}")), "transient 10 %: recall");
+        let (first, last) = (c.points.first().expect("points"), c.points.last().expect("points"));
+        assert!(last.rate.value > first.rate.value, "{fam}: {c:?}");
+    }
+}
+
+#[test]
+fn same_seed_gives_the_same_json() {
+    let Some(first) = smoke() else { return };
+    let Some(dir) = data() else { return };
+    let again = real_data_experiments_with(&dir, &MonitorParams::PAPER, SEED, &RealDataOptions::smoke())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let a = serde_json::to_string(first).expect("serialisable");
+    let b = serde_json::to_string(&again).expect("serialisable");
+    assert_eq!(a, b, "same seed, same results");
+}
+
+#[test]
+fn malformed_data_is_an_error_naming_the_file() {
+    let dir = std::env::temp_dir().join(format!("pmon-real-data-malformed-{}", std::process::id()));
+    let nus = dir.join("nuscenes");
+    std::fs::create_dir_all(&nus).expect("temp dir");
+    std::fs::write(nus.join("sample_annotations.json"), b"{ not json").expect("write");
+    let r = real_data_experiments_with(&dir, &MonitorParams::PAPER, 1, &RealDataOptions::smoke());
+    let _ = std::fs::remove_dir_all(&dir);
+    let err = r.expect_err("malformed nuScenes file must be an error");
+    assert!(err.contains("sample_annotations.json") || err.contains("nuscenes"), "{err}");
+}
+
+/// The whole experiment, printed. Slow in the debug profile: run with
+/// `cargo test -p pmon-campaign --release --test real_data -- --ignored --nocapture`.
+#[test]
+#[ignore = "full sweep: run in release with --ignored --nocapture"]
+fn full_real_data_experiments() {
+    let Some(dir) = data() else { return };
+    let t0 = Instant::now();
+    let r = real_data_experiments_with(&dir, &MonitorParams::PAPER, SEED, &RealDataOptions::full())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let secs = t0.elapsed().as_secs_f64();
+    print(&r);
+    eprintln!("\nfull real-data experiments: {secs:.1} s");
+}
+
+/// The smoke run, printed (fast; for looking at the tables).
+#[test]
+fn print_smoke_tables() {
+    let Some(r) = smoke() else { return };
+    print(r);
+}
