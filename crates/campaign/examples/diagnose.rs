@@ -1,6 +1,7 @@
 //! Breaks down the monitor's verdicts on injected objects for one fault (a development aid):
 //! `cargo run --release -p pmon-campaign --example diagnose -- RECORDING MAGNITUDE_M DIRECTION`
-//! where DIRECTION is away, towards or random.
+//! where DIRECTION is away, towards or random; `REACH=1.5` sets `conflict_association_m`. Writes the injected
+//! frames to /tmp/diagnose-injected for `pmon view`.
 use std::collections::BTreeMap;
 
 use pmon_campaign::{Direction, Fault, InjectionConfig, Injector};
@@ -16,8 +17,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => Direction::Away,
     };
     let (_, frames) = pmon_recording::read_recording(std::path::Path::new(path))?;
-    let mut monitor = Monitor::new(MonitorParams::default())?;
+    let reach: f32 = std::env::var("REACH").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
+    let mut monitor = Monitor::new(MonitorParams { conflict_association_m: reach, ..MonitorParams::default() })?;
     let mut injector = Injector::new(InjectionConfig::new(Fault::PermanentPosition { magnitude_m, direction }, 7));
+    let out = std::path::Path::new("/tmp/diagnose-injected");
+    let mut writer =
+        pmon_recording::RecordingWriter::create(out, pmon_recording::RecordingMeta::new("injected", path.as_str()))?;
+    let mut shown = 0;
     let mut by: BTreeMap<String, u64> = BTreeMap::new();
     let mut clean: BTreeMap<String, u64> = BTreeMap::new();
     for (k, f) in frames.iter().enumerate() {
@@ -26,14 +32,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut roi = Vec::new();
         let view = f.as_frame(&mut roi);
         let rep = monitor.check(&view)?;
+        writer.write_frame(&f)?;
         for (i, r) in rep.objects.iter().enumerate() {
             let injected = inj.iter().any(|x| x.index as usize == i);
             let o = &f.objects[i];
             let range = o.x_m.hypot(o.y_m);
-            let key = format!("{:<11} {:>2}0 m {:?}", o.class.name(), (range / 10.0) as u32, r.sensor.verdict);
+            let key = format!(
+                "{:<11} {:>2}0 m {:?} {}",
+                o.class.name(),
+                (range / 10.0) as u32,
+                r.sensor.verdict,
+                if r.sensor.eta >= 0.8 { "eta>=tau" } else { "eta<tau" }
+            );
+            if injected
+                && shown < 6
+                && range > 8.0
+                && range < 25.0
+                && matches!(r.sensor.verdict, pmon_monitor::SensorVerdict::NotMonitored(_))
+            {
+                shown += 1;
+                println!(
+                    "example: frame {k} object {} at ({:.1}, {:.1}) {:?} eta {:.2} vis {:.2}",
+                    o.id, o.x_m, o.y_m, r.sensor.verdict, r.sensor.eta, r.sensor.visible_fraction
+                );
+            }
             *(if injected { &mut by } else { &mut clean }).entry(key).or_default() += 1;
         }
     }
+    writer.finish()?;
+    let tot = |m: &BTreeMap<String, u64>, f: &dyn Fn(&str) -> bool| {
+        m.iter().filter(|(k, _)| f(k)).map(|(_, v)| v).sum::<u64>()
+    };
+    let alarm = |k: &str| k.contains("PositionError") || k.contains("Ghost");
+    let inj_all = tot(&by, &|k| !k.contains("OutsideGrid"));
+    println!(
+        "SUMMARY reach {reach}: injected detected {}/{} ; clean alarms {}/{}",
+        tot(&by, &alarm),
+        inj_all,
+        tot(&clean, &alarm),
+        tot(&clean, &|k| !k.contains("OutsideGrid"))
+    );
     println!("-- injected");
     for (k, v) in &by {
         println!("{v:>6}  {k}");

@@ -8,7 +8,8 @@
 //!   verdict at any of `k .. k + window - 1`, and an alarm at `f` is a true alarm when the object had an
 //!   injection at any of `f - window + 1 ..= f` (the paper: "up to two subsequent time steps", `window = 2`).
 //! - **Combined**: detected by either; an alarm of either kind is true when the rule of its check says so.
-//! - Errors whose object the sensor could not judge (occluded, no evidence) are counted as *not verifiable*.
+//! - Errors on objects that the sensor does not confirm even without the error (occluded, too few points:
+//!   `eta < tau_tp` in the clean frame) are counted as *not verifiable*.
 
 use std::collections::HashMap;
 
@@ -59,7 +60,8 @@ pub struct Outcome {
     pub injected: bool,
     /// Sensor checks raised an alarm.
     pub sensor_alarm: bool,
-    /// Sensor checks could judge the object (verdict not "not monitored").
+    /// The error is verifiable by the sensor: the same object without the error (in the clean frame) is
+    /// confirmed by its LiDAR evidence (`eta >= tau_tp`). Occluded or evidence-free objects are not.
     pub sensor_judged: bool,
     /// Plausibility checks raised an alarm.
     pub plausibility_alarm: bool,
@@ -113,9 +115,10 @@ pub struct Metrics {
     pub plausibility: Score,
     /// Both.
     pub combined: Score,
-    /// Injected errors in scope whose object the sensor checks could not judge.
+    /// Injected errors in scope on objects the sensor does not confirm even without the error (occluded,
+    /// too few points): no LiDAR check can verify them.
     pub not_verifiable: u64,
-    /// Injected errors the sensor could judge, and of those detected.
+    /// Injected errors on objects the sensor confirms when clean, and of those detected.
     pub sensor_verifiable: Score,
     /// Missed-object alarms (unattributed conflict clusters in the region of interest).
     pub missed_object_alarms: u64,

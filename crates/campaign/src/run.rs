@@ -64,8 +64,11 @@ pub struct RunResult {
 /// Invalid parameters, or a frame the monitor refuses.
 pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
     let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
+    // The same monitor on the clean frames tells which objects the sensor can verify at all.
+    let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
     let mut injector = Injector::new(spec.injection);
     let mut outcomes = Vec::new();
+    let mut confirmed = Vec::new();
     let mut missed = 0u64;
     let mut times = Vec::with_capacity(scene.frames.len());
     let (mut detected_example, mut missed_example, mut false_alarm_example) = (None, None, None);
@@ -82,6 +85,13 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
         }
         let mut roi = Vec::new();
         let mut view = clean.as_frame(&mut roi);
+        {
+            let clean_report = clean_monitor.check(&view).map_err(|e| format!("{}: frame {k}: {e}", scene.name))?;
+            confirmed.clear();
+            confirmed.extend(clean_report.objects.iter().map(|r| {
+                !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_)) && r.sensor.eta >= spec.params.tau_tp
+            }));
+        }
         view.objects = &objects;
         let t0 = Instant::now();
         let report = monitor.check(&view).map_err(|e| format!("{}: frame {k}: {e}", scene.name))?;
@@ -100,7 +110,7 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
                 in_scope,
                 injected: inj,
                 sensor_alarm,
-                sensor_judged: !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_)),
+                sensor_judged: confirmed.get(i).copied().unwrap_or(false),
                 plausibility_alarm: matches!(r.verdict, Verdict::ImplausibleMotion(_))
                     || matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Implausible(_)),
             };

@@ -489,7 +489,8 @@ impl Monitor {
                 let cb = cluster.bounds_m;
                 let gap_x = (cb[0] - rb[2]).max(rb[0] - cb[2]).max(0.0);
                 let gap_y = (cb[1] - rb[3]).max(rb[1] - cb[3]).max(0.0);
-                if libm::hypotf(gap_x, gap_y) > reach {
+                // Bounds are of cell centres: allow half a diagonal, as the exact test below does.
+                if libm::hypotf(gap_x, gap_y) - half_diagonal > reach {
                     continue;
                 }
                 // Distance from the cell (not its centre) to the region: centre distance less half a diagonal.

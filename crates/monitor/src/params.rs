@@ -163,7 +163,7 @@ impl MonitorParams {
         tau_tp: 0.8,
         tau_fn: 0.8,
         gamma_sens: 3.0,
-        min_cluster_cells: 2,
+        min_cluster_cells: 1,
         conflict_association_m: 1.0,
         ghost_visible_fraction: 0.5,
         visibility_bins: 720,
