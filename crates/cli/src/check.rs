@@ -26,7 +26,9 @@ pub enum Format {
 /// Arguments of `pmon check`.
 #[derive(Args, Debug)]
 pub struct CheckArgs {
-    /// A pmon recording directory, or a `.jsonl` file of object lists (plausibility checks only).
+    /// A pmon recording directory, a `.jsonl` file of object lists (plausibility checks only), or a dataset
+    /// as `kitti:DIR`, `kitti-tracking:FILE`, `nuscenes:DIR`, `nuscenes-v1:DIR[#scene]`, `av2:LOG_DIR` or
+    /// `commonroad:FILE.xml` (see docs/datasets.md).
     pub recording: PathBuf,
     /// Monitor parameters (TOML); defaults to the paper's Table I. See `pmon params`.
     #[arg(long)]
@@ -196,19 +198,46 @@ fn write_text_frame(out: &mut dyn Write, f: &RecordedFrame, rep: &FrameReport<'_
     Ok(())
 }
 
+/// Frames from a recording or a dataset, and the dataset's ground height if it has one.
+pub struct Input {
+    /// The frames, in order.
+    pub iter: Box<dyn Iterator<Item = Result<RecordedFrame>>>,
+    /// The dataset's ground height in its ego frame (`None` for pmon recordings).
+    pub ground_z_m: Option<f32>,
+}
+
+/// Opens a pmon recording (directory or `.jsonl`) or a dataset spec `scheme:path`.
+pub fn open_input(arg: &std::path::Path) -> Result<(String, Input)> {
+    let text = arg.to_string_lossy();
+    if let Some((scheme, _)) = text.split_once(':') {
+        if pmon_datasets::SCHEMES.contains(&scheme) {
+            let ds = pmon_datasets::open(&text).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let ground = ds.info.ground_z_m;
+            let name = ds.info.name.clone();
+            let iter = ds.frames.into_iter().map(|f| Ok(f.frame));
+            return Ok((name, Input { iter: Box::new(iter), ground_z_m: Some(ground) }));
+        }
+    }
+    let reader = RecordingReader::open(arg)?;
+    let name = reader.meta.name.clone();
+    Ok((name, Input { iter: Box::new(reader.map(|f| f.map_err(anyhow::Error::from))), ground_z_m: None }))
+}
+
 /// `pmon check`.
 pub fn run(args: &CheckArgs) -> Result<ExitCode> {
-    let params = load_params(args.params.as_deref())?;
+    let mut params = load_params(args.params.as_deref())?;
+    let (name, frames) = open_input(&args.recording)?;
+    if let (Some(ground), None) = (frames.ground_z_m, &args.params) {
+        params.ground_z_m = ground;
+    }
     let mut monitor = Monitor::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let reader = RecordingReader::open(&args.recording)?;
-    let name = reader.meta.name.clone();
     let mut out: Box<dyn Write> = match &args.out {
         Some(p) => Box::new(BufWriter::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?)),
         None => Box::new(BufWriter::new(io::stdout().lock())),
     };
     let mut totals = Totals::default();
     let mut roi = Vec::new();
-    for frame in reader {
+    for frame in frames.iter {
         let frame = frame?;
         let view = frame.as_frame(&mut roi);
         let rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;

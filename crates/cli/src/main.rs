@@ -53,6 +53,15 @@ enum Command {
         #[arg(long)]
         no_real_data: bool,
     },
+    /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
+    /// recording.
+    Convert {
+        /// The dataset spec (see docs/datasets.md).
+        spec: String,
+        /// Output recording directory.
+        #[arg(long, short)]
+        out: std::path::PathBuf,
+    },
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
         /// A TOML file of parameters to validate and print merged over the defaults.
@@ -82,6 +91,25 @@ fn main() -> ExitCode {
                 } else {
                     print!("{}", r.to_table());
                 }
+                Ok(ExitCode::SUCCESS)
+            })
+        }
+        Command::Convert { spec, out } => {
+            pmon_datasets::open(&spec).map_err(|e| anyhow::anyhow!("{e}")).and_then(|ds| {
+                let meta = ds.write_recording(&out)?;
+                eprintln!(
+                    "wrote {}: {} frames from {spec}{}",
+                    out.display(),
+                    meta.frames,
+                    if ds.info.ground_z_m.abs() > 1e-3 {
+                        format!(
+                            " (ground at z = {:.2} m: check it with --params holding ground_z_m = {:.2})",
+                            ds.info.ground_z_m, ds.info.ground_z_m
+                        )
+                    } else {
+                        String::new()
+                    }
+                );
                 Ok(ExitCode::SUCCESS)
             })
         }

@@ -42,6 +42,10 @@ pub struct ReproduceArgs {
     /// Three points per sweep over 3 s scenes: checks the pipeline end to end (tests), no conclusions.
     #[arg(long, hide = true)]
     pub smoke: bool,
+    /// Folder of the real driving data (KITTI, nuScenes, Argoverse 2, CommonRoad extracts in their native
+    /// layouts). Default: `$PMON_DATA_DIR`, else `../shared/data`. Absent: the real-data section is skipped.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -77,6 +81,7 @@ struct Results<'a> {
     figures: &'a [Figure],
     latency_ms: Option<(f64, f64)>,
     theory_checks: &'a [TheoryCheck],
+    real_data: &'a pmon_campaign::real_data::RealDataResults,
     runs: usize,
     elapsed_s: f64,
 }
@@ -451,7 +456,25 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     let figures = experiments::assemble(&planned, &results);
     let lat = latency(&scenes, &params)?;
     let checks = theory_checks(&params)?;
+    let data_dir = args
+        .data
+        .clone()
+        .or_else(|| std::env::var_os("PMON_DATA_DIR").map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("../shared/data"));
+    eprintln!("pmon reproduce: real-data experiments ({})", data_dir.display());
+    let real = pmon_campaign::real_data::real_data_experiments_with(
+        &data_dir,
+        &params,
+        args.seed,
+        &if args.smoke {
+            pmon_campaign::real_data::RealDataOptions::smoke()
+        } else {
+            pmon_campaign::real_data::RealDataOptions::full()
+        },
+    )
+    .map_err(|e| anyhow::anyhow!("real data: {e}"))?;
     let mut claims = experiments::claims(&figures, Some(lat));
+    claims.extend(real.claims.iter().cloned());
     let agree = checks.iter().filter(|c| !c.flagged_below && c.flagged_above).count();
     claims.push(Claim {
         paper: "Fig. dv_theo: the analytic minimal detectable speed errors".into(),
@@ -468,6 +491,9 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     }
     render_theory(&args.out, &params)?;
     render_latency(&args.out, lat)?;
+    for f in &real.figures {
+        render_figure(&args.out, f)?;
+    }
 
     let scene_summaries: Vec<SceneSummary> = scenes
         .iter()
@@ -529,6 +555,26 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         "dv_theory_transient.csv",
     );
     html.figure_with_data("latency.png", "Latency of both checks per frame: the paper's measurements and pmon's median on this machine (single thread, includes every stage).", "latency.csv");
+    html.heading("Real data");
+    if real.figures.is_empty() {
+        html.paragraph("The real-data experiments did not run: no data found (see the notes below).");
+    }
+    for f in &real.figures {
+        html.figure_with_data(
+            &format!("{}.png", f.spec.id),
+            &format!("{} — {}", f.spec.title, f.spec.paper_ref),
+            &format!("{}.csv", f.spec.id),
+        );
+    }
+    for (title, headers, rows) in &real.tables {
+        html.subheading(title);
+        let cells: Vec<Vec<TableCell>> =
+            rows.iter().map(|r| r.iter().map(|c| TableCell::new(c.clone())).collect()).collect();
+        html.table(headers, &cells);
+    }
+    for n in &real.notes {
+        html.paragraph(n);
+    }
     html.heading("Example frames");
     render_examples(&args.out, &scenes, ids, &params, args.seed, &mut html)?;
     html.heading("Parameters");
@@ -549,6 +595,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         figures: &figures,
         latency_ms: Some(lat),
         theory_checks: &checks,
+        real_data: &real,
         runs: planned.len(),
         elapsed_s: elapsed,
     };

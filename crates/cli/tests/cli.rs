@@ -191,3 +191,44 @@ fn reproduce_writes_a_report_derived_from_the_runs() {
     assert_eq!(permanent.len(), 2);
     assert!(permanent.iter().all(|c| c["met"] == serde_json::Value::Bool(false)), "{permanent:?}");
 }
+
+fn data_dir() -> Option<std::path::PathBuf> {
+    let dir = std::env::var_os("PMON_DATA_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+    if dir.exists() {
+        Some(dir)
+    } else {
+        eprintln!("SKIPPED: no real data at {} (set PMON_DATA_DIR)", dir.display());
+        None
+    }
+}
+
+#[test]
+fn datasets_convert_to_recordings_that_check_the_same() {
+    let Some(data) = data_dir() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let spec = format!("nuscenes:{}", data.join("nuscenes").display());
+    let direct = pmon(&["check", "--format", "jsonl", &spec]);
+    assert_ne!(direct.status.code(), Some(2), "{}", text(&direct));
+    let rec = dir.path().join("nusc");
+    let o = pmon(&["convert", &spec, "--out", rec.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let p = dir.path().join("p.toml");
+    std::fs::write(&p, "ground_z_m = 0.0\n").unwrap();
+    let converted = pmon(&["check", "--format", "jsonl", "--params", p.to_str().unwrap(), rec.to_str().unwrap()]);
+    assert_ne!(converted.status.code(), Some(2), "{}", text(&converted));
+    let verdicts = |o: &Output| -> Vec<String> {
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+            .map(|v| format!("{} {}", v["id"], v["verdict"]))
+            .collect()
+    };
+    // nuScenes' ground is at z = 0 in its ego frame, so both runs use the same parameters.
+    assert_eq!(verdicts(&direct), verdicts(&converted));
+    assert_eq!(verdicts(&direct).iter().filter(|v| !v.contains("missed_object")).count(), 69);
+    let bad = pmon(&["check", "kitti:/nonexistent/kitti"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(text(&bad).contains("nonexistent"), "{}", text(&bad));
+}
