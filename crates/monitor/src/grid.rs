@@ -134,7 +134,9 @@ impl GridGeometry {
 }
 
 /// The occupancy grid: hit counts, flags and the list of cells touched this frame.
-#[derive(Clone, Debug)]
+// Not `Clone`: a cloned `Vec` loses its spare capacity, and the per-frame buffers rely on it (no
+// allocation per frame, pushes bounded by capacity). Build another with `new` instead.
+#[derive(Debug)]
 pub struct OccupancyGrid {
     /// Geometry.
     pub geometry: GridGeometry,

@@ -57,7 +57,9 @@ struct ObjectScratch {
 ///
 /// Memory is allocated in `new` only: the grid (`cells^2` x 3 bytes), the point and cluster buffers
 /// (`max_points` x 4 bytes x 2), and the per-object and track buffers. `check` allocates nothing.
-#[derive(Clone, Debug)]
+// Not `Clone`: a cloned `Vec` loses its spare capacity, and the per-frame buffers rely on it (no
+// allocation per frame, pushes bounded by capacity). Build another with `new` instead.
+#[derive(Debug)]
 pub struct Monitor {
     params: MonitorParams,
     grid: OccupancyGrid,

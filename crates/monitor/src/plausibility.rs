@@ -20,7 +20,9 @@ struct Track {
 }
 
 /// The tracks' last states.
-#[derive(Clone, Debug)]
+// Not `Clone`: a cloned `Vec` loses its spare capacity, and the per-frame buffers rely on it (no
+// allocation per frame, pushes bounded by capacity). Build another with `new` instead.
+#[derive(Debug)]
 pub struct TrackTable {
     tracks: Vec<Track>,
     next: Vec<Track>,

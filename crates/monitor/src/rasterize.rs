@@ -4,16 +4,21 @@
 //! visibility arrays, the same number of points in the band), selected by [`Rasterizer`]:
 //!
 //! - [`rasterize_scalar`], the reference: one point at a time, as the stage was first written.
-//! - [`rasterize_blocked`]: blocks of [`BLOCK`] points in two passes. Pass 1 has no branches and no memory
-//!   writes but to small stack arrays, so the compiler vectorises it: it transforms the points into the ego
-//!   frame, classifies them by the height band, and computes the grid cell (or [`NO_CELL`]), the squared range
-//!   and the azimuth bin of each. Pass 2 applies the updates to the visibility map and to the grid in point
-//!   order, which is what keeps the results identical (ties in the nearest obstacle keep the first point; the
-//!   touched-cell list is in the order of first touch).
+//! - [`rasterize_blocked`]: blocks of [`BLOCK`] points in two passes. Pass 1 has no branches and writes only to
+//!   small stack arrays, so the compiler vectorises it (4 points per SSE2 instruction): it transforms the points
+//!   into the ego frame, classifies them by the height band, and computes the grid cell (or [`NO_CELL`]), the
+//!   squared range and the azimuth bin of each. Pass 2 applies the updates to the visibility map (without
+//!   branches on the data: whether a return is the nearest or farthest so far is not predictable) and to the
+//!   grid, in point order, which is what keeps the results identical (ties in the nearest obstacle keep the first
+//!   point; the touched-cell list is in the order of first touch).
 //!
-//! Every floating-point operation of pass 1 is the reference's, in the same order (Rust does not contract
-//! `a * b + c` into a fused multiply-add, and the compiler may not reassociate), so each lane computes the same
-//! bits; see [`crate::geometry::diamond_angle_select`] for the one rewritten function.
+//! Pass 1 computes the reference's floating-point operations in the reference's order (Rust neither contracts
+//! `a * b + c` into a fused multiply-add nor reassociates), so each lane has the reference's bits. Three things
+//! are written differently, each exact and argued where it is done: the diamond angle without branches
+//! ([`crate::geometry::diamond_angle_select`]), float-to-integer truncation by float operations
+//! ([`floor_small`], as SSE2 has no vector form of Rust's saturating `as`), and, for an upright sensor (identity
+//! rotation, the usual extrinsic), the transform as a translation. The division of the diamond angle stays: no
+//! multiplication by a reciprocal rounds like it.
 
 use crate::frame::Isometry3;
 use crate::geometry::diamond_angle_select;
@@ -120,20 +125,38 @@ impl Pass1 {
         })
     }
 
-    /// One point: `(bin, farthest-return candidate r^2, nearest-obstacle candidate r^2, cell)`. A point the
-    /// reference skips gets `0.0` and `INFINITY` (they never win) and `NO_CELL`.
-    #[inline(always)]
-    fn point(&self, p: &[f32; 3]) -> (u32, f32, f32, u32) {
-        let [x, y, z] = *p;
+    /// True when the rotation is the identity (entries exactly 1 and 0, of either sign): the common upright
+    /// sensor, for which [`Pass1::point`] has a cheaper exact transform.
+    #[allow(clippy::float_cmp)] // Exact ones and zeros are the condition (either zero: `-0.0 == 0.0`).
+    fn translation_only(&self) -> bool {
         let [r0, r1, r2] = self.rotation;
+        r0 == [1.0, 0.0, 0.0] && r1 == [0.0, 1.0, 0.0] && r2 == [0.0, 0.0, 1.0]
+    }
+
+    /// One point: `(bin, farthest-return candidate r^2, nearest-obstacle candidate r^2, cell)`. A point the
+    /// reference skips gets `0.0` and `INFINITY` (they never win) and `NO_CELL`. `TRANSLATION_ONLY` requires
+    /// [`Pass1::translation_only`].
+    #[inline(always)]
+    fn point<const TRANSLATION_ONLY: bool>(&self, p: &[f32; 3]) -> (u32, f32, f32, u32) {
+        let [x, y, z] = *p;
         let [t0, t1, t2] = self.translation;
-        // Exactly `Isometry3::transform`.
-        let q0 = r0[0] * x + r0[1] * y + r0[2] * z + t0;
-        let q1 = r1[0] * x + r1[1] * y + r1[2] * z + t1;
-        let q2 = r2[0] * x + r2[1] * y + r2[2] * z + t2;
-        // `&` rather than `&&`: no branches. `v - v` is 0 for finite `v`, NaN for infinite or NaN `v`, so the
-        // sum is 0 exactly when both are finite (cheaper than two `is_finite` on SSE2).
-        let finite = (q0 - q0) + (q1 - q1) == 0.0;
+        // `&` rather than `&&`: no branches. A sum of `zero_if_finite` terms is 0 exactly when all are finite.
+        let (q0, q1, q2, finite) = if TRANSLATION_ONLY {
+            // `Isometry3::transform` computes `q0 = 1 x + 0 y + 0 z + t0`. For finite x, y, z that is `x + t0`
+            // but for the sign of a zero when `x` and `t0` are zeros, which nothing downstream can tell (a zero
+            // `q0` only enters `q0 - origin` and `|dx|`, `dx < 0`, `dx * dx`). A non-finite x, y or z makes the
+            // reference's `q0` and `q1` NaN (`0 * inf`), a skipped point: hence the test of `z` here (`x` and
+            // `y` are tested through `q0 = x + t0` and `q1 = y + t1`, not finite when they are not).
+            let (q0, q1, q2) = (x + t0, y + t1, z + t2);
+            (q0, q1, q2, zero_if_finite(q0) + zero_if_finite(q1) + zero_if_finite(z) == 0.0)
+        } else {
+            // Exactly `Isometry3::transform`.
+            let [r0, r1, r2] = self.rotation;
+            let q0 = r0[0] * x + r0[1] * y + r0[2] * z + t0;
+            let q1 = r1[0] * x + r1[1] * y + r1[2] * z + t1;
+            let q2 = r2[0] * x + r2[1] * y + r2[2] * z + t2;
+            (q0, q1, q2, zero_if_finite(q0) + zero_if_finite(q1) == 0.0)
+        };
         let ret = (q2 <= self.band.hi_m) & finite;
         let obstacle = ret & (q2 >= self.band.lo_m);
         // Exactly `GridGeometry::point_to_cell`: the same `f`, the same range test, and `f as u32` (truncation
@@ -158,11 +181,18 @@ impl Pass1 {
     }
 }
 
+/// 0 for a finite `v`, NaN for an infinite or NaN `v`: one subtraction (`is_finite` is three SSE2 operations).
+#[inline(always)]
+#[allow(clippy::eq_op)] // `v - v` is the point.
+fn zero_if_finite(v: f32) -> f32 {
+    v - v
+}
+
 /// `f as u32` for `f` in `[0, 2^23)`, with float operations only (SSE2 converts floats to integers with sign
 /// and saturation fix-ups the vectoriser will not emit; these it will). Any value (no panic) elsewhere.
 ///
-/// `(f + 2^23) - 2^23` is `f` rounded to the nearest whole number (in `[2^23, 2^24)` the float spacing is 1),
-/// one less if that rounded up is `floor(f)`, and a whole number `w < 2^23` plus `2^23` has the bits
+/// `(f + 2^23) - 2^23` is `f` rounded to the nearest whole number (in `[2^23, 2^24)` the float spacing is 1);
+/// that, less one where it rounded up, is `floor(f)`; and a whole number `w < 2^23` plus `2^23` has the bits
 /// `0x4B00_0000 + w`.
 #[inline(always)]
 fn floor_small(f: f32) -> u32 {
@@ -186,10 +216,10 @@ impl Block {
 
     /// Pass 1 over a block; returns the number of points that fall in the band and in the grid.
     #[inline(always)]
-    fn fill(&mut self, k: &Pass1, points: &[[f32; 3]; BLOCK]) -> u32 {
+    fn fill<const TRANSLATION_ONLY: bool>(&mut self, k: &Pass1, points: &[[f32; 3]; BLOCK]) -> u32 {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_r2.iter_mut());
         for ((p, ((bin, far), near)), cell) in points.iter().zip(outputs).zip(self.cells.iter_mut()) {
-            (*bin, *far, *near, *cell) = k.point(p);
+            (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY>(p);
         }
         self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
     }
@@ -219,13 +249,27 @@ pub(crate) fn rasterize_blocked(
     let Some(k) = Pass1::new(t, band, &grid.geometry, visibility.bin_params()) else {
         return rasterize_scalar(points, t, band, grid, visibility);
     };
+    if k.translation_only() {
+        blocks::<true>(&k, points, grid, visibility)
+    } else {
+        blocks::<false>(&k, points, grid, visibility)
+    }
+}
+
+/// The block loop of [`rasterize_blocked`].
+fn blocks<const TRANSLATION_ONLY: bool>(
+    k: &Pass1,
+    points: &[[f32; 3]],
+    grid: &mut OccupancyGrid,
+    visibility: &mut VisibilityMap,
+) -> u32 {
     let mut block = Block::EMPTY;
     let mut in_band = 0u32;
     let chunks = points.chunks_exact(BLOCK);
     let rest = chunks.remainder();
     for chunk in chunks {
         let Ok(chunk) = <&[[f32; 3]; BLOCK]>::try_from(chunk) else { continue };
-        in_band += block.fill(&k, chunk);
+        in_band += block.fill::<TRANSLATION_ONLY>(k, chunk);
         block.apply(grid, visibility);
     }
     if !rest.is_empty() {
@@ -234,7 +278,7 @@ pub(crate) fn rasterize_blocked(
         for (d, s) in padded.iter_mut().zip(rest) {
             *d = *s;
         }
-        in_band += block.fill(&k, &padded);
+        in_band += block.fill::<TRANSLATION_ONLY>(k, &padded);
         block.apply(grid, visibility);
     }
     in_band
@@ -243,8 +287,199 @@ pub(crate) fn rasterize_blocked(
 #[cfg(test)]
 #[allow(clippy::float_cmp)]
 mod tests {
+    use alloc::vec;
+    use alloc::vec::Vec;
+
     use super::*;
     use crate::geometry::diamond_angle;
+
+    /// A tiny xorshift generator (the crate has no RNG dependency).
+    struct Xorshift(u64);
+
+    impl Xorshift {
+        fn next_u32(&mut self) -> u32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 32) as u32
+        }
+
+        fn unit(&mut self) -> f32 {
+            (self.next_u32() >> 8) as f32 / (1u32 << 24) as f32
+        }
+
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * self.unit()
+        }
+    }
+
+    /// Runs both loops on fresh grids and maps; asserts bit-identical results; returns the points in band.
+    fn assert_same(points: &[[f32; 3]], t: &Isometry3, band: Band, cells: u32, cell_m: f32, bins: u32) -> u32 {
+        let geometry = GridGeometry::new(cells, cell_m);
+        let run = |blocked: bool| {
+            let mut grid = OccupancyGrid::new(geometry, 0.7, points.len());
+            let mut vis = VisibilityMap::new(bins);
+            vis.reset([t.translation_m[0], t.translation_m[1]]);
+            let n = if blocked {
+                rasterize_blocked(points, t, band, &mut grid, &mut vis)
+            } else {
+                rasterize_scalar(points, t, band, &mut grid, &mut vis)
+            };
+            let touched = grid.touched().to_vec();
+            let hits: Vec<u16> = touched.iter().map(|&c| grid.hits(c)).collect();
+            let (near, near_cell, far) = vis.arrays();
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+            (n, touched, hits, bits(&near), near_cell, bits(&far))
+        };
+        let (scalar, blocked) = (run(false), run(true));
+        assert_eq!(scalar.0, blocked.0, "points in band");
+        assert_eq!(scalar.1, blocked.1, "touched cells in order");
+        assert_eq!(scalar.2, blocked.2, "hits");
+        assert_eq!(scalar.3, blocked.3, "nearest obstacle r2 bits");
+        assert_eq!(scalar.4, blocked.4, "nearest obstacle cells");
+        assert_eq!(scalar.5, blocked.5, "farthest return r2 bits");
+        scalar.0
+    }
+
+    const BAND: Band = Band { lo_m: 0.3, hi_m: 2.5 };
+
+    #[test]
+    fn blocked_equals_scalar_on_special_points() {
+        let t = Isometry3::from_translation(0.0, 0.0, 1.8);
+        let specials =
+            [0.0, -0.0, 0.5, -0.5, 1e-30, -1e-30, 3e38, -3e38, f32::MAX, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
+        let mut points = Vec::new();
+        for &a in &specials {
+            for &b in &specials {
+                for z in [-1.8, -1.5, 0.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30] {
+                    points.push([a, b, z]);
+                    points.push([b, 10.0, z]);
+                    points.push([-7.25, a, z]);
+                }
+            }
+        }
+        // Cell borders of a 0.5 m grid of 200 cells (-50 m .. 50 m), including both outer edges, just inside and
+        // just outside, at the exact band limits (z = 0.3 and 2.5 in the ego frame, sensor 1.8 m up).
+        for k in -2..=202 {
+            let v = -50.0 + 0.5 * k as f32;
+            for w in [v, v.next_up(), v.next_down()] {
+                for z in [0.3 - 1.8, 2.5 - 1.8, (0.3f32 - 1.8).next_down(), (2.5f32 - 1.8).next_up(), -1.0] {
+                    points.push([w, 3.25, z]);
+                    points.push([-11.0, w, z]);
+                    points.push([w, w, z]);
+                }
+            }
+        }
+        // The sensor's own position (dx = dy = 0) and the axes (quadrant edges of the diamond angle).
+        for r in [0.0, 1.0, 5.0, 49.9] {
+            for (x, y) in [(r, 0.0), (-r, 0.0), (0.0, r), (0.0, -r), (r, -0.0), (-0.0, -r)] {
+                points.push([x, y, -1.0]);
+                points.push([x, y, 0.0]);
+            }
+        }
+        let in_band = assert_same(&points, &t, BAND, 200, 0.5, 720);
+        assert!(in_band > 100, "the cases reach the grid: {in_band}");
+        // The translation-only fast path: a sensor off the ego origin, and an identity written with negative zeros
+        // and zero translations of either sign (zeros of either sign in x and y above).
+        for t in [
+            Isometry3::from_translation(1.25, -0.75, 1.8),
+            Isometry3 {
+                rotation: [[1.0, -0.0, 0.0], [-0.0, 1.0, -0.0], [0.0, -0.0, 1.0]],
+                translation_m: [-0.0, 0.0, 1.8],
+            },
+        ] {
+            assert!(Pass1::new(&t, BAND, &GridGeometry::new(200, 0.5), VisibilityMap::new(720).bin_params())
+                .is_some_and(|k| k.translation_only()));
+            assert_same(&points, &t, BAND, 200, 0.5, 720);
+        }
+        // The same points through rotated extrinsics, and bins that put the last bin at the limit.
+        for (yaw, bins) in [(0.3, 8), (-2.0, 65_536), (core::f32::consts::PI, 720)] {
+            let t = Isometry3::from_yaw_translation(yaw, [0.7, -0.4, 1.8]);
+            assert_same(&points, &t, BAND, 200, 0.5, bins);
+        }
+    }
+
+    #[test]
+    fn blocked_equals_scalar_for_every_remainder() {
+        let mut rng = Xorshift(0x9e37_79b9_7f4a_7c15);
+        let t = Isometry3::from_yaw_translation(0.1, [0.5, 0.2, 1.8]);
+        for len in 0..=200 {
+            let points: Vec<[f32; 3]> =
+                (0..len).map(|_| [rng.range(-60.0, 60.0), rng.range(-60.0, 60.0), rng.range(-2.5, 1.5)]).collect();
+            assert_same(&points, &t, BAND, 200, 0.5, 720);
+        }
+    }
+
+    #[test]
+    fn blocked_equals_scalar_on_random_clouds_grids_and_extrinsics() {
+        let mut rng = Xorshift(42);
+        for case in 0..60 {
+            let cells = [1, 2, 7, 200, 333, 1000][case % 6];
+            let cell_m = [0.1, 0.2, 0.5, 0.37, 1.0, 3.0][(case / 6) % 6];
+            let bins = [8, 9, 720, 1000, 4096, 65_536][(case / 3) % 6];
+            let (yaw, roll) = (rng.range(-4.0, 4.0), rng.range(-0.2, 0.2));
+            let (s, c) = (libm::sinf(yaw), libm::cosf(yaw));
+            let (sr, cr) = (libm::sinf(roll), libm::cosf(roll));
+            // A yaw and a roll: every entry of the rotation is used.
+            let t = Isometry3 {
+                rotation: [[c, -s * cr, s * sr], [s, c * cr, -c * sr], [0.0, sr, cr]],
+                translation_m: [rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(0.0, 3.0)],
+            };
+            let half = 0.6 * cells as f32 * cell_m;
+            let points: Vec<[f32; 3]> = (0..1000)
+                .map(|i| {
+                    let mut p = [rng.range(-half, half), rng.range(-half, half), rng.range(-3.0, 2.0)];
+                    if i % 97 == 0 {
+                        p[i % 3] = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY][i % 3];
+                    }
+                    if i % 13 == 0 {
+                        // On a cell border.
+                        p[0] = -0.5 * cells as f32 * cell_m + cell_m * (i % 50) as f32 - t.translation_m[0];
+                    }
+                    p
+                })
+                .collect();
+            let band = Band { lo_m: rng.range(-0.5, 0.5), hi_m: rng.range(0.6, 3.0) };
+            assert_same(&points, &t, band, cells, cell_m, bins);
+        }
+    }
+
+    #[test]
+    fn falls_back_to_the_reference_for_a_modified_geometry() {
+        // A geometry whose private inverse cell size no longer matches: pass 1 cannot reproduce it. (Not
+        // `clone`d: a cloned grid's touched list has no spare capacity.)
+        let grid = || {
+            let mut g = OccupancyGrid::new(GridGeometry::new(10, 1.0), 0.7, 16);
+            g.geometry.cell_size_m = 2.0;
+            g
+        };
+        let (mut grid_blocked, mut grid_scalar) = (grid(), grid());
+        let (mut vis_blocked, mut vis_scalar) = (VisibilityMap::new(8), VisibilityMap::new(8));
+        let t = Isometry3::IDENTITY;
+        assert!(Pass1::new(&t, BAND, &grid_blocked.geometry, vis_blocked.bin_params()).is_none());
+        let points = [[1.0, 1.0, 1.0], [-3.0, 2.0, 1.0], [4.5, -4.5, 1.0]];
+        let a = rasterize_blocked(&points, &t, BAND, &mut grid_blocked, &mut vis_blocked);
+        let b = rasterize_scalar(&points, &t, BAND, &mut grid_scalar, &mut vis_scalar);
+        assert_eq!((a, grid_blocked.touched()), (b, grid_scalar.touched()));
+        assert_eq!(grid_scalar.touched(), [66, 72, 9]);
+        assert_eq!(vis_blocked.arrays(), vis_scalar.arrays());
+    }
+
+    #[test]
+    fn floor_small_is_truncation_below_two_to_the_23() {
+        let mut values = vec![0.0f32, -0.0, 0.5, 0.499_999_97, 1.0, 1.5, 2.5, 4_095.999_8, 8_388_607.0, 8_388_607.5];
+        for k in 0..5000u32 {
+            let v = k as f32 * 0.25;
+            values.extend([v, v.next_up(), v.next_down().max(0.0)]);
+        }
+        let mut rng = Xorshift(7);
+        for _ in 0..100_000 {
+            values.push(rng.unit() * [1.0, 200.0, 4096.0, 65_536.0, 8_388_607.0][rng.next_u32() as usize % 5]);
+        }
+        for v in values {
+            assert_eq!(floor_small(v), v as u32, "{v:e}");
+        }
+    }
 
     #[test]
     fn diamond_angle_select_equals_diamond_angle() {

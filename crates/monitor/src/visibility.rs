@@ -38,12 +38,27 @@ pub enum Sight {
     Unreached,
 }
 
+/// One azimuth bin: the nearest obstacle return (squared range and grid cell) and the farthest return.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Bin {
+    /// Squared range of the nearest obstacle return, m^2 (`INFINITY`: none).
+    nearest_obstacle_r2: f32,
+    /// Grid cell of that return (`NO_CELL`: none, or outside the grid).
+    nearest_obstacle_cell: u32,
+    /// Squared range of the farthest return below the band's top, m^2 (0: none).
+    farthest_return_r2: f32,
+}
+
+impl Bin {
+    const EMPTY: Self =
+        Self { nearest_obstacle_r2: f32::INFINITY, nearest_obstacle_cell: NO_CELL, farthest_return_r2: 0.0 };
+}
+
 /// Nearest-obstacle and farthest-return ranges per azimuth bin.
 #[derive(Clone, Debug)]
 pub struct VisibilityMap {
-    nearest_obstacle_r2: Vec<f32>,
-    nearest_obstacle_cell: Vec<u32>,
-    farthest_return_r2: Vec<f32>,
+    /// One record per bin (a single bounds check per update).
+    bins: Vec<Bin>,
     origin: [f32; 2],
     bins_per_unit: f32,
 }
@@ -53,20 +68,12 @@ impl VisibilityMap {
     #[must_use]
     pub fn new(bins: u32) -> Self {
         let n = bins.max(1) as usize;
-        Self {
-            nearest_obstacle_r2: vec![f32::INFINITY; n],
-            nearest_obstacle_cell: vec![NO_CELL; n],
-            farthest_return_r2: vec![0.0; n],
-            origin: [0.0, 0.0],
-            bins_per_unit: n as f32 / 4.0,
-        }
+        Self { bins: vec![Bin::EMPTY; n], origin: [0.0, 0.0], bins_per_unit: n as f32 / 4.0 }
     }
 
     /// Clears the map and sets the sensor origin (ego frame, metres).
     pub fn reset(&mut self, origin: [f32; 2]) {
-        self.nearest_obstacle_r2.fill(f32::INFINITY);
-        self.nearest_obstacle_cell.fill(NO_CELL);
-        self.farthest_return_r2.fill(0.0);
+        self.bins.fill(Bin::EMPTY);
         self.origin = origin;
     }
 
@@ -76,46 +83,46 @@ impl VisibilityMap {
         BinParams {
             origin: self.origin,
             bins_per_unit: self.bins_per_unit,
-            last_bin: self.nearest_obstacle_r2.len().saturating_sub(1),
+            last_bin: self.bins.len().saturating_sub(1),
         }
     }
 
-    /// Records a block of returns already binned (see [`BinParams`]), in order. Per return: its bin, its
-    /// squared range as a candidate farthest return (`0.0` for a point that is no return: it never wins), as a
-    /// candidate nearest obstacle (`f32::INFINITY` for a point that is no obstacle: it never wins), and the
-    /// obstacle's grid cell. Same effect as [`VisibilityMap::add_return`] on each return in turn; ties keep the
-    /// first, as there.
+    /// Records a block of returns already binned (see [`BinParams`]), in order. Per return: its bin, its squared
+    /// range as a candidate farthest return (`0.0` for a point that is no return: it never wins), as a candidate
+    /// nearest obstacle (`f32::INFINITY` for a point that is no obstacle: it never wins), and the obstacle's grid
+    /// cell. Same effect as [`VisibilityMap::add_return`] on each return in turn (ties keep the first, as
+    /// there).
     #[inline]
     pub(crate) fn add_binned(&mut self, bins: &[u32], far_r2: &[f32], near_r2: &[f32], cells: &[u32]) {
         let returns = bins.iter().zip(far_r2).zip(near_r2).zip(cells);
         for (((&b, &far), &near), &cell) in returns {
-            let b = b as usize;
-            if let Some(f) = self.farthest_return_r2.get_mut(b) {
-                if far > *f {
-                    *f = far;
-                }
-            }
-            if let Some(n) = self.nearest_obstacle_r2.get_mut(b) {
-                if near < *n {
-                    *n = near;
-                    if let Some(c) = self.nearest_obstacle_cell.get_mut(b) {
-                        *c = cell;
-                    }
-                }
+            if let Some(bin) = self.bins.get_mut(b as usize) {
+                // The reference's two ifs without branches (whether a return is the farthest or the nearest so
+                // far is not predictable in real sweeps): a `maxss`, and the nearest obstacle through a bit mask
+                // (a plain `if` or select becomes a branch again). Neither range is NaN.
+                bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
+                let keep = u32::from(near < bin.nearest_obstacle_r2).wrapping_sub(1);
+                let r2_bits = (bin.nearest_obstacle_r2.to_bits() & keep) | (near.to_bits() & !keep);
+                bin.nearest_obstacle_r2 = f32::from_bits(r2_bits);
+                bin.nearest_obstacle_cell = (bin.nearest_obstacle_cell & keep) | (cell & !keep);
             }
         }
     }
 
     /// The three arrays (nearest obstacle r^2, its cell, farthest return r^2), for bit-exact comparisons.
     #[cfg(test)]
-    pub(crate) fn arrays(&self) -> (&[f32], &[u32], &[f32]) {
-        (&self.nearest_obstacle_r2, &self.nearest_obstacle_cell, &self.farthest_return_r2)
+    pub(crate) fn arrays(&self) -> (Vec<f32>, Vec<u32>, Vec<f32>) {
+        (
+            self.bins.iter().map(|b| b.nearest_obstacle_r2).collect(),
+            self.bins.iter().map(|b| b.nearest_obstacle_cell).collect(),
+            self.bins.iter().map(|b| b.farthest_return_r2).collect(),
+        )
     }
 
     #[inline]
     fn bin(&self, dx: f32, dy: f32) -> usize {
         let b = (diamond_angle(dx, dy) * self.bins_per_unit) as usize;
-        b.min(self.nearest_obstacle_r2.len().saturating_sub(1))
+        b.min(self.bins.len().saturating_sub(1))
     }
 
     /// Records a return at an ego-frame position; `obstacle` for points in the height band, with the grid
@@ -126,19 +133,13 @@ impl VisibilityMap {
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
         let b = self.bin(dx, dy);
-        if let Some(f) = self.farthest_return_r2.get_mut(b) {
-            if r2 > *f {
-                *f = r2;
+        if let Some(bin) = self.bins.get_mut(b) {
+            if r2 > bin.farthest_return_r2 {
+                bin.farthest_return_r2 = r2;
             }
-        }
-        if obstacle {
-            if let Some(n) = self.nearest_obstacle_r2.get_mut(b) {
-                if r2 < *n {
-                    *n = r2;
-                    if let Some(c) = self.nearest_obstacle_cell.get_mut(b) {
-                        *c = cell;
-                    }
-                }
+            if obstacle && r2 < bin.nearest_obstacle_r2 {
+                bin.nearest_obstacle_r2 = r2;
+                bin.nearest_obstacle_cell = cell;
             }
         }
     }
@@ -150,11 +151,11 @@ impl VisibilityMap {
         let dx = x - self.origin[0];
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
-        let b = self.bin(dx, dy);
-        let near = self.nearest_obstacle_r2.get(b).copied().unwrap_or(0.0);
-        let far = self.farthest_return_r2.get(b).copied().unwrap_or(0.0);
+        let bin = self.bins.get(self.bin(dx, dy)).copied();
+        let near = bin.map_or(0.0, |b| b.nearest_obstacle_r2);
+        let far = bin.map_or(0.0, |b| b.farthest_return_r2);
         if r2 >= near {
-            Sight::Shadowed(self.nearest_obstacle_cell.get(b).copied().unwrap_or(NO_CELL))
+            Sight::Shadowed(bin.map_or(NO_CELL, |b| b.nearest_obstacle_cell))
         } else if r2 <= far {
             Sight::Visible
         } else {
