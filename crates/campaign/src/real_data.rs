@@ -165,7 +165,11 @@ pub fn real_data_experiments_with(
             key,
             label: format!("{label} ({} frames, {boxes} boxes)", frames.len()),
             paper_ref,
-            params: MonitorParams { ground_z_m: ds.info.ground_z_m, ..*base },
+            params: MonitorParams {
+                ground_z_m: ds.info.ground_z_m,
+                ego_footprint_m: ds.info.format.ego_footprint_m(),
+                ..*base
+            },
             frames,
         });
     }
@@ -1196,6 +1200,7 @@ impl TrackScene {
         let grid = base.grid_size_m.max((2.0 * (reach + 10.0) / 10.0).ceil() * 10.0);
         let params = MonitorParams {
             ground_z_m: ds.info.ground_z_m,
+            ego_footprint_m: ds.info.format.ego_footprint_m(),
             grid_size_m: grid,
             cell_size_m: base.cell_size_m.max(grid / 1024.0),
             ..*base

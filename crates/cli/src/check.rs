@@ -204,6 +204,8 @@ pub struct Input {
     pub iter: Box<dyn Iterator<Item = Result<RecordedFrame>>>,
     /// The dataset's ground height in its ego frame (`None` for pmon recordings).
     pub ground_z_m: Option<f32>,
+    /// The dataset vehicle's footprint in its ego frame (`None` for pmon recordings).
+    pub ego_footprint_m: Option<[f32; 4]>,
 }
 
 /// Opens a pmon recording (directory or `.jsonl`) or a dataset spec `scheme:path`.
@@ -213,22 +215,36 @@ pub fn open_input(arg: &std::path::Path) -> Result<(String, Input)> {
         if pmon_datasets::SCHEMES.contains(&scheme) {
             let ds = pmon_datasets::open(&text).map_err(|e| anyhow::anyhow!("{e}"))?;
             let ground = ds.info.ground_z_m;
+            let ego = ds.info.format.ego_footprint_m();
             let name = ds.info.name.clone();
             let iter = ds.frames.into_iter().map(|f| Ok(f.frame));
-            return Ok((name, Input { iter: Box::new(iter), ground_z_m: Some(ground) }));
+            return Ok((name, Input { iter: Box::new(iter), ground_z_m: Some(ground), ego_footprint_m: Some(ego) }));
         }
     }
     let reader = RecordingReader::open(arg)?;
     let name = reader.meta.name.clone();
-    Ok((name, Input { iter: Box::new(reader.map(|f| f.map_err(anyhow::Error::from))), ground_z_m: None }))
+    Ok((
+        name,
+        Input {
+            iter: Box::new(reader.map(|f| f.map_err(anyhow::Error::from))),
+            ground_z_m: None,
+            ego_footprint_m: None,
+        },
+    ))
 }
 
 /// `pmon check`.
 pub fn run(args: &CheckArgs) -> Result<ExitCode> {
     let mut params = load_params(args.params.as_deref())?;
     let (name, frames) = open_input(&args.recording)?;
-    if let (Some(ground), None) = (frames.ground_z_m, &args.params) {
-        params.ground_z_m = ground;
+    // A dataset's own ground height and vehicle footprint, unless the user gave parameters.
+    if args.params.is_none() {
+        if let Some(ground) = frames.ground_z_m {
+            params.ground_z_m = ground;
+        }
+        if let Some(ego) = frames.ego_footprint_m {
+            params.ego_footprint_m = ego;
+        }
     }
     let mut monitor = Monitor::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut out: Box<dyn Write> = match &args.out {

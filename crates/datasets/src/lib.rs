@@ -51,6 +51,22 @@ pub enum DatasetFormat {
 }
 
 impl DatasetFormat {
+    /// The recording vehicle's footprint in this format's ego frame, `[min_x, min_y, max_x, max_y]` metres, for
+    /// the monitor's `ego_footprint_m` (returns inside it are the vehicle itself): KITTI's frame is centred on
+    /// the roof LiDAR of a 4.8 m x 1.8 m car; nuScenes' and Argoverse 2's on the rear axle. Zeros where the
+    /// data has no LiDAR.
+    #[must_use]
+    pub const fn ego_footprint_m(self) -> [f32; 4] {
+        match self {
+            // Wider than the body: the sensor rack and mirrors return at up to 1.5 m to the side.
+            Self::KittiObject => [-2.7, -1.6, 2.6, 1.6],
+            Self::NuScenesConverted | Self::NuScenesV1 | Self::Argoverse2 => [-1.2, -1.2, 4.2, 1.2],
+            Self::KittiTracking | Self::CommonRoad => [0.0; 4],
+        }
+    }
+}
+
+impl DatasetFormat {
     /// The scheme of the spec string accepted by [`open`] for this format.
     #[must_use]
     pub const fn scheme(self) -> &'static str {

@@ -258,6 +258,11 @@ impl Monitor {
         let band = Band {
             lo_m: self.params.ground_z_m + self.params.min_obstacle_height_m,
             hi_m: self.params.ground_z_m + self.params.max_obstacle_height_m,
+            ego_m: if self.params.ego_footprint_m.iter().all(|v| *v == 0.0) {
+                Band::NO_EGO
+            } else {
+                self.params.ego_footprint_m
+            },
         };
         let (points, grid, visibility) = (cloud.points_in_sensor, &mut self.grid, &mut self.visibility);
         let in_band = match self.rasterizer {

@@ -93,6 +93,10 @@ pub struct MonitorParams {
     /// Points higher than this above the ground can be driven under (canopies, signs, bridges), metres.
     pub max_obstacle_height_m: f32,
 
+    /// The ego vehicle's footprint in the ego frame, `[min_x, min_y, max_x, max_y]`, metres: returns inside it
+    /// are the vehicle itself (mirrors, roof rack) and are ignored. All zeros: no mask.
+    pub ego_footprint_m: [f32; 4],
+
     // ---- occupancy (inverse sensor model, log-odds) ----
     /// Occupancy probability that one LiDAR hit in a cell stands for (inverse sensor model), dimensionless in
     /// (0.5, 1). Each hit adds `ln(p / (1 - p))` to the cell's log-odds, starting from the prior 0.5. With 0.7
@@ -158,6 +162,7 @@ impl MonitorParams {
         ground_z_m: 0.0,
         min_obstacle_height_m: 0.3,
         max_obstacle_height_m: 2.5,
+        ego_footprint_m: [0.0; 4],
         hit_probability: 0.7,
         safety_margin_m: 0.1,
         tau_tp: 0.8,
@@ -264,6 +269,14 @@ impl MonitorParams {
             return Err(ParamError {
                 field: "max_obstacle_height_m",
                 reason: "must be greater than min_obstacle_height_m",
+            });
+        }
+        let e = self.ego_footprint_m;
+        let none = e.iter().all(|v| *v == 0.0);
+        if !(e.iter().all(|v| v.is_finite()) && (none || (e[0] < e[2] && e[1] < e[3]))) {
+            return Err(ParamError {
+                field: "ego_footprint_m",
+                reason: "must be finite [min_x, min_y, max_x, max_y] with min < max, or all zeros",
             });
         }
         if !(self.hit_probability > 0.5 && self.hit_probability < 1.0) {

@@ -46,6 +46,21 @@ pub(crate) struct Band {
     pub lo_m: f32,
     /// Highest obstacle height, metres.
     pub hi_m: f32,
+    /// The ego footprint `[min_x, min_y, max_x, max_y]`: returns inside it are skipped like NaN points. An
+    /// empty box (`min > max`) masks nothing.
+    pub ego_m: [f32; 4],
+}
+
+impl Band {
+    /// No ego mask.
+    pub(crate) const NO_EGO: [f32; 4] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+
+    /// True when `(x, y)` lies in the ego footprint (never for NaN).
+    #[inline(always)]
+    fn in_ego(&self, x: f32, y: f32) -> bool {
+        let e = self.ego_m;
+        (x >= e[0]) & (x <= e[2]) & (y >= e[1]) & (y <= e[3])
+    }
 }
 
 /// The reference loop. Returns the number of points that fell in the band and in the grid.
@@ -66,7 +81,7 @@ pub(crate) fn rasterize_scalar(
             continue;
         }
         let obstacle = q[2] >= lo;
-        if !(q[0].is_finite() && q[1].is_finite()) {
+        if !(q[0].is_finite() && q[1].is_finite()) || band.in_ego(q[0], q[1]) {
             continue;
         }
         let cell = if obstacle { geometry.point_to_cell(q[0], q[1]) } else { None };
@@ -157,7 +172,7 @@ impl Pass1 {
             let q2 = r2[0] * x + r2[1] * y + r2[2] * z + t2;
             (q0, q1, q2, zero_if_finite(q0) + zero_if_finite(q1) == 0.0)
         };
-        let ret = (q2 <= self.band.hi_m) & finite;
+        let ret = (q2 <= self.band.hi_m) & finite & !self.band.in_ego(q0, q1);
         let obstacle = ret & (q2 >= self.band.lo_m);
         // Exactly `GridGeometry::point_to_cell`: the same `f`, the same range test, and `f as u32` (truncation
         // of `f` in `[0, cells_per_side)`) by `floor_small`, which is exact there.
@@ -341,7 +356,7 @@ mod tests {
         scalar.0
     }
 
-    const BAND: Band = Band { lo_m: 0.3, hi_m: 2.5 };
+    const BAND: Band = Band { lo_m: 0.3, hi_m: 2.5, ego_m: Band::NO_EGO };
 
     #[test]
     fn blocked_equals_scalar_on_special_points() {
@@ -439,7 +454,11 @@ mod tests {
                     p
                 })
                 .collect();
-            let band = Band { lo_m: rng.range(-0.5, 0.5), hi_m: rng.range(0.6, 3.0) };
+            let band = Band {
+                lo_m: rng.range(-0.5, 0.5),
+                hi_m: rng.range(0.6, 3.0),
+                ego_m: [rng.range(-3.0, -0.5), rng.range(-2.0, -0.5), rng.range(0.5, 3.0), rng.range(0.5, 2.0)],
+            };
             assert_same(&points, &t, band, cells, cell_m, bins);
         }
     }

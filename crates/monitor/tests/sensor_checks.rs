@@ -289,3 +289,33 @@ fn evidence_of_known_scenery_does_not_confirm_an_object() {
     assert!(r.sensor.eta < 0.8, "{:?}", r.sensor);
     assert_ne!(r.verdict, Verdict::Consistent);
 }
+
+#[test]
+fn returns_from_the_ego_vehicle_itself_are_masked() {
+    // A mirror and a roof rack: returns inside the ego footprint, in the height band.
+    let mut pts: Vec<[f32; 3]> = (0..40).map(|i| [-0.8 + 0.01 * i as f32, -1.0, 1.0]).collect();
+    pts.extend((0..40).map(|i| [1.5, -1.0 + 0.01 * i as f32, 1.2]));
+    pts.extend(ground_points(30.0));
+    let pts_s = to_sensor(&pts);
+    let frame = Frame {
+        timestamp_s: 0.0,
+        world_from_ego: Pose2::default(),
+        objects: &[],
+        cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
+        roi_in_ego: &[],
+        static_in_ego: &[],
+    };
+    for rasterizer in [pmon_monitor::Rasterizer::Blocked, pmon_monitor::Rasterizer::Scalar] {
+        let mut plain = Monitor::new(MonitorParams::default()).unwrap();
+        plain.set_rasterizer(rasterizer);
+        assert!(plain.check(&frame).unwrap().missed_objects() >= 1, "unmasked self-returns look like an object");
+        let masked_params = MonitorParams { ego_footprint_m: [-2.5, -1.2, 2.5, 1.2], ..MonitorParams::default() };
+        let mut masked = Monitor::new(masked_params).unwrap();
+        masked.set_rasterizer(rasterizer);
+        let rep = masked.check(&frame).unwrap();
+        assert_eq!(rep.missed_objects(), 0);
+        assert_eq!(rep.grid.cells_hit, 0);
+    }
+    let bad = MonitorParams { ego_footprint_m: [1.0, 0.0, -1.0, 1.0], ..MonitorParams::default() };
+    assert_eq!(bad.validate().map_err(|e| e.field), Err("ego_footprint_m"));
+}
