@@ -215,7 +215,7 @@ fn datasets_convert_to_recordings_that_check_the_same() {
     let o = pmon(&["convert", &spec, "--out", rec.to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
     let p = dir.path().join("p.toml");
-    std::fs::write(&p, "ground_z_m = 0.0\n").unwrap();
+    std::fs::write(&p, "ground_z_m = 0.0\nego_footprint_m = [-1.2, -1.2, 4.2, 1.2]\n").unwrap();
     let converted = pmon(&["check", "--format", "jsonl", "--params", p.to_str().unwrap(), rec.to_str().unwrap()]);
     assert_ne!(converted.status.code(), Some(2), "{}", text(&converted));
     let verdicts = |o: &Output| -> Vec<String> {
@@ -225,7 +225,8 @@ fn datasets_convert_to_recordings_that_check_the_same() {
             .map(|v| format!("{} {}", v["id"], v["verdict"]))
             .collect()
     };
-    // nuScenes' ground is at z = 0 in its ego frame, so both runs use the same parameters.
+    // The direct check applies nuScenes' ground (z = 0) and vehicle footprint; the converted run gets them
+    // from the parameter file: the same parameters, the same verdicts.
     assert_eq!(verdicts(&direct), verdicts(&converted));
     assert_eq!(verdicts(&direct).iter().filter(|v| !v.contains("missed_object")).count(), 69);
     let bad = pmon(&["check", "kitti:/nonexistent/kitti"]);
