@@ -146,7 +146,7 @@ struct Totals {
 
 fn describe_alarm(o: &ObjectState, r: &ObjectReport) -> String {
     let what = match r.verdict {
-        Verdict::Ghost => format!("ghost (eta {:.2}, region {:.0} % visible)", r.sensor.eta, 100.0 * r.sensor.visible_fraction),
+        Verdict::Ghost => format!("ghost (eta {:.2}, footprint {:.0} % visible)", r.sensor.eta, 100.0 * r.sensor.visible_fraction),
         Verdict::PositionError => format!(
             "position error (eta {:.2}, evidence {:.2} m away)",
             r.sensor.eta,

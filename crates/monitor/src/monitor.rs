@@ -553,16 +553,17 @@ impl Monitor {
                         s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
                     }
                 } else if s.eta < tau_tp {
-                    // Was the empty region visible to the sensor? A region hidden behind evidence that no
-                    // object explains is not excused: that evidence is likely the object itself, displaced.
+                    // Was the place the object claims to occupy (its footprint, not the margin around it)
+                    // visible to the sensor? A footprint hidden behind evidence that no object explains is not
+                    // excused: that evidence is likely the object itself, displaced.
                     let (mut visible, mut unexplained_shadow, mut total) = (0u32, 0u32, 0u32);
                     let mut occluder = NO_CELL;
-                    if let Some((ix0, iy0, ix1, iy1)) = geometry.cell_range(region.grown.aabb()) {
+                    if let Some((ix0, iy0, ix1, iy1)) = geometry.cell_range(region.footprint.aabb()) {
                         for iy in iy0..=iy1 {
                             let cy = geometry.cell_center_axis(iy);
                             for ix in ix0..=ix1 {
                                 let cx = geometry.cell_center_axis(ix);
-                                if region.grown.overlaps_square(cx, cy, half) {
+                                if region.footprint.overlaps_square(cx, cy, half) {
                                     total += 1;
                                     match self.visibility.sight(cx, cy) {
                                         Sight::Visible => visible += 1,

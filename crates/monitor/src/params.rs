@@ -117,9 +117,9 @@ pub struct MonitorParams {
     /// A conflict cluster closer than this to an object's region `A_o` is attributed to that object (its
     /// evidence lies outside its region: a position error), metres.
     pub conflict_association_m: f32,
-    /// Fraction of an evidence-free region that must be visible to the sensor (not shadowed by nearer
-    /// obstacles, crossed by rays that returned from beyond it) for the object to be called a ghost; below it,
-    /// the object is *not monitored: occluded*. Dimensionless in [0, 1].
+    /// Fraction of an evidence-free object's footprint that must be visible to the sensor (not shadowed by
+    /// nearer obstacles, crossed by rays that returned from beyond it) for the object to be called a ghost;
+    /// below it, the object is *not monitored: occluded*. Dimensionless in [0, 1].
     pub ghost_visible_fraction: f32,
     /// Azimuth bins of the visibility map used for the occlusion test.
     pub visibility_bins: u32,
