@@ -152,7 +152,7 @@ impl Pass1 {
     /// reference skips gets `0.0` and `INFINITY` (they never win) and `NO_CELL`. `TRANSLATION_ONLY` requires
     /// [`Pass1::translation_only`].
     #[inline(always)]
-    fn point<const TRANSLATION_ONLY: bool>(&self, p: &[f32; 3]) -> (u32, f32, f32, u32) {
+    fn point<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(&self, p: &[f32; 3]) -> (u32, f32, f32, u32) {
         let [x, y, z] = *p;
         let [t0, t1, t2] = self.translation;
         // `&` rather than `&&`: no branches. A sum of `zero_if_finite` terms is 0 exactly when all are finite.
@@ -172,7 +172,8 @@ impl Pass1 {
             let q2 = r2[0] * x + r2[1] * y + r2[2] * z + t2;
             (q0, q1, q2, zero_if_finite(q0) + zero_if_finite(q1) == 0.0)
         };
-        let ret = (q2 <= self.band.hi_m) & finite & !self.band.in_ego(q0, q1);
+        // The ego mask is a separate instantiation: testing it in every frame costs half the loop's speed.
+        let ret = (q2 <= self.band.hi_m) & finite & !(EGO_MASK && self.band.in_ego(q0, q1));
         let obstacle = ret & (q2 >= self.band.lo_m);
         // Exactly `GridGeometry::point_to_cell`: the same `f`, the same range test, and `f as u32` (truncation
         // of `f` in `[0, cells_per_side)`) by `floor_small`, which is exact there.
@@ -231,10 +232,14 @@ impl Block {
 
     /// Pass 1 over a block; returns the number of points that fall in the band and in the grid.
     #[inline(always)]
-    fn fill<const TRANSLATION_ONLY: bool>(&mut self, k: &Pass1, points: &[[f32; 3]; BLOCK]) -> u32 {
+    fn fill<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
+        &mut self,
+        k: &Pass1,
+        points: &[[f32; 3]; BLOCK],
+    ) -> u32 {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_r2.iter_mut());
         for ((p, ((bin, far), near)), cell) in points.iter().zip(outputs).zip(self.cells.iter_mut()) {
-            (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY>(p);
+            (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY, EGO_MASK>(p);
         }
         self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
     }
@@ -264,15 +269,17 @@ pub(crate) fn rasterize_blocked(
     let Some(k) = Pass1::new(t, band, &grid.geometry, visibility.bin_params()) else {
         return rasterize_scalar(points, t, band, grid, visibility);
     };
-    if k.translation_only() {
-        blocks::<true>(&k, points, grid, visibility)
-    } else {
-        blocks::<false>(&k, points, grid, visibility)
+    let ego = band.ego_m != Band::NO_EGO;
+    match (k.translation_only(), ego) {
+        (true, false) => blocks::<true, false>(&k, points, grid, visibility),
+        (false, false) => blocks::<false, false>(&k, points, grid, visibility),
+        (true, true) => blocks::<true, true>(&k, points, grid, visibility),
+        (false, true) => blocks::<false, true>(&k, points, grid, visibility),
     }
 }
 
 /// The block loop of [`rasterize_blocked`].
-fn blocks<const TRANSLATION_ONLY: bool>(
+fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
     k: &Pass1,
     points: &[[f32; 3]],
     grid: &mut OccupancyGrid,
@@ -284,7 +291,7 @@ fn blocks<const TRANSLATION_ONLY: bool>(
     let rest = chunks.remainder();
     for chunk in chunks {
         let Ok(chunk) = <&[[f32; 3]; BLOCK]>::try_from(chunk) else { continue };
-        in_band += block.fill::<TRANSLATION_ONLY>(k, chunk);
+        in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK>(k, chunk);
         block.apply(grid, visibility);
     }
     if !rest.is_empty() {
@@ -293,7 +300,7 @@ fn blocks<const TRANSLATION_ONLY: bool>(
         for (d, s) in padded.iter_mut().zip(rest) {
             *d = *s;
         }
-        in_band += block.fill::<TRANSLATION_ONLY>(k, &padded);
+        in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK>(k, &padded);
         block.apply(grid, visibility);
     }
     in_band
