@@ -78,14 +78,7 @@ fn displaced_object_is_a_position_error_and_its_evidence_is_attributed() {
     reported.x_m += 1.5; // 1.5 m further away
     let pts_s = to_sensor(&pts);
     let objects = [reported];
-    let frame = Frame {
-        timestamp_s: 0.0,
-        world_from_ego: Pose2::default(),
-        objects: &objects,
-        cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
-        roi_in_ego: &[],
-        static_in_ego: &[],
-    };
+    let frame = frame_at_origin(&objects, &pts_s, &[], &[]);
     let rep = m.check(&frame).unwrap();
     let o = rep.objects[0];
     assert_eq!(o.verdict, Verdict::PositionError, "{:?}", o.sensor);
@@ -106,14 +99,7 @@ fn unexplained_cluster_in_roi_is_a_missed_object_outside_it_is_not() {
     let road: &[[f32; 2]] = &[[0.0, 5.0], [20.0, 5.0], [20.0, 12.0], [0.0, 12.0]];
     let elsewhere: &[[f32; 2]] = &[[0.0, -12.0], [20.0, -12.0], [20.0, -5.0], [0.0, -5.0]];
     for (roi, missed) in [(&[road][..], 1usize), (&[elsewhere][..], 0)] {
-        let frame = Frame {
-            timestamp_s: 0.0,
-            world_from_ego: Pose2::default(),
-            objects: &[],
-            cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
-            roi_in_ego: roi,
-            static_in_ego: &[],
-        };
+        let frame = frame_at_origin(&[], &pts_s, roi, &[]);
         let rep = m.check(&frame).unwrap();
         assert_eq!(rep.missed_objects(), missed);
         assert!(rep.grid.cells_conflict >= 2);
@@ -206,14 +192,7 @@ fn object_straddling_the_grid_edge_explains_its_evidence() {
     let truck = object(1, 50.5, 0.0, 0.0, 4.0, 2.0);
     let pts = to_sensor(&visible_face_points(&truck, 0.05));
     let objects = [truck];
-    let frame = Frame {
-        timestamp_s: 0.0,
-        world_from_ego: Pose2::default(),
-        objects: &objects,
-        cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
-        roi_in_ego: &[],
-        static_in_ego: &[],
-    };
+    let frame = frame_at_origin(&objects, &pts, &[], &[]);
     let rep = m.check(&frame).unwrap();
     assert_eq!(rep.objects[0].verdict, Verdict::NotMonitored(NotMonitoredReason::OutsideGrid));
     assert!(rep.grid.cells_occupied > 0, "its near face is in the grid");
@@ -234,14 +213,7 @@ fn known_scenery_is_nobodys_evidence_and_its_shadow_is_occlusion() {
     let wall_poly: &[[f32; 2]] = &[[9.5, -3.5], [10.5, -3.5], [10.5, 3.5], [9.5, 3.5]];
     let objects = [hidden];
     for (scenery, want_missed) in [(&[wall_poly][..], 0usize), (&[][..], 1)] {
-        let frame = Frame {
-            timestamp_s: 0.0,
-            world_from_ego: Pose2::default(),
-            objects: &objects,
-            cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
-            roi_in_ego: &[],
-            static_in_ego: scenery,
-        };
+        let frame = frame_at_origin(&objects, &pts_s, &[], scenery);
         let rep = m.check(&frame).unwrap();
         assert_eq!(rep.missed_objects() + usize::from(rep.objects[0].sensor.cluster.is_some()), want_missed);
         if want_missed == 0 {
@@ -274,14 +246,7 @@ fn evidence_of_known_scenery_does_not_confirm_an_object() {
         ..object(1, 12.0, 1.0, 0.0, 0.5, 0.5)
     };
     let objects = [ped];
-    let frame = |scenery| Frame {
-        timestamp_s: 0.0,
-        world_from_ego: Pose2::default(),
-        objects: &objects,
-        cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
-        roi_in_ego: &[],
-        static_in_ego: scenery,
-    };
+    let frame = |scenery| frame_at_origin(&objects, &pts_s, &[], scenery);
     // Without the map the wall confirms it (and the rest of the wall, adjacent to its region, spills over);
     // with the map it does not.
     assert!(m.check(&frame(&[])).unwrap().objects[0].sensor.eta >= 0.8);
@@ -297,14 +262,7 @@ fn returns_from_the_ego_vehicle_itself_are_masked() {
     pts.extend((0..40).map(|i| [1.5, -1.0 + 0.01 * i as f32, 1.2]));
     pts.extend(ground_points(30.0));
     let pts_s = to_sensor(&pts);
-    let frame = Frame {
-        timestamp_s: 0.0,
-        world_from_ego: Pose2::default(),
-        objects: &[],
-        cloud: Some(PointCloud { points_in_sensor: &pts_s, ego_from_sensor: extrinsic() }),
-        roi_in_ego: &[],
-        static_in_ego: &[],
-    };
+    let frame = frame_at_origin(&[], &pts_s, &[], &[]);
     for rasterizer in [pmon_monitor::Rasterizer::Blocked, pmon_monitor::Rasterizer::Scalar] {
         let mut plain = Monitor::new(MonitorParams::default()).unwrap();
         plain.set_rasterizer(rasterizer);

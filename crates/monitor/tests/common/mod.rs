@@ -8,7 +8,7 @@
     clippy::std_instead_of_core
 )]
 
-use pmon_monitor::{Isometry3, ObjectClass, ObjectState};
+use pmon_monitor::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2};
 
 /// Sensor mounted 1.8 m above the ego origin.
 pub const SENSOR_HEIGHT_M: f32 = 1.8;
@@ -79,4 +79,21 @@ pub fn ground_points(max_range: f32) -> Vec<[f32; 3]> {
 /// Ego-frame points -> sensor frame for [`extrinsic`].
 pub fn to_sensor(points: &[[f32; 3]]) -> Vec<[f32; 3]> {
     points.iter().map(|p| [p[0], p[1], p[2] - SENSOR_HEIGHT_M]).collect()
+}
+
+/// A frame at t = 0 with the ego at the origin, the cloud given in the sensor frame of [`extrinsic`].
+pub fn frame_at_origin<'a>(
+    objects: &'a [ObjectState],
+    points_in_sensor: &'a [[f32; 3]],
+    roi: &'a [&'a [[f32; 2]]],
+    scenery: &'a [&'a [[f32; 2]]],
+) -> Frame<'a> {
+    Frame {
+        timestamp_s: 0.0,
+        world_from_ego: Pose2::default(),
+        objects,
+        cloud: Some(PointCloud { points_in_sensor, ego_from_sensor: extrinsic() }),
+        roi_in_ego: roi,
+        static_in_ego: scenery,
+    }
 }
