@@ -421,7 +421,7 @@ fn claims_table(claims: &[Claim]) -> Vec<Vec<TableCell>> {
             let verdict = match c.met {
                 Some(true) => TableCell::pass("met"),
                 Some(false) => TableCell::miss("missed"),
-                None => TableCell::with_class("not measured", CellClass::Muted),
+                None => TableCell::with_class("informational", CellClass::Muted),
             };
             vec![TableCell::new(c.paper.clone()), TableCell::new(c.pmon.clone()), verdict]
         })
@@ -609,7 +609,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         let met = match c.met {
             Some(true) => "yes",
             Some(false) => "NO",
-            None => "-",
+            None => "info",
         };
         println!("{:<100} {:<70} {met}", c.paper, c.pmon);
     }
