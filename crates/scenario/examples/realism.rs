@@ -5,11 +5,13 @@
 //! ```
 //!
 //! Real data (read directly, native formats): KITTI object `velodyne/*.bin` (N x 4 f32) with `label_2` and `calib`
-//! for the car boxes; the nuScenes keyframe `.pcd.bin` (N x 5 f32) with `sample_annotations.json`. Argoverse 2 is
-//! skipped (Feather would need the Arrow crates). Without the data folder only the simulated numbers are printed.
+//! for the car boxes; the nuScenes keyframe `.pcd.bin` (N x 5 f32) with `sample_annotations.json`; the Argoverse 2
+//! sweeps (Feather, through `pmon-datasets`) with their annotated cuboids. Without the data folder only the
+//! simulated numbers are printed.
 //!
 //! Numbers: points per sweep; fraction of ground points (`|z - ground| < 0.2 m`, ground at -1.73 m (KITTI) and
-//! -1.8 m (nuScenes) in the sensor frame, at minus the mount height in the simulator); points on a car at about
+//! -1.8 m (nuScenes) in the sensor frame, at the reader's ground height in AV2's ego frame, at minus the mount
+//! height in the simulator); points on a car at about
 //! 10 m (7-15 m) and about 40 m (30-50 m) from the sensor.
 
 use std::path::{Path, PathBuf};
@@ -165,6 +167,33 @@ fn nuscenes(dir: &Path) -> Result<Stats, String> {
     Ok(st)
 }
 
+/// Argoverse 2: the sweeps of log 7fab2350 with the cuboids annotated at the same timestamps.
+fn av2(dir: &Path) -> Result<Stats, String> {
+    let log = dir.join("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede");
+    let ds = pmon_datasets::open(&format!("av2:{}", log.display())).map_err(|e| e.to_string())?;
+    let ground = ds.info.ground_z_m;
+    let mut st = Stats::default();
+    for f in ds.frames.iter().filter(|f| f.frame.cloud.is_some()) {
+        let points = f.points_in_ego();
+        let origin = f.frame.cloud.as_ref().map_or([0.0; 3], |c| c.ego_from_sensor.translation_m);
+        for (i, o) in f.frame.objects.iter().enumerate() {
+            if o.class != ObjectClass::Car {
+                continue;
+            }
+            let Some(b) = f.box_in_ego(i) else { continue };
+            let r = f64::from(o.x_m - origin[0]).hypot(f64::from(o.y_m - origin[1]));
+            st.cars.push((r, pmon_datasets::points_in_box(&points, &b) as usize));
+        }
+        st.ground_fraction.push(ground_fraction(&points, ground));
+        st.points.push(points.len());
+        st.sweeps += 1;
+    }
+    if st.sweeps == 0 {
+        return Err("no sweep in the log".into());
+    }
+    Ok(st)
+}
+
 fn simulated(name: &str, preset: LidarPreset, frames: usize) -> Result<Stats, String> {
     let mut cfg = ScenarioConfig::builtin(name).ok_or("no built-in")?;
     cfg.lidar.preset = preset;
@@ -242,6 +271,10 @@ fn main() {
         match nuscenes(&dir) {
             Ok(st) => row("nuScenes 32-beam (1 keyframe)", &st),
             Err(e) => eprintln!("nuScenes skipped: {e}"),
+        }
+        match av2(&dir) {
+            Ok(st) => row("Argoverse 2, two 32-beam LiDARs (log 7fab2350)", &st),
+            Err(e) => eprintln!("Argoverse 2 skipped: {e}"),
         }
     } else {
         eprintln!("real data skipped: {} is not a directory (set PMON_DATA_DIR)", dir.display());
