@@ -15,6 +15,8 @@
 use alloc::vec;
 use alloc::vec::Vec;
 
+use crate::geometry::OrientedRect;
+
 /// Hits beyond this are not counted further (the probability has long saturated).
 pub const MAX_HITS: u16 = 255;
 
@@ -124,6 +126,29 @@ impl GridGeometry {
         }
         let clamp = |v: f32| v.clamp(self.origin_m, hi - 0.5 * self.cell_size_m);
         self.cell_range([clamp(b[0]), clamp(b[1]), clamp(b[2]), clamp(b[3])])
+    }
+
+    /// Calls `f(index, centre_x, centre_y)` for each cell of an inclusive cell range that overlaps a rectangle
+    /// with positive area, row by row. Bounded by the range (at most the whole grid). (A closure rather than an
+    /// iterator: a `flat_map` iterator here cost the regions stage 45 % in `pmon bench`.)
+    #[inline]
+    pub fn for_each_cell_overlapping(
+        self,
+        rect: &OrientedRect,
+        range: (u32, u32, u32, u32),
+        mut f: impl FnMut(u32, f32, f32),
+    ) {
+        let (ix0, iy0, ix1, iy1) = range;
+        let half = 0.5 * self.cell_size_m;
+        for iy in iy0..=iy1 {
+            let cy = self.cell_center_axis(iy);
+            for ix in ix0..=ix1 {
+                let cx = self.cell_center_axis(ix);
+                if rect.overlaps_square(cx, cy, half) {
+                    f(iy * self.cells_per_side + ix, cx, cy);
+                }
+            }
+        }
     }
 
     /// Inclusive cell range `(ix0, iy0, ix1, iy1)` covering a box that lies inside the grid.

@@ -306,7 +306,6 @@ impl Monitor {
     /// Regions `A_o`, consistency `eta(o)` (eq. consistency), and the cells they explain.
     fn object_regions(&mut self, frame: &Frame<'_>) {
         let geometry = self.grid.geometry;
-        let half = 0.5 * geometry.cell_size_m;
         for (i, o) in frame.objects.iter().enumerate() {
             let report = if !self.valid.get(i).copied().unwrap_or(false) {
                 sensor_outcome(SensorVerdict::NotMonitored(NotMonitoredReason::InvalidState))
@@ -328,23 +327,16 @@ impl Monitor {
                         out.verdict =
                             SensorVerdict::NotMonitored(self.sensor_status.unwrap_or(NotMonitoredReason::NoLidarData));
                     }
-                    Some((ix0, iy0, ix1, iy1)) => {
+                    Some(range) => {
                         let mut eta = self.grid.probability_of_hits(0);
-                        for iy in iy0..=iy1 {
-                            let cy = geometry.cell_center_axis(iy);
-                            for ix in ix0..=ix1 {
-                                let cx = geometry.cell_center_axis(ix);
-                                if !region.grown.overlaps_square(cx, cy, half) {
-                                    continue;
-                                }
-                                let idx = iy * geometry.cells_per_side + ix;
-                                let hits = self.grid.hits(idx);
-                                if hits > 0 && self.grid.flags(idx) & FLAG_STATIC == 0 {
-                                    eta = eta.max(self.grid.probability_of_hits(hits));
-                                    self.grid.set_flags(idx, FLAG_EXPLAINED);
-                                }
+                        let grid = &mut self.grid;
+                        geometry.for_each_cell_overlapping(&region.grown, range, |idx, _, _| {
+                            let hits = grid.hits(idx);
+                            if hits > 0 && grid.flags(idx) & FLAG_STATIC == 0 {
+                                eta = eta.max(grid.probability_of_hits(hits));
+                                grid.set_flags(idx, FLAG_EXPLAINED);
                             }
-                        }
+                        });
                         out.eta = eta;
                         if let Some(s) = self.scratch.get_mut(i) {
                             s.region = Some(region);
@@ -364,18 +356,9 @@ impl Monitor {
 
     /// Marks the hit cells of a cell range that overlap a region as explained.
     fn explain_cells(&mut self, region: &Region, range: Option<(u32, u32, u32, u32)>) {
-        let Some((ix0, iy0, ix1, iy1)) = range else { return };
-        let geometry = self.grid.geometry;
-        let half = 0.5 * geometry.cell_size_m;
-        for iy in iy0..=iy1 {
-            let cy = geometry.cell_center_axis(iy);
-            for ix in ix0..=ix1 {
-                let cx = geometry.cell_center_axis(ix);
-                if region.grown.overlaps_square(cx, cy, half) {
-                    self.grid.set_flags(iy * geometry.cells_per_side + ix, FLAG_EXPLAINED);
-                }
-            }
-        }
+        let Some(range) = range else { return };
+        let grid = &mut self.grid;
+        grid.geometry.for_each_cell_overlapping(&region.grown, range, |idx, _, _| grid.set_flags(idx, FLAG_EXPLAINED));
     }
 
     /// Conflict cells (`kappa > tau_fn`, eq. conflict) grouped into 8-connected clusters.
@@ -539,7 +522,6 @@ impl Monitor {
     /// Sensor verdicts (f(o) with the cluster attribution and the occlusion test) and the combined verdicts.
     fn finish_reports(&mut self, frame: &Frame<'_>) {
         let geometry = self.grid.geometry;
-        let half = 0.5 * geometry.cell_size_m;
         let tau_tp = self.params.tau_tp;
         for (j, report) in self.reports.iter_mut().enumerate() {
             let scratch = self.scratch.get(j).copied();
@@ -558,27 +540,22 @@ impl Monitor {
                     // excused: that evidence is likely the object itself, displaced.
                     let (mut visible, mut unexplained_shadow, mut total) = (0u32, 0u32, 0u32);
                     let mut occluder = NO_CELL;
-                    if let Some((ix0, iy0, ix1, iy1)) = geometry.cell_range(region.footprint.aabb()) {
-                        for iy in iy0..=iy1 {
-                            let cy = geometry.cell_center_axis(iy);
-                            for ix in ix0..=ix1 {
-                                let cx = geometry.cell_center_axis(ix);
-                                if region.footprint.overlaps_square(cx, cy, half) {
-                                    total += 1;
-                                    match self.visibility.sight(cx, cy) {
-                                        Sight::Visible => visible += 1,
-                                        Sight::Shadowed(c) if c != NO_CELL => {
-                                            // Behind evidence nobody explains, in the region of interest.
-                                            if self.grid.flags(c) & FLAG_ROI_CONFLICT != 0 {
-                                                unexplained_shadow += 1;
-                                                occluder = c;
-                                            }
-                                        }
-                                        Sight::Shadowed(_) | Sight::Unreached => {}
+                    if let Some(range) = geometry.cell_range(region.footprint.aabb()) {
+                        let (visibility, grid) = (&self.visibility, &self.grid);
+                        geometry.for_each_cell_overlapping(&region.footprint, range, |_, cx, cy| {
+                            total += 1;
+                            match visibility.sight(cx, cy) {
+                                Sight::Visible => visible += 1,
+                                Sight::Shadowed(c) if c != NO_CELL => {
+                                    // Behind evidence nobody explains, in the region of interest.
+                                    if grid.flags(c) & FLAG_ROI_CONFLICT != 0 {
+                                        unexplained_shadow += 1;
+                                        occluder = c;
                                     }
                                 }
+                                Sight::Shadowed(_) | Sight::Unreached => {}
                             }
-                        }
+                        });
                     }
                     let frac = |k: u32| if total > 0 { k as f32 / total as f32 } else { 0.0 };
                     s.visible_fraction = frac(visible);
