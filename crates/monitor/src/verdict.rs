@@ -129,6 +129,17 @@ pub enum SensorVerdict {
     NotMonitored(NotMonitoredReason),
 }
 
+impl fmt::Display for SensorVerdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Consistent => f.write_str("consistent"),
+            Self::Ghost => f.write_str("ghost"),
+            Self::PositionError => f.write_str("position_error"),
+            Self::NotMonitored(r) => write!(f, "not_monitored({r})"),
+        }
+    }
+}
+
 /// Details of the sensor checks for one object.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -160,6 +171,16 @@ pub enum MotionVerdict {
     Implausible(Conditions),
     /// The plausibility checks could not judge this object.
     NotMonitored(NotMonitoredReason),
+}
+
+impl fmt::Display for MotionVerdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Plausible => f.write_str("plausible"),
+            Self::Implausible(c) => write!(f, "implausible({c})"),
+            Self::NotMonitored(r) => write!(f, "not_monitored({r})"),
+        }
+    }
 }
 
 /// Details of the plausibility checks for one object: the estimates and margins of eqs. (pred1)-(condition_xy).
