@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict, Verdict};
+use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
 use pmon_recording::RecordedFrame;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -54,6 +54,8 @@ pub struct RunResult {
     pub missed_example: Option<Example>,
     /// First clean object state the sensor checks flagged.
     pub false_alarm_example: Option<Example>,
+    /// First injected error on an object the sensor checks called occluded.
+    pub occluded_example: Option<Example>,
     /// Median wall time of `Monitor::check` per frame, microseconds (informative only; see the benchmarks).
     pub check_median_us: f64,
 }
@@ -71,7 +73,8 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
     let mut confirmed = Vec::new();
     let mut missed = 0u64;
     let mut times = Vec::with_capacity(scene.frames.len());
-    let (mut detected_example, mut missed_example, mut false_alarm_example) = (None, None, None);
+    let (mut detected_example, mut missed_example, mut false_alarm_example, mut occluded_example) =
+        (None, None, None, None);
     let mut objects = Vec::new();
     for (k, clean) in scene.frames.iter().enumerate() {
         // Only the object list changes: copy it, lend the clean cloud.
@@ -111,8 +114,7 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
                 injected: inj,
                 sensor_alarm,
                 sensor_judged: confirmed.get(i).copied().unwrap_or(false),
-                plausibility_alarm: matches!(r.verdict, Verdict::ImplausibleMotion(_))
-                    || matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Implausible(_)),
+                plausibility_alarm: matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Implausible(_)),
             };
             if in_scope {
                 let ex = Some(Example { frame: k as u64, id: r.id });
@@ -125,6 +127,12 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
                 if !inj && sensor_alarm && false_alarm_example.is_none() {
                     false_alarm_example = ex;
                 }
+                if inj
+                    && r.sensor.verdict == SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
+                    && occluded_example.is_none()
+                {
+                    occluded_example = ex;
+                }
             }
             outcomes.push(o);
         }
@@ -136,6 +144,7 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
         detected_example,
         missed_example,
         false_alarm_example,
+        occluded_example,
         check_median_us,
     })
 }

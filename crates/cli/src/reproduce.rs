@@ -368,7 +368,7 @@ fn render_examples(
         let example = if want_detected {
             result.detected_example
         } else if id == "example_occluded" {
-            find_occluded(scene, &spec)?
+            result.occluded_example
         } else {
             result.missed_example
         };
@@ -388,30 +388,6 @@ fn render_examples(
         report.figure(&format!("{id}.png"), caption);
     }
     Ok(())
-}
-
-fn find_occluded(scene: &Scene, spec: &RunSpec) -> Result<Option<pmon_campaign::Example>> {
-    // Re-run and take the first injected object the sensor called occluded.
-    let mut monitor = Monitor::new(spec.params).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut injector = pmon_campaign::Injector::new(spec.injection);
-    for (k, clean) in scene.frames.iter().enumerate() {
-        let mut frame = clean.clone();
-        let inj = injector.apply_at(k as u64, clean.timestamp_s, &mut frame.objects);
-        let mut roi = Vec::new();
-        let view = frame.as_frame(&mut roi);
-        let rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("{e}"))?;
-        for i in &inj {
-            if let Some(r) = rep.objects.get(i.index as usize) {
-                if r.sensor.verdict
-                    == pmon_monitor::SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded)
-                    && k > 5
-                {
-                    return Ok(Some(pmon_campaign::Example { frame: k as u64, id: i.id }));
-                }
-            }
-        }
-    }
-    Ok(None)
 }
 
 fn claims_table(claims: &[Claim]) -> Vec<Vec<TableCell>> {
