@@ -26,6 +26,33 @@ use serde::{Deserialize, Serialize};
 pub use frames::{Sequence, SyntheticSpec};
 pub use machine::{cpu_model_of, Machine};
 
+/// One [`Monitor::check`] with the wall time of each [`Stage`] (in [`Stage::ALL`] order), microseconds. The first
+/// stage includes the call's set-up, so the stages add up to the whole call.
+///
+/// # Errors
+/// As [`Monitor::check`].
+pub fn timed_check<'m>(
+    monitor: &'m mut Monitor,
+    frame: &pmon_monitor::Frame<'_>,
+) -> Result<(pmon_monitor::FrameReport<'m>, [f64; 5]), FrameError> {
+    let mut marks: [Option<Instant>; 5] = [None; 5];
+    let t0 = Instant::now();
+    let report = monitor.check_with_stages(frame, &mut |s| {
+        let now = Instant::now();
+        if let Some(m) = Stage::ALL.iter().position(|x| *x == s).and_then(|k| marks.get_mut(k)) {
+            *m = Some(now);
+        }
+    })?;
+    let mut row = [0.0; 5];
+    let mut prev = t0;
+    for (slot, mark) in row.iter_mut().zip(marks) {
+        let mark = mark.unwrap_or(prev);
+        *slot = us(mark.saturating_duration_since(prev));
+        prev = mark;
+    }
+    Ok((report, row))
+}
+
 /// What to measure.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BenchOptions {
@@ -381,29 +408,13 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let started = Instant::now();
     for i in n..n + opts.iterations {
         let Some(frame) = seq.frame(i, Sequence::timestamp_s(i)) else { break };
-        let mut marks: [Option<Instant>; 5] = [None; 5];
-        let t0 = Instant::now();
-        let report = monitor
-            .check_with_stages(&frame, &mut |s| {
-                let now = Instant::now();
-                if let Some(m) = Stage::ALL.iter().position(|x| *x == s).and_then(|k| marks.get_mut(k)) {
-                    *m = Some(now);
-                }
-            })
-            .map_err(frame_err)?;
+        let (report, row) = timed_check(&mut monitor, &frame).map_err(frame_err)?;
         points.push(report.grid.points_total);
         in_band.push(report.grid.points_in_band);
         cells_hit.push(report.grid.cells_hit);
         clusters.push(report.grid.clusters_total);
-        let mut row = [0.0; 5];
-        let mut prev = t0;
-        for (slot, mark) in row.iter_mut().zip(marks) {
-            let mark = mark.unwrap_or(prev);
-            *slot = us(mark.saturating_duration_since(prev));
-            prev = mark;
-        }
         stage_us.push(row);
-        total_us.push(us(prev.saturating_duration_since(t0)));
+        total_us.push(row.iter().sum());
         if i >= n + 10 && started.elapsed().as_secs_f64() > opts.max_seconds_per_case {
             break;
         }

@@ -12,7 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use pmon_campaign::experiments::{self, Claim, Figure, Scale, SceneIds};
 use pmon_campaign::{replay_to, run_all, Direction, Fault, RunResult, RunSpec, Scene};
 use pmon_monitor::theory::{dv_min_mps, Margins, SpeedError};
-use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectClass, ObjectState, Pose2, Stage, Uncertainty};
+use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectClass, ObjectState, Pose2, Uncertainty};
 use pmon_report::{BarChart, BarGroup, CellClass, HtmlReport, LineChart, RefLine, Series, TableCell};
 use pmon_scenario::{ScenarioConfig, Simulator};
 use serde::Serialize;
@@ -139,24 +139,13 @@ fn latency(scenes: &[Scene], params: &MonitorParams) -> Result<(f64, f64)> {
     for scene in scenes {
         let mut monitor = Monitor::new(*params).map_err(|e| anyhow::anyhow!("{e}"))?;
         for f in &scene.frames {
-            let mut roi = Vec::new();
-            let view = f.as_frame(&mut roi);
-            let mut marks = [Instant::now(); 6];
-            let mut i = 0;
-            let start = Instant::now();
-            monitor
-                .check_with_stages(&view, &mut |_s: Stage| {
-                    i += 1;
-                    if let Some(m) = marks.get_mut(i) {
-                        *m = Instant::now();
-                    }
-                })
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
-            marks[0] = start;
-            let d = |a: usize, b: usize| marks[b].duration_since(marks[a]).as_secs_f64() * 1e3;
-            // Stages: rasterize, regions, conflicts, plausibility, verdicts.
-            sensor.push(d(0, 3) + d(4, 5));
-            plaus.push(d(3, 4));
+            let mut polygons = Vec::new();
+            let view = f.as_frame(&mut polygons);
+            let (_, us) = pmon_bench::timed_check(&mut monitor, &view).map_err(|e| anyhow::anyhow!("{e}"))?;
+            // Stages: rasterize, regions, conflicts, plausibility, verdicts; all but plausibility are the sensor
+            // checks.
+            sensor.push((us[0] + us[1] + us[2] + us[4]) / 1e3);
+            plaus.push(us[3] / 1e3);
         }
     }
     let median = |v: &mut Vec<f64>| {
