@@ -902,7 +902,7 @@ fn object_label(df: &DatasetFrame, index: usize) -> String {
 fn box_points(df: &DatasetFrame, index: usize, p: &MonitorParams) -> Option<(u32, u32)> {
     let b = df.box_in_ego(index)?;
     let pts = df.points_in_ego();
-    let (lo, hi) = (p.ground_z_m + p.min_obstacle_height_m, p.ground_z_m + p.max_obstacle_height_m);
+    let (lo, hi) = p.obstacle_band_m();
     let band: Vec<[f32; 3]> = pts.iter().copied().filter(|q| q[2] >= lo && q[2] <= hi).collect();
     Some((points_in_box(&pts, &b), points_in_box(&band, &b)))
 }
@@ -914,7 +914,7 @@ fn region_of(o: &ObjectState, p: &MonitorParams) -> Region {
 
 /// The frame's LiDAR points in the monitor's obstacle height band, ego frame.
 fn band_points(df: &DatasetFrame, p: &MonitorParams) -> Vec<[f32; 3]> {
-    let (lo, hi) = (p.ground_z_m + p.min_obstacle_height_m, p.ground_z_m + p.max_obstacle_height_m);
+    let (lo, hi) = p.obstacle_band_m();
     df.points_in_ego().into_iter().filter(|q| q[2] >= lo && q[2] <= hi).collect()
 }
 

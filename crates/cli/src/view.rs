@@ -91,8 +91,7 @@ pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (
         view.cells.push(ViewCell { x_m: x, y_m: y, state });
     }
     if let Some(cloud) = &frame.cloud {
-        let lo = params.ground_z_m + params.min_obstacle_height_m;
-        let hi = params.ground_z_m + params.max_obstacle_height_m;
+        let (lo, hi) = params.obstacle_band_m();
         for p in &cloud.points_in_sensor {
             let q = cloud.ego_from_sensor.transform(*p);
             if q[2] >= lo && q[2] <= hi && inside(q[0], q[1]) {

@@ -255,9 +255,10 @@ impl Monitor {
         let Some(cloud) = frame.cloud.filter(|_| self.sensor_status.is_none()) else { return };
         let t = cloud.ego_from_sensor;
         self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
+        let (lo_m, hi_m) = self.params.obstacle_band_m();
         let band = Band {
-            lo_m: self.params.ground_z_m + self.params.min_obstacle_height_m,
-            hi_m: self.params.ground_z_m + self.params.max_obstacle_height_m,
+            lo_m,
+            hi_m,
             ego_m: if self.params.ego_footprint_m.iter().all(|v| *v == 0.0) {
                 Band::NO_EGO
             } else {

@@ -208,6 +208,13 @@ impl MonitorParams {
         self.per_class_limits.get(class).unwrap_or(self.motion_limits)
     }
 
+    /// The obstacle height band in the ego frame, `(lowest, highest)` z, metres: points between them (inclusive)
+    /// are obstacle evidence; lower ones are ground, higher ones can be driven under.
+    #[must_use]
+    pub fn obstacle_band_m(&self) -> (f32, f32) {
+        (self.ground_z_m + self.min_obstacle_height_m, self.ground_z_m + self.max_obstacle_height_m)
+    }
+
     /// Number of cells along one side of the grid.
     #[must_use]
     pub fn grid_cells_per_side(&self) -> u32 {
