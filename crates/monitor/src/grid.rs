@@ -159,15 +159,17 @@ impl GridGeometry {
 }
 
 /// The occupancy grid: hit counts, flags and the list of cells touched this frame.
-// Not `Clone`: a cloned `Vec` loses its spare capacity, and the per-frame buffers rely on it (no
-// allocation per frame, pushes bounded by capacity). Build another with `new` instead.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct OccupancyGrid {
     /// Geometry.
     pub geometry: GridGeometry,
-    hits: Vec<u16>,
+    /// Hits per cell, at most [`MAX_HITS`] (a byte: half the cache footprint of the grid's hottest array).
+    hits: Vec<u8>,
     flags: Vec<u8>,
+    /// The touched cells are `touched[..touched_len]`; the buffer has its full length from construction, so
+    /// that [`OccupancyGrid::add_hits`] can write a cell before knowing whether it is a first touch.
     touched: Vec<u32>,
+    touched_len: usize,
     /// `P(n)` for `n = 0..=MAX_HITS`.
     probability: [f32; MAX_HITS as usize + 1],
 }
@@ -186,14 +188,15 @@ impl OccupancyGrid {
             geometry,
             hits: vec![0; cells],
             flags: vec![0; cells],
-            touched: Vec::with_capacity(max_touched.min(cells)),
+            touched: vec![0; max_touched.min(cells)],
+            touched_len: 0,
             probability,
         }
     }
 
     /// Clears every cell touched since the last reset.
     pub fn reset(&mut self) {
-        for &i in &self.touched {
+        for &i in self.touched.get(..self.touched_len).unwrap_or(&[]) {
             if let Some(h) = self.hits.get_mut(i as usize) {
                 *h = 0;
             }
@@ -201,7 +204,7 @@ impl OccupancyGrid {
                 *f = 0;
             }
         }
-        self.touched.clear();
+        self.touched_len = 0;
     }
 
     /// Adds one hit to a cell. Returns false when the touched list is full (the hit is then not recorded).
@@ -209,20 +212,64 @@ impl OccupancyGrid {
     pub fn add_hit(&mut self, index: u32) -> bool {
         let Some(h) = self.hits.get_mut(index as usize) else { return false };
         if *h == 0 {
-            if self.touched.len() >= self.touched.capacity() {
-                return false;
-            }
-            self.touched.push(index);
+            let Some(slot) = self.touched.get_mut(self.touched_len) else { return false };
+            *slot = index;
+            self.touched_len += 1;
         }
-        *h = h.saturating_add(1).min(MAX_HITS);
+        *h += u8::from(u16::from(*h) < MAX_HITS);
         true
+    }
+
+    /// [`OccupancyGrid::add_hit`] on each of 64 cells in turn, skipping cells outside the grid (such as
+    /// [`crate::visibility::NO_CELL`]). Consecutive hits of one cell (a sweep puts several points of a ring in
+    /// one cell) are added at once, and the runs are found without a branch per point: one hit at a time, each
+    /// increment would wait for the previous one's store, and a test per point of whether the cell changed is
+    /// mispredicted at every run's end.
+    #[inline]
+    pub(crate) fn add_hits(&mut self, cells: &[u32; 64]) {
+        // Bit j of `ends`: point j ends a run (the next point's cell differs, or j is the last point); of
+        // `in_grid`: its cell is in the grid.
+        let mut ends = 1u64 << 63;
+        let mut in_grid = 0u64;
+        let cell_count = self.hits.len();
+        for (j, (c, next)) in cells.iter().zip(cells.iter().skip(1)).enumerate() {
+            ends |= u64::from(c != next) << j;
+        }
+        for (j, &c) in cells.iter().enumerate() {
+            in_grid |= u64::from((c as usize) < cell_count) << j;
+        }
+        let mut runs = ends & in_grid;
+        while runs != 0 {
+            let j = runs.trailing_zeros();
+            runs &= runs - 1;
+            // The run starts after the previous end (of any run, in the grid or not).
+            let before = ends & ((1u64 << j) - 1);
+            let start = if before == 0 { 0 } else { 64 - before.leading_zeros() };
+            if let Some(&c) = cells.get(j as usize) {
+                self.add_run(c, j + 1 - start);
+            }
+        }
+    }
+
+    /// `n` hits on one cell: the same as `n` calls of [`OccupancyGrid::add_hit`].
+    #[inline(always)]
+    fn add_run(&mut self, index: u32, n: u32) {
+        let Some(h) = self.hits.get_mut(index as usize) else { return };
+        if *h == 0 {
+            // A full list records no hit of a new cell.
+            let Some(slot) = self.touched.get_mut(self.touched_len) else { return };
+            *slot = index;
+            self.touched_len += 1;
+        }
+        let sum = u32::from(*h).saturating_add(n).min(u32::from(MAX_HITS));
+        *h = u8::try_from(sum).unwrap_or(u8::MAX);
     }
 
     /// Hits of a cell this frame (0 outside the grid).
     #[must_use]
     #[inline]
     pub fn hits(&self, index: u32) -> u16 {
-        self.hits.get(index as usize).copied().unwrap_or(0)
+        self.hits.get(index as usize).copied().map_or(0, u16::from)
     }
 
     /// Occupancy probability `P(zeta)` of a cell (0.5, unknown, for a cell without hits).
@@ -261,7 +308,7 @@ impl OccupancyGrid {
     /// Cells touched this frame, in the order of first touch.
     #[must_use]
     pub fn touched(&self) -> &[u32] {
-        &self.touched
+        self.touched.get(..self.touched_len).unwrap_or(&[])
     }
 
     /// State of a cell given the conflict threshold.
@@ -321,5 +368,41 @@ mod tests {
         assert_eq!(g.hits(3), 0);
         assert_eq!(g.flags(3), 0);
         assert!(g.touched().is_empty());
+    }
+
+    /// `add_hits` over blocks of 64 cells, the last one padded with a cell outside the grid.
+    fn add_hits_in_blocks(g: &mut OccupancyGrid, cells: &[u32]) {
+        for chunk in cells.chunks(64) {
+            let mut block = [u32::MAX; 64];
+            block[..chunk.len()].copy_from_slice(chunk);
+            g.add_hits(&block);
+        }
+    }
+
+    #[test]
+    fn add_hits_equals_add_hit_in_turn_including_a_full_list_and_saturation() {
+        let cells: Vec<u32> = [3, 3, 5, u32::MAX, 7, 16, 5, 9, 3, 7]
+            .into_iter()
+            .chain(core::iter::repeat_n(9, 300))
+            .chain(core::iter::repeat_n(11, 300))
+            .collect();
+        for capacity in [0, 1, 2, 3, 16] {
+            let (mut one, mut block) = (
+                OccupancyGrid::new(GridGeometry::new(4, 1.0), 0.7, capacity),
+                OccupancyGrid::new(GridGeometry::new(4, 1.0), 0.7, capacity),
+            );
+            for &c in &cells {
+                let _ = one.add_hit(c);
+            }
+            add_hits_in_blocks(&mut block, &cells);
+            assert_eq!(one.touched(), block.touched(), "capacity {capacity}");
+            for c in 0..16 {
+                assert_eq!(one.hits(c), block.hits(c), "capacity {capacity}, cell {c}");
+            }
+        }
+        let mut g = OccupancyGrid::new(GridGeometry::new(4, 1.0), 0.7, 16);
+        add_hits_in_blocks(&mut g, &cells);
+        assert_eq!((g.hits(9), g.hits(11), g.hits(3)), (MAX_HITS, MAX_HITS, 3));
+        assert_eq!(g.touched(), [3, 5, 7, 9, 11]);
     }
 }

@@ -267,7 +267,8 @@ impl Monitor {
         };
         let (points, grid, visibility) = (cloud.points_in_sensor, &mut self.grid, &mut self.visibility);
         let in_band = match self.rasterizer {
-            Rasterizer::Blocked => rasterize_blocked(points, &t, band, grid, visibility),
+            Rasterizer::Blocked => rasterize_blocked(points, &t, band, grid, visibility, true),
+            Rasterizer::BlockedBaseline => rasterize_blocked(points, &t, band, grid, visibility, false),
             Rasterizer::Scalar => rasterize_scalar(points, &t, band, grid, visibility),
         };
         self.stats.points_total = u32::try_from(cloud.points_in_sensor.len()).unwrap_or(u32::MAX);

@@ -31,11 +31,27 @@ use crate::visibility::{BinParams, VisibilityMap, NO_CELL};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Rasterizer {
     /// Blocks of points in two passes: a branch-free pass the compiler vectorises, then the updates of the grid
-    /// and the visibility map in point order. The default.
+    /// and the visibility map in point order; compiled for the widest vector unit the processor offers (with the
+    /// `std` feature on x86-64: AVX2 when the processor has it, detected at run time; otherwise as
+    /// [`Rasterizer::BlockedBaseline`]). The default.
     #[default]
     Blocked,
+    /// The blocked loop compiled for the target's baseline only (SSE2 on x86-64), whatever the processor.
+    BlockedBaseline,
     /// The reference: one point at a time.
     Scalar,
+}
+
+impl Rasterizer {
+    /// The instruction set the blocked loop runs with on this processor: `"avx2"`, `"baseline"` or `"scalar"`.
+    #[must_use]
+    pub fn instruction_set(self) -> &'static str {
+        match self {
+            Self::Blocked if wide::available() => "avx2",
+            Self::Blocked | Self::BlockedBaseline => "baseline",
+            Self::Scalar => "scalar",
+        }
+    }
 }
 
 /// The obstacle height band in the ego frame: `lo_m <= z <= hi_m` is an obstacle, `z < lo_m` a ground return,
@@ -246,39 +262,108 @@ impl Block {
 
     /// Pass 2: the updates, in point order.
     #[inline(always)]
-    fn apply(&self, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
-        visibility.add_binned(&self.bins, &self.far_r2, &self.near_r2, &self.cells);
-        for &c in &self.cells {
-            if c != NO_CELL {
-                // Cannot fail: the touched list has room for max_points >= points cells.
-                let _ = grid.add_hit(c);
-            }
-        }
+    fn apply(&self, first: u32, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
+        visibility.add_binned(first, &self.bins, &self.far_r2, &self.near_r2, &self.cells);
+        grid.add_hits(&self.cells);
     }
 }
 
 /// The blocked two-pass loop: the same results as [`rasterize_scalar`] (which it falls back to for a grid or a
-/// map it cannot reproduce exactly). Returns the number of points that fell in the band and in the grid.
+/// map it cannot reproduce exactly). `wide`: use the wider vector unit when the processor has one (see
+/// [`Rasterizer::Blocked`]). Returns the number of points that fell in the band and in the grid.
 pub(crate) fn rasterize_blocked(
     points: &[[f32; 3]],
     t: &Isometry3,
     band: Band,
     grid: &mut OccupancyGrid,
     visibility: &mut VisibilityMap,
+    wide: bool,
 ) -> u32 {
     let Some(k) = Pass1::new(t, band, &grid.geometry, visibility.bin_params()) else {
         return rasterize_scalar(points, t, band, grid, visibility);
     };
     let ego = band.ego_m != Band::NO_EGO;
-    match (k.translation_only(), ego) {
-        (true, false) => blocks::<true, false>(&k, points, grid, visibility),
-        (false, false) => blocks::<false, false>(&k, points, grid, visibility),
-        (true, true) => blocks::<true, true>(&k, points, grid, visibility),
-        (false, true) => blocks::<false, true>(&k, points, grid, visibility),
+    let wide = wide && wide::available();
+    match (k.translation_only(), ego, wide) {
+        (true, false, false) => blocks::<true, false>(&k, points, grid, visibility),
+        (false, false, false) => blocks::<false, false>(&k, points, grid, visibility),
+        (true, true, false) => blocks::<true, true>(&k, points, grid, visibility),
+        (false, true, false) => blocks::<false, true>(&k, points, grid, visibility),
+        (true, false, true) => wide::blocks::<true, false>(&k, points, grid, visibility),
+        (false, false, true) => wide::blocks::<false, false>(&k, points, grid, visibility),
+        (true, true, true) => wide::blocks::<true, true>(&k, points, grid, visibility),
+        (false, true, true) => wide::blocks::<false, true>(&k, points, grid, visibility),
     }
 }
 
-/// The block loop of [`rasterize_blocked`].
+/// The block loop compiled for a wider vector unit, chosen at run time.
+///
+/// The only `unsafe` of the crate: calling a function compiled with `#[target_feature(enable = "avx2")]`, which
+/// is sound exactly when the processor has AVX2, and that is checked first (`is_x86_feature_detected!`, which
+/// caches its answer). The loop is the same Rust code as the baseline one, inlined: with the same IEEE-754
+/// operations in the same order (Rust does not contract `a * b + c` into a fused multiply-add, even where the
+/// processor has one) each lane computes the same bits in 8-wide registers as in 4-wide ones.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[allow(unsafe_code)]
+mod wide {
+    use super::{OccupancyGrid, Pass1, VisibilityMap};
+
+    /// True when the processor has AVX2.
+    pub(super) fn available() -> bool {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+
+    /// [`super::blocks`] with AVX2, or with the baseline when the processor lacks it.
+    pub(super) fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
+        k: &Pass1,
+        points: &[[f32; 3]],
+        grid: &mut OccupancyGrid,
+        visibility: &mut VisibilityMap,
+    ) -> u32 {
+        if available() {
+            // SAFETY: the processor has AVX2 (checked on the line above), the one requirement of a function
+            // compiled with `target_feature(enable = "avx2")`.
+            unsafe { blocks_avx2::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility) }
+        } else {
+            super::blocks::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility)
+        }
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn blocks_avx2<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
+        k: &Pass1,
+        points: &[[f32; 3]],
+        grid: &mut OccupancyGrid,
+        visibility: &mut VisibilityMap,
+    ) -> u32 {
+        super::blocks::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility)
+    }
+}
+
+/// Without `std` or off x86-64 there is no run-time choice: the baseline loop (compile with
+/// `-C target-feature=+avx2` or a `target-cpu` to widen it).
+#[cfg(not(all(feature = "std", target_arch = "x86_64")))]
+mod wide {
+    use super::{OccupancyGrid, Pass1, VisibilityMap};
+
+    /// Never: no run-time detection here.
+    pub(super) fn available() -> bool {
+        false
+    }
+
+    /// The baseline loop.
+    pub(super) fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
+        k: &Pass1,
+        points: &[[f32; 3]],
+        grid: &mut OccupancyGrid,
+        visibility: &mut VisibilityMap,
+    ) -> u32 {
+        super::blocks::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility)
+    }
+}
+
+/// The block loop of [`rasterize_blocked`] (inlined into each instruction set's version).
+#[inline(always)]
 fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
     k: &Pass1,
     points: &[[f32; 3]],
@@ -287,12 +372,13 @@ fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
 ) -> u32 {
     let mut block = Block::EMPTY;
     let mut in_band = 0u32;
-    let chunks = points.chunks_exact(BLOCK);
-    let rest = chunks.remainder();
+    let (chunks, rest) = points.as_chunks::<BLOCK>();
+    let mut first = 0u32;
+    visibility.clear_lanes();
     for chunk in chunks {
-        let Ok(chunk) = <&[[f32; 3]; BLOCK]>::try_from(chunk) else { continue };
         in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK>(k, chunk);
-        block.apply(grid, visibility);
+        block.apply(first, grid, visibility);
+        first = first.wrapping_add(BLOCK as u32);
     }
     if !rest.is_empty() {
         // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
@@ -301,8 +387,9 @@ fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
             *d = *s;
         }
         in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK>(k, &padded);
-        block.apply(grid, visibility);
+        block.apply(first, grid, visibility);
     }
+    visibility.merge_lanes();
     in_band
 }
 
@@ -338,14 +425,14 @@ mod tests {
     /// Runs both loops on fresh grids and maps; asserts bit-identical results; returns the points in band.
     fn assert_same(points: &[[f32; 3]], t: &Isometry3, band: Band, cells: u32, cell_m: f32, bins: u32) -> u32 {
         let geometry = GridGeometry::new(cells, cell_m);
-        let run = |blocked: bool| {
+        // 0: the reference, 1: the blocked loop on the baseline, 2: with the widest vector unit available.
+        let run = |mode: u8| {
             let mut grid = OccupancyGrid::new(geometry, 0.7, points.len());
             let mut vis = VisibilityMap::new(bins);
             vis.reset([t.translation_m[0], t.translation_m[1]]);
-            let n = if blocked {
-                rasterize_blocked(points, t, band, &mut grid, &mut vis)
-            } else {
-                rasterize_scalar(points, t, band, &mut grid, &mut vis)
+            let n = match mode {
+                0 => rasterize_scalar(points, t, band, &mut grid, &mut vis),
+                m => rasterize_blocked(points, t, band, &mut grid, &mut vis, m == 2),
             };
             let touched = grid.touched().to_vec();
             let hits: Vec<u16> = touched.iter().map(|&c| grid.hits(c)).collect();
@@ -353,13 +440,15 @@ mod tests {
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
             (n, touched, hits, bits(&near), near_cell, bits(&far))
         };
-        let (scalar, blocked) = (run(false), run(true));
-        assert_eq!(scalar.0, blocked.0, "points in band");
-        assert_eq!(scalar.1, blocked.1, "touched cells in order");
-        assert_eq!(scalar.2, blocked.2, "hits");
-        assert_eq!(scalar.3, blocked.3, "nearest obstacle r2 bits");
-        assert_eq!(scalar.4, blocked.4, "nearest obstacle cells");
-        assert_eq!(scalar.5, blocked.5, "farthest return r2 bits");
+        let scalar = run(0);
+        for blocked in [run(1), run(2)] {
+            assert_eq!(scalar.0, blocked.0, "points in band");
+            assert_eq!(scalar.1, blocked.1, "touched cells in order");
+            assert_eq!(scalar.2, blocked.2, "hits");
+            assert_eq!(scalar.3, blocked.3, "nearest obstacle r2 bits");
+            assert_eq!(scalar.4, blocked.4, "nearest obstacle cells");
+            assert_eq!(scalar.5, blocked.5, "farthest return r2 bits");
+        }
         scalar.0
     }
 
@@ -472,8 +561,7 @@ mod tests {
 
     #[test]
     fn falls_back_to_the_reference_for_a_modified_geometry() {
-        // A geometry whose private inverse cell size no longer matches: pass 1 cannot reproduce it. (Not
-        // `clone`d: a cloned grid's touched list has no spare capacity.)
+        // A geometry whose private inverse cell size no longer matches: pass 1 cannot reproduce it.
         let grid = || {
             let mut g = OccupancyGrid::new(GridGeometry::new(10, 1.0), 0.7, 16);
             g.geometry.cell_size_m = 2.0;
@@ -484,7 +572,7 @@ mod tests {
         let t = Isometry3::IDENTITY;
         assert!(Pass1::new(&t, BAND, &grid_blocked.geometry, vis_blocked.bin_params()).is_none());
         let points = [[1.0, 1.0, 1.0], [-3.0, 2.0, 1.0], [4.5, -4.5, 1.0]];
-        let a = rasterize_blocked(&points, &t, BAND, &mut grid_blocked, &mut vis_blocked);
+        let a = rasterize_blocked(&points, &t, BAND, &mut grid_blocked, &mut vis_blocked, true);
         let b = rasterize_scalar(&points, &t, BAND, &mut grid_scalar, &mut vis_scalar);
         assert_eq!((a, grid_blocked.touched()), (b, grid_scalar.touched()));
         assert_eq!(grid_scalar.touched(), [66, 72, 9]);

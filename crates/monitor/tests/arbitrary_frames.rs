@@ -63,7 +63,7 @@ proptest! {
         pose_x in prop_oneof![4 => -1.0e4f64..1.0e4, 1 => Just(f64::NAN)],
         roi in proptest::collection::vec(proptest::collection::vec((wild_f32(), wild_f32()).prop_map(|(a, b)| [a, b]), 0..6), 0..3),
         with_cloud in any::<bool>(),
-        scalar in any::<bool>(),
+        rasterizer in prop_oneof![Just(Rasterizer::Blocked), Just(Rasterizer::BlockedBaseline), Just(Rasterizer::Scalar)],
         ego in any::<bool>(),
     ) {
         let params = MonitorParams {
@@ -73,7 +73,7 @@ proptest! {
             ..MonitorParams::default()
         };
         let mut m = Monitor::new(params).unwrap();
-        m.set_rasterizer(if scalar { Rasterizer::Scalar } else { Rasterizer::Blocked });
+        m.set_rasterizer(rasterizer);
         let roi_slices: Vec<&[[f32; 2]]> = roi.iter().map(Vec::as_slice).collect();
         let extrinsic = Isometry3::from_yaw_translation(yaw, [0.0, 0.0, tz]);
         for &t in &times {

@@ -1,5 +1,5 @@
-//! The blocked rasterizer (the default) and the reference per-point loop give identical results: two monitors,
-//! one per `Rasterizer`, fed the same frames one after the other, return identical `FrameReport`s (objects,
+//! The blocked rasterizer (the default, with AVX2 where the processor has it, and on the baseline instruction set)
+//! and the reference per-point loop give identical results: three monitors, one per `Rasterizer`, fed the same frames one after the other, return identical `FrameReport`s (objects,
 //! clusters, grid statistics, compared field by field and by their `Debug` text, which tells `-0.0` from `0.0`)
 //! and identical grids (touched cells in the same order, the same hits and flags in every touched cell).
 //!
@@ -51,9 +51,11 @@ fn outcome(monitor: &mut Monitor, frame: &Frame<'_>) -> Result<Outcome, String> 
     Ok(Outcome { objects, clusters, grid, sensor_status, cells })
 }
 
-/// Two monitors with the same parameters, one per rasterizer.
+/// Monitors with the same parameters, one per rasterizer: the blocked loop with the widest vector unit of this
+/// processor (AVX2 on most x86-64 machines), the blocked loop on the baseline instruction set, the reference.
 struct Pair {
     blocked: Monitor,
+    baseline: Monitor,
     scalar: Monitor,
     frames: usize,
 }
@@ -61,17 +63,22 @@ struct Pair {
 impl Pair {
     fn new(params: MonitorParams) -> Self {
         let blocked = Monitor::new(params).unwrap();
+        let mut baseline = Monitor::new(params).unwrap();
+        baseline.set_rasterizer(Rasterizer::BlockedBaseline);
         let mut scalar = Monitor::new(params).unwrap();
         scalar.set_rasterizer(Rasterizer::Scalar);
-        Self { blocked, scalar, frames: 0 }
+        Self { blocked, baseline, scalar, frames: 0 }
     }
 
-    /// Checks one frame with both; panics (with `what`) on any difference; returns the blocked outcome.
+    /// Checks one frame with all three; panics (with `what`) on any difference; returns the blocked outcome.
     fn check(&mut self, frame: &Frame<'_>, what: &str) -> Result<Outcome, String> {
         let a = outcome(&mut self.blocked, frame);
         let b = outcome(&mut self.scalar, frame);
-        assert_eq!(a, b, "{what}: blocked and scalar rasterizers differ");
-        assert_eq!(format!("{a:?}"), format!("{b:?}"), "{what}: differ in some bit");
+        let c = outcome(&mut self.baseline, frame);
+        let isa = Rasterizer::Blocked.instruction_set();
+        assert_eq!(a, b, "{what}: blocked ({isa}) and scalar rasterizers differ");
+        assert_eq!(format!("{a:?}"), format!("{b:?}"), "{what}: blocked ({isa}) and scalar differ in some bit");
+        assert_eq!(format!("{c:?}"), format!("{b:?}"), "{what}: blocked (baseline) and scalar differ in some bit");
         self.frames += 1;
         a
     }

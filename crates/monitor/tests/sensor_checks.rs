@@ -263,7 +263,9 @@ fn returns_from_the_ego_vehicle_itself_are_masked() {
     pts.extend(ground_points(30.0));
     let pts_s = to_sensor(&pts);
     let frame = frame_at_origin(&[], &pts_s, &[], &[]);
-    for rasterizer in [pmon_monitor::Rasterizer::Blocked, pmon_monitor::Rasterizer::Scalar] {
+    for rasterizer in
+        [pmon_monitor::Rasterizer::Blocked, pmon_monitor::Rasterizer::BlockedBaseline, pmon_monitor::Rasterizer::Scalar]
+    {
         let mut plain = Monitor::new(MonitorParams::default()).unwrap();
         plain.set_rasterizer(rasterizer);
         assert!(plain.check(&frame).unwrap().missed_objects() >= 1, "unmasked self-returns look like an object");
