@@ -62,7 +62,7 @@ impl OrientedRect {
         if dx.abs() >= h + self.half_length * c + self.half_width * s {
             return false;
         }
-        if dy.abs() >= h + self.half_length * s + self.half_width * c {
+        if !self.row_may_overlap(y, h) {
             return false;
         }
         // Rectangle's axes (u along heading, v across).
@@ -70,6 +70,47 @@ impl OrientedRect {
         let dv = -dx * self.sin + dy * self.cos;
         let hs = h * (c + s);
         du.abs() < self.half_length + hs && dv.abs() < self.half_width + hs
+    }
+
+    /// The test of [`OrientedRect::overlaps_square`] on the square's y axis alone: false when no square of half
+    /// side `h` centred at height `y` overlaps the rectangle, whatever its `x`.
+    #[must_use]
+    #[inline]
+    pub fn row_may_overlap(&self, y: f32, h: f32) -> bool {
+        let dy = y - self.cy;
+        dy.abs() < h + self.half_length * self.sin.abs() + self.half_width * self.cos.abs()
+    }
+
+    /// An interval of `x` that contains every `x` for which [`OrientedRect::overlaps_square`]`(x, y, h)` holds,
+    /// from the test's three conditions on `x` solved in real numbers (each is an interval), or `None` when that
+    /// cannot be trusted (non-finite values). The bounds carry rounding errors of about `1e-7` times the
+    /// coordinates' magnitude divided by `MIN_AXIS_COMPONENT`: callers widen it before relying on it.
+    #[must_use]
+    #[inline]
+    pub fn row_bounds(&self, y: f32, h: f32) -> Option<(f32, f32)> {
+        /// Below this a rectangle axis' component gives no bound (its division would amplify rounding).
+        const MIN_AXIS_COMPONENT: f32 = 0.01;
+        let dy = y - self.cy;
+        let (c, s) = (self.cos.abs(), self.sin.abs());
+        let hs = h * (c + s);
+        // |dx| < h + L c + W s.
+        let a = h + self.half_length * c + self.half_width * s;
+        let (mut lo, mut hi) = (-a, a);
+        // |dx cos + dy sin| < L + hs.
+        if c >= MIN_AXIS_COMPONENT {
+            let b = self.half_length + hs;
+            let (p, q) = ((-b - dy * self.sin) / self.cos, (b - dy * self.sin) / self.cos);
+            lo = lo.max(p.min(q));
+            hi = hi.min(p.max(q));
+        }
+        // |-dx sin + dy cos| < W + hs.
+        if s >= MIN_AXIS_COMPONENT {
+            let b = self.half_width + hs;
+            let (p, q) = ((dy * self.cos - b) / self.sin, (dy * self.cos + b) / self.sin);
+            lo = lo.max(p.min(q));
+            hi = hi.min(p.max(q));
+        }
+        (lo.is_finite() && hi.is_finite()).then_some((self.cx + lo, self.cx + hi))
     }
 
     /// True when the point lies inside or on the rectangle.

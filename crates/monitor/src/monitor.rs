@@ -331,11 +331,9 @@ impl Monitor {
                     }
                     Some(range) => {
                         let mut eta = self.grid.probability_of_hits(0);
-                        let grid = &mut self.grid;
-                        geometry.for_each_cell_overlapping(&region.grown, range, |idx, _, _| {
-                            let hits = grid.hits(idx);
-                            if hits > 0 && grid.flags(idx) & FLAG_STATIC == 0 {
-                                eta = eta.max(grid.probability_of_hits(hits));
+                        self.grid.for_each_hit_cell_overlapping(&region.grown, range, |grid, idx| {
+                            if grid.flags(idx) & FLAG_STATIC == 0 {
+                                eta = eta.max(grid.probability(idx));
                                 grid.set_flags(idx, FLAG_EXPLAINED);
                             }
                         });
@@ -359,8 +357,7 @@ impl Monitor {
     /// Marks the hit cells of a cell range that overlap a region as explained.
     fn explain_cells(&mut self, region: &Region, range: Option<(u32, u32, u32, u32)>) {
         let Some(range) = range else { return };
-        let grid = &mut self.grid;
-        grid.geometry.for_each_cell_overlapping(&region.grown, range, |idx, _, _| grid.set_flags(idx, FLAG_EXPLAINED));
+        self.grid.for_each_hit_cell_overlapping(&region.grown, range, |grid, idx| grid.set_flags(idx, FLAG_EXPLAINED));
     }
 
     /// Conflict cells (`kappa > tau_fn`, eq. conflict) grouped into 8-connected clusters.

@@ -164,11 +164,12 @@ impl Pass1 {
         r0 == [1.0, 0.0, 0.0] && r1 == [0.0, 1.0, 0.0] && r2 == [0.0, 0.0, 1.0]
     }
 
-    /// One point: `(bin, farthest-return candidate r^2, nearest-obstacle candidate r^2, cell)`. A point the
-    /// reference skips gets `0.0` and `INFINITY` (they never win) and `NO_CELL`. `TRANSLATION_ONLY` requires
+    /// One point: `(bin, farthest-return candidate r^2, nearest-obstacle candidate r^2 as bits, cell)`. A point
+    /// the reference skips gets `0.0` and `u32::MAX` (they never win) and `NO_CELL`; so does an obstacle whose
+    /// `r^2` is infinite (the reference's `r2 < INFINITY` fails for it). `TRANSLATION_ONLY` requires
     /// [`Pass1::translation_only`].
     #[inline(always)]
-    fn point<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(&self, p: &[f32; 3]) -> (u32, f32, f32, u32) {
+    fn point<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(&self, p: &[f32; 3]) -> (u32, f32, u32, u32) {
         let [x, y, z] = *p;
         let [t0, t1, t2] = self.translation;
         // `&` rather than `&&`: no branches. A sum of `zero_if_finite` terms is 0 exactly when all are finite.
@@ -208,7 +209,9 @@ impl Pass1 {
         let v = diamond_angle_select(dx, dy) * self.bins.bins_per_unit;
         let bin = floor_small(if v < self.last_bin_f { v } else { self.last_bin_f });
         let far = if ret { r2 } else { 0.0 };
-        let near = if obstacle { r2 } else { f32::INFINITY };
+        // `r2` is never NaN here (finite coordinates), and never `-0.0`: the bits of the non-negative floats
+        // order as their values, which `VisibilityMap::add_binned` relies on.
+        let near = if obstacle & (r2 < f32::INFINITY) { r2.to_bits() } else { u32::MAX };
         (bin, far, near, cell)
     }
 }
@@ -239,12 +242,12 @@ fn floor_small(f: f32) -> u32 {
 struct Block {
     bins: [u32; BLOCK],
     far_r2: [f32; BLOCK],
-    near_r2: [f32; BLOCK],
+    near_bits: [u32; BLOCK],
     cells: [u32; BLOCK],
 }
 
 impl Block {
-    const EMPTY: Self = Self { bins: [0; BLOCK], far_r2: [0.0; BLOCK], near_r2: [0.0; BLOCK], cells: [0; BLOCK] };
+    const EMPTY: Self = Self { bins: [0; BLOCK], far_r2: [0.0; BLOCK], near_bits: [0; BLOCK], cells: [0; BLOCK] };
 
     /// Pass 1 over a block; returns the number of points that fall in the band and in the grid.
     #[inline(always)]
@@ -253,7 +256,7 @@ impl Block {
         k: &Pass1,
         points: &[[f32; 3]; BLOCK],
     ) -> u32 {
-        let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_r2.iter_mut());
+        let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
         for ((p, ((bin, far), near)), cell) in points.iter().zip(outputs).zip(self.cells.iter_mut()) {
             (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY, EGO_MASK>(p);
         }
@@ -263,7 +266,7 @@ impl Block {
     /// Pass 2: the updates, in point order.
     #[inline(always)]
     fn apply(&self, first: u32, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
-        visibility.add_binned(first, &self.bins, &self.far_r2, &self.near_r2, &self.cells);
+        visibility.add_binned(first, &self.bins, &self.far_r2, &self.near_bits, &self.cells);
         grid.add_hits(&self.cells);
     }
 }
@@ -374,7 +377,7 @@ fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
     let mut in_band = 0u32;
     let (chunks, rest) = points.as_chunks::<BLOCK>();
     let mut first = 0u32;
-    visibility.clear_lanes();
+    visibility.clear_keyed();
     for chunk in chunks {
         in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK>(k, chunk);
         block.apply(first, grid, visibility);
@@ -389,7 +392,7 @@ fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
         in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK>(k, &padded);
         block.apply(first, grid, visibility);
     }
-    visibility.merge_lanes();
+    visibility.finish_keyed();
     in_band
 }
 

@@ -54,22 +54,19 @@ impl Bin {
         Self { nearest_obstacle_r2: f32::INFINITY, nearest_obstacle_cell: NO_CELL, farthest_return_r2: 0.0 };
 }
 
-/// Lanes of the blocked rasterizer's updates (see [`VisibilityMap::add_binned`]): return `i` of a frame updates
-/// lane `i % LANES` of its bin, so that consecutive returns of one bin (two or three along a ring) do not wait
-/// for each other's stores.
-pub(crate) const LANES: usize = 4;
-
-/// One lane of a bin: the nearest obstacle as a key `(r^2 bits << 32) | return index` (the smallest key is the
-/// nearest return, and among equal ranges the first, as in [`VisibilityMap::add_return`]; `u64::MAX`: none),
-/// its grid cell, and the farthest return.
+/// A bin as the blocked rasterizer keeps it: the nearest obstacle as a key `(r^2 bits << 32) | return index` (the
+/// smallest key is the nearest return, and among equal ranges the first, as in [`VisibilityMap::add_return`];
+/// keys from `u32::MAX << 32` up: none), its grid cell, and the farthest return. (Four copies of each bin, one per
+/// return modulo 4, so that consecutive returns of a bin would not wait for each other's stores, measured no
+/// faster: the larger copies left the first-level cache.)
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct LaneBin {
+struct KeyedBin {
     nearest_key: u64,
     farthest_return_r2: f32,
     nearest_obstacle_cell: u32,
 }
 
-impl LaneBin {
+impl KeyedBin {
     const EMPTY: Self = Self { nearest_key: u64::MAX, farthest_return_r2: 0.0, nearest_obstacle_cell: NO_CELL };
 }
 
@@ -78,8 +75,8 @@ impl LaneBin {
 pub struct VisibilityMap {
     /// One record per bin (a single bounds check per update).
     bins: Vec<Bin>,
-    /// [`LANES`] records per bin for the blocked rasterizer, merged into `bins` by [`VisibilityMap::merge_lanes`].
-    lanes: Vec<[LaneBin; LANES]>,
+    /// The bins as the blocked rasterizer fills them, copied into `bins` by [`VisibilityMap::finish_keyed`].
+    keyed: Vec<KeyedBin>,
     origin: [f32; 2],
     bins_per_unit: f32,
 }
@@ -91,7 +88,7 @@ impl VisibilityMap {
         let n = bins.max(1) as usize;
         Self {
             bins: vec![Bin::EMPTY; n],
-            lanes: vec![[LaneBin::EMPTY; LANES]; n],
+            keyed: vec![KeyedBin::EMPTY; n],
             origin: [0.0, 0.0],
             bins_per_unit: n as f32 / 4.0,
         }
@@ -113,70 +110,45 @@ impl VisibilityMap {
         }
     }
 
-    /// Clears the lanes before a frame's [`VisibilityMap::add_binned`] calls.
-    pub(crate) fn clear_lanes(&mut self) {
-        self.lanes.fill([LaneBin::EMPTY; LANES]);
+    /// Clears the keyed bins before a frame's [`VisibilityMap::add_binned`] calls.
+    pub(crate) fn clear_keyed(&mut self) {
+        self.keyed.fill(KeyedBin::EMPTY);
     }
 
-    /// Records a block of returns already binned (see [`BinParams`]), in order, into the lanes; `first` is the
-    /// index of the block's first return in the frame (a multiple of [`LANES`]). Per return: its bin, its squared
-    /// range as a candidate farthest return (`0.0` for a point that is no return: it never wins), as a candidate
-    /// nearest obstacle (`f32::INFINITY` for a point that is no obstacle: it never wins), and the obstacle's grid
-    /// cell. After [`VisibilityMap::merge_lanes`], the same map as [`VisibilityMap::add_return`] on each return in
-    /// turn.
+    /// Records a block of returns already binned (see [`BinParams`]), in order; `first` is the index of the
+    /// block's first return in the frame. Per return: its bin, its squared range as a candidate farthest return
+    /// (`0.0` for a point that is no return: it never wins), the bits of its squared range as a candidate nearest
+    /// obstacle (`u32::MAX` for a point that is no obstacle or an infinite range: it never wins; otherwise a
+    /// finite non-negative float, whose bits order as its value), and the obstacle's grid cell. After
+    /// [`VisibilityMap::finish_keyed`], the same map as [`VisibilityMap::add_return`] on each return in turn.
     #[inline]
-    pub(crate) fn add_binned(&mut self, first: u32, bins: &[u32], far_r2: &[f32], near_r2: &[f32], cells: &[u32]) {
-        let (bins, far_r2, near_r2, cells) = (
-            bins.as_chunks::<LANES>().0,
-            far_r2.as_chunks::<LANES>().0,
-            near_r2.as_chunks::<LANES>().0,
-            cells.as_chunks::<LANES>().0,
-        );
-        let mut index = first;
-        for (((b4, far4), near4), cell4) in bins.iter().zip(far_r2).zip(near_r2).zip(cells) {
-            let lanes = b4.iter().zip(far4).zip(near4).zip(cell4);
-            for (lane, (((&b, &far), &near), &cell)) in lanes.enumerate() {
-                // Cannot overflow: a frame has at most `max_points` < 2^32 returns (and a wrapped index would only
-                // change which of two equally near returns wins).
-                let i = index.wrapping_add(lane as u32);
-                if let Some(bin) = self.lanes.get_mut(b as usize).and_then(|l| l.get_mut(lane)) {
-                    // Neither range is NaN. The nearest obstacle compares keys: an obstacle beyond f32 range
-                    // (`near` infinite) never wins, as in the reference (`r2 < INFINITY`).
-                    bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
-                    let key =
-                        if near < f32::INFINITY { (u64::from(near.to_bits()) << 32) | u64::from(i) } else { u64::MAX };
-                    // Whether a return is the nearest so far is not predictable in real sweeps: no branch.
-                    let nearer = key < bin.nearest_key;
-                    bin.nearest_key = core::hint::select_unpredictable(nearer, key, bin.nearest_key);
-                    bin.nearest_obstacle_cell =
-                        core::hint::select_unpredictable(nearer, cell, bin.nearest_obstacle_cell);
-                }
+    pub(crate) fn add_binned(&mut self, first: u32, bins: &[u32], far_r2: &[f32], near_bits: &[u32], cells: &[u32]) {
+        let returns = bins.iter().zip(far_r2).zip(near_bits).zip(cells);
+        for (j, (((&b, &far), &near), &cell)) in returns.enumerate() {
+            if let Some(bin) = self.keyed.get_mut(b as usize) {
+                // The farthest return: a `maxss` (neither range is NaN).
+                bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
+                // The nearest obstacle: the smallest key `(r^2 bits << 32) | index`, the first of equal ranges.
+                // (The index cannot overflow: a frame has at most `max_points` < 2^32 returns.) Whether a return
+                // is the nearest so far is not predictable in real sweeps: no branch.
+                let key = (u64::from(near) << 32) | u64::from(first.wrapping_add(j as u32));
+                let nearer = key < bin.nearest_key;
+                bin.nearest_key = core::hint::select_unpredictable(nearer, key, bin.nearest_key);
+                bin.nearest_obstacle_cell = core::hint::select_unpredictable(nearer, cell, bin.nearest_obstacle_cell);
             }
-            index = index.wrapping_add(LANES as u32);
         }
     }
 
-    /// Merges the lanes into the map (overwriting it): per bin the smallest key and the largest farthest return.
-    pub(crate) fn merge_lanes(&mut self) {
-        for (bin, lanes) in self.bins.iter_mut().zip(&self.lanes) {
-            let mut nearest = LaneBin::EMPTY;
-            let mut far = 0.0f32;
-            for lane in lanes {
-                if lane.nearest_key < nearest.nearest_key {
-                    nearest = *lane;
-                }
-                if lane.farthest_return_r2 > far {
-                    far = lane.farthest_return_r2;
-                }
-            }
+    /// Copies the keyed bins into the map (overwriting it).
+    pub(crate) fn finish_keyed(&mut self) {
+        for (bin, keyed) in self.bins.iter_mut().zip(&self.keyed) {
+            // Keys of points that were no obstacle start with `u32::MAX`, above every finite range's bits.
+            let r2_bits = (keyed.nearest_key >> 32) as u32;
+            let found = r2_bits < f32::INFINITY.to_bits();
             *bin = Bin {
-                nearest_obstacle_r2: if nearest.nearest_key == u64::MAX {
-                    f32::INFINITY
-                } else {
-                    f32::from_bits((nearest.nearest_key >> 32) as u32)
-                },
-                nearest_obstacle_cell: nearest.nearest_obstacle_cell,
-                farthest_return_r2: far,
+                nearest_obstacle_r2: if found { f32::from_bits(r2_bits) } else { f32::INFINITY },
+                nearest_obstacle_cell: if found { keyed.nearest_obstacle_cell } else { NO_CELL },
+                farthest_return_r2: keyed.farthest_return_r2,
             };
         }
     }
