@@ -139,8 +139,14 @@ fn point_files() {
                 }
             };
             let rec = stride * 4;
-            let t =
-                mutate(name, valid, &tmp.path().join(file), &read, &|_, b: &[u8]| b.len() % rec != 0, 10 + k as u64);
+            let t = mutate(
+                name,
+                valid,
+                &tmp.path().join(file),
+                &read,
+                &|_, b: &[u8]| !b.len().is_multiple_of(rec),
+                10 + k as u64,
+            );
             assert!(t.errors > 0);
         }
     }
@@ -350,7 +356,7 @@ fn feather_files() {
 
 fn npy_bytes() -> Vec<u8> {
     let mut h = "{'descr': '<f2', 'fortran_order': False, 'shape': (3, 4), }".to_string();
-    while (10 + h.len() + 1) % 64 != 0 {
+    while !(10 + h.len() + 1).is_multiple_of(64) {
         h.push(' ');
     }
     h.push('\n');

@@ -294,7 +294,7 @@ pub fn points_from_le_bytes(bytes: &[u8], stride: usize) -> Result<Vec<[f32; 3]>
         return Err(format!("point stride {stride} is below 3"));
     }
     let rec = stride * 4;
-    if bytes.len() % rec != 0 {
+    if !bytes.len().is_multiple_of(rec) {
         return Err(format!(
             "size {} bytes is not a whole number of {stride}-float points ({rec} bytes each): truncated?",
             bytes.len()
