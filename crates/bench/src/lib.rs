@@ -1,8 +1,8 @@
 //! # pmon-bench: how fast is the monitor on this machine?
 //!
 //! [`run_bench`] builds deterministic frames (a synthetic 64-beam and 32-beam LiDAR scene, object lists without a
-//! cloud, the largest frame the paper parameters accept, and the real KITTI and nuScenes sweeps of the shared
-//! data when present), runs [`Monitor::check_with_stages`] on them many times on one thread, reads
+//! cloud, the largest frame the paper parameters accept, and the real KITTI, nuScenes and Argoverse 2 sweeps of
+//! the shared data when present), runs [`Monitor::check_with_stages`] on them many times on one thread, reads
 //! [`Instant`] at every stage boundary, and reports per stage the median and the spread (10th and 90th
 //! percentiles) in microseconds, beside the frame sizes, the machine, the paper's figures and a floor: the time
 //! to read every point of the sweep once ([`frames::coordinate_sum`]).
@@ -14,6 +14,7 @@
 //! `i * 0.1 s`; after each cycle the objects jump back to their first positions, which the plausibility checks
 //! flag for that frame (same arithmetic, so the same cost).
 
+pub mod av2;
 pub mod frames;
 mod machine;
 
@@ -62,7 +63,7 @@ pub struct BenchOptions {
     pub max_seconds_per_case: f64,
     /// Folder of the shared real data; `None`: `PMON_DATA_DIR`, else `<workspace>/../shared/data`.
     pub data_dir: Option<PathBuf>,
-    /// Measure the real sweeps (KITTI, nuScenes) when they are present.
+    /// Measure the real sweeps (KITTI, nuScenes, Argoverse 2) when they are present.
     pub real_data: bool,
     /// Measure the largest accepted frame (400,000 points, 1,024 objects).
     pub worst_case: bool,
@@ -294,7 +295,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
     }
 
     // Real data first: a malformed file fails the run before anything slow happens.
-    let (kitti, nuscenes) = if opts.real_data { real_sequences(opts, &mut notes)? } else { (None, None) };
+    let real = if opts.real_data { real_sequences(opts, &mut notes)? } else { RealSequences::default() };
     let syn64 = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
     let syn32 = Sequence::synthetic(&SyntheticSpec::BEAMS_32);
     let lists: Vec<Sequence> =
@@ -303,7 +304,6 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
     if !opts.real_data {
         notes.push("real sweeps not measured (disabled)".to_string());
     }
-    notes.push("Argoverse 2 sweeps (Feather) are not measured: they need an Arrow reader".to_string());
 
     let mut defs = vec![
         CaseDef { name: "synthetic-64/0.5m".into(), sequence: &syn64, cell_size_m: 0.5, grid_size_m: 100.0 },
@@ -316,11 +316,10 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
         let name = format!("objects-{}/no-cloud", seq.max_objects());
         defs.push(CaseDef { name, sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
     }
-    if let Some(seq) = &kitti {
-        defs.push(CaseDef { name: "kitti/0.5m".into(), sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
-    }
-    if let Some(seq) = &nuscenes {
-        defs.push(CaseDef { name: "nuscenes/0.5m".into(), sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
+    for (name, seq) in [("kitti/0.5m", &real.kitti), ("nuscenes/0.5m", &real.nuscenes), ("av2/0.5m", &real.av2)] {
+        if let Some(seq) = seq {
+            defs.push(CaseDef { name: name.into(), sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
+        }
     }
     if let Some(seq) = &worst {
         defs.push(CaseDef { name: "worst-case/0.5m".into(), sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0 });
@@ -343,17 +342,24 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
     })
 }
 
-type RealSequences = (Option<Sequence>, Option<Sequence>);
+/// The real sequences found (each `None` when its sweeps are absent).
+#[derive(Default)]
+struct RealSequences {
+    kitti: Option<Sequence>,
+    nuscenes: Option<Sequence>,
+    av2: Option<Sequence>,
+}
 
 fn real_sequences(opts: &BenchOptions, notes: &mut Vec<String>) -> Result<RealSequences, BenchError> {
     let dir = opts.data_dir.clone().unwrap_or_else(frames::data_dir);
     let dir = dir.canonicalize().unwrap_or(dir);
     if !dir.is_dir() {
         notes.push(format!("real sweeps skipped: no data folder at {} (set PMON_DATA_DIR)", dir.display()));
-        return Ok((None, None));
+        return Ok(RealSequences::default());
     }
     let kitti = frames::kitti_sweeps(&dir).map_err(BenchError::Data)?;
     let nuscenes = frames::nuscenes_sweeps(&dir).map_err(BenchError::Data)?;
+    let av2_logs = av2::logs(&dir).map_err(BenchError::Data)?;
     let describe = |what: &str, sweeps: &[frames::Sweep]| {
         let names: Vec<&str> = sweeps.iter().map(|s| s.label.as_str()).collect();
         format!("{what}: {} sweep(s) from {} ({})", sweeps.len(), dir.display(), names.join(", "))
@@ -369,14 +375,42 @@ fn real_sequences(opts: &BenchOptions, notes: &mut Vec<String>) -> Result<RealSe
     } else {
         notes.push(describe("nuScenes", &nuscenes));
     }
+    if av2_logs.is_empty() {
+        notes.push(format!(
+            "Argoverse 2 sweeps skipped: no log with sensors/lidar/*.feather under {}",
+            dir.join("av2/sensor").display()
+        ));
+    }
+    for log in &av2_logs {
+        notes.push(describe(&format!("Argoverse 2 log {}", log.name()), &log.sweeps));
+        let [x, y, z] = log.up_lidar_m;
+        let height = z - log.ground_z_m;
+        notes.push(format!(
+            "Argoverse 2: points as read by pmon-datasets (both VLP-32C lidars merged, centred on the up_lidar \
+             origin ({x:.3}, {y:.3}, {z:.3}) m of AV2's rear-axle ego frame); extrinsic = that origin raised by \
+             the ground depth under the ego origin ({:.3} m, ground raster), i.e. translation ({x:.3}, {y:.3}, \
+             {height:.3}) m, so the ground is at z = 0 as in the other cases; no ego-footprint mask",
+            -log.ground_z_m
+        ));
+        if log.sweeps.len() < log.sweep_files {
+            notes.push(format!(
+                "Argoverse 2 log {}: {} of {} sweep files match an annotation timestamp (the others are not read)",
+                log.name(),
+                log.sweeps.len(),
+                log.sweep_files
+            ));
+        }
+    }
     notes.push(
-        "real sweeps carry synthetic object lists of the goal sizes (KITTI 100, nuScenes 30) that do not match \
-         the scene: most objects are evidence-free, so the occlusion test runs for nearly all"
+        "real sweeps carry synthetic object lists of the goal sizes (KITTI 100, nuScenes 30, Argoverse 2 100: \
+         two stacked 32-beam lidars give about as many points as KITTI's 64-beam one) that do not match the \
+         scene: most objects are evidence-free, so the occlusion test runs for nearly all"
             .to_string(),
     );
+    let av2 = av2::sequence(av2_logs.into_iter().flat_map(|log| log.sweeps).collect());
     let kitti = Sequence::real("KITTI HDL-64E sweeps, 100 synthetic objects", kitti, &SyntheticSpec::BEAMS_64);
     let nuscenes = Sequence::real("nuScenes 32-beam sweep, 30 synthetic objects", nuscenes, &SyntheticSpec::BEAMS_32);
-    Ok((kitti, nuscenes))
+    Ok(RealSequences { kitti, nuscenes, av2 })
 }
 
 fn us(d: std::time::Duration) -> f64 {

@@ -1,7 +1,8 @@
 //! The optimised path of the monitor (one reused `Monitor` that resets only the cells touched by the previous
 //! frame) gives exactly the same reports as the straightforward path (a new `Monitor`, with its freshly zeroed
 //! grid, for every frame), and repeated runs give the same reports: on the synthetic benchmark frames and, when
-//! present, on the real sweeps of the shared data.
+//! present, on the real sweeps of the shared data (KITTI, nuScenes, Argoverse 2). On the real sweeps, the three
+//! rasterizers (`Blocked`, `BlockedBaseline`, `Scalar`) give identical reports and grids too.
 //!
 //! The new monitor of frame `k` first sees frame `k - 1` without its cloud, so that its tracks hold the same last
 //! states as the reused monitor's (every object is in every frame, so the tracks hold nothing older), while its
@@ -10,9 +11,12 @@
 
 use std::collections::BTreeSet;
 
+use std::ops::Range;
+
 use pmon_bench::frames::{self, Sequence, SequenceFrame, SyntheticSpec};
 use pmon_monitor::{
-    ClusterReport, FrameReport, GridStats, Monitor, MonitorParams, NotMonitoredReason, ObjectReport, Verdict,
+    ClusterReport, FrameReport, GridStats, Monitor, MonitorParams, NotMonitoredReason, ObjectReport, Rasterizer,
+    Verdict,
 };
 
 #[derive(Clone, Debug, PartialEq)]
@@ -142,20 +146,32 @@ fn reused_and_fresh_monitors_agree_on_object_lists_without_cloud() {
     assert!(outcomes.iter().all(|o| o.sensor_status == Some(NotMonitoredReason::NoLidarData)));
 }
 
-#[test]
-fn reused_and_fresh_monitors_agree_on_real_sweeps() {
+/// The real sequences of the shared data that are present, with the range their point counts must lie in;
+/// empty (after a message) when there are none.
+fn real_sequences() -> Vec<(Sequence, Range<u32>)> {
     let dir = frames::data_dir();
     let kitti = frames::kitti_sweeps(&dir).expect("readable KITTI sweeps");
     let nuscenes = frames::nuscenes_sweeps(&dir).expect("readable nuScenes sweeps");
-    if kitti.is_empty() && nuscenes.is_empty() {
-        eprintln!("skipped: no KITTI or nuScenes sweeps under {} (set PMON_DATA_DIR)", dir.display());
-        return;
+    let av2 = pmon_bench::av2::sweeps(&dir).expect("readable Argoverse 2 sweeps");
+    for (what, n) in [("KITTI", kitti.len()), ("nuScenes", nuscenes.len()), ("Argoverse 2", av2.len())] {
+        if n == 0 {
+            eprintln!("skipped {what}: no sweeps under {} (set PMON_DATA_DIR)", dir.display());
+        }
     }
-    for (seq, expected_points) in [
+    [
         (Sequence::real("kitti", kitti, &SyntheticSpec::BEAMS_64), 100_000..130_000),
         (Sequence::real("nuscenes", nuscenes, &SyntheticSpec::BEAMS_32), 34_000..35_000),
-    ] {
-        let Some(seq) = seq else { continue };
+        // Two VLP-32C lidars merged: 99,229 and 99,466 points in the two sweeps of log 7fab2350.
+        (pmon_bench::av2::sequence(av2), 90_000..110_000),
+    ]
+    .into_iter()
+    .filter_map(|(seq, points)| seq.map(|s| (s, points)))
+    .collect()
+}
+
+#[test]
+fn reused_and_fresh_monitors_agree_on_real_sweeps() {
+    for (seq, expected_points) in real_sequences() {
         let iterations = seq.frames.len() + 2;
         let outcomes = assert_paths_agree(&seq, params(0.5), iterations);
         for o in &outcomes {
@@ -163,5 +179,49 @@ fn reused_and_fresh_monitors_agree_on_real_sweeps() {
             assert!(o.grid.points_in_band > 1000, "{}: ground plane wrong? {:?}", seq.name, o.grid);
         }
         assert_eq!(outcomes, reused_run(&seq, params(0.5), iterations), "{}: a repeated run differs", seq.name);
+    }
+}
+
+/// The three rasterizers give the same reports (compared by their `Debug` text too, which tells -0.0 from 0.0)
+/// and the same hits and flags in every cell, frame after frame, on the real sweeps.
+#[test]
+fn rasterizers_agree_on_real_sweeps() {
+    const ALL: [Rasterizer; 3] = [Rasterizer::Blocked, Rasterizer::BlockedBaseline, Rasterizer::Scalar];
+    for (seq, _) in real_sequences() {
+        for cell in [0.5, 0.2] {
+            let mut monitors: Vec<Monitor> = ALL
+                .iter()
+                .map(|r| {
+                    let mut m = Monitor::new(params(cell)).unwrap();
+                    m.set_rasterizer(*r);
+                    m
+                })
+                .collect();
+            let mut verdicts = BTreeSet::new();
+            for i in 0..seq.frames.len() + 2 {
+                let frame = seq.frame(i, Sequence::timestamp_s(i)).unwrap();
+                let outcomes: Vec<Outcome> = monitors.iter_mut().map(|m| m.check(&frame).unwrap().into()).collect();
+                let texts: Vec<String> = outcomes.iter().map(|o| format!("{o:?}")).collect();
+                for (r, (o, t)) in ALL.iter().zip(outcomes.iter().zip(&texts)).skip(1) {
+                    let at = format!("{}: frame {i}, cell {cell} m: {r:?} vs {:?}", seq.name, ALL[0]);
+                    assert_eq!(o, &outcomes[0], "{at}");
+                    assert!(*t == texts[0], "{at}: Debug texts differ");
+                }
+                let grids: Vec<_> = monitors.iter().map(Monitor::grid).collect();
+                let cells = u32::try_from(grids[0].geometry.cell_count()).unwrap();
+                for (r, g) in ALL.iter().zip(&grids).skip(1) {
+                    assert_eq!(g.touched(), grids[0].touched(), "{}: frame {i}: {r:?}: touched cells", seq.name);
+                    let differ = (0..cells).find(|&c| g.hits(c) != grids[0].hits(c) || g.flags(c) != grids[0].flags(c));
+                    assert_eq!(
+                        differ, None,
+                        "{}: frame {i}, cell {cell} m: {r:?}: grids differ at this cell",
+                        seq.name
+                    );
+                }
+                assert!(outcomes[0].grid.cells_hit > 0, "{}: frame {i}: no cell hit", seq.name);
+                verdicts.extend(outcomes[0].objects.iter().map(|r| r.verdict.name()));
+            }
+            assert!(verdicts.len() > 1, "{}: cell {cell} m: a single verdict kind {verdicts:?}", seq.name);
+        }
     }
 }

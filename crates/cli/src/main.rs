@@ -49,7 +49,8 @@ enum Command {
         /// Also measure the largest accepted frame (400,000 points, 1,024 objects).
         #[arg(long)]
         worst_case: bool,
-        /// Skip the real sweeps even when ../shared/data (or PMON_DATA_DIR) has them.
+        /// Skip the real sweeps (KITTI, nuScenes, Argoverse 2) even when ../shared/data (or PMON_DATA_DIR) has
+        /// them.
         #[arg(long)]
         no_real_data: bool,
     },
