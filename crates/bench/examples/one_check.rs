@@ -4,8 +4,11 @@
 //! ```text
 //! cargo build --release -p pmon-bench --example one_check
 //! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Monitor::check_with_stages*' \
-//!     target/release/examples/one_check [CHECKS] [CELL_SIZE_M]
+//!     target/release/examples/one_check [CHECKS] [CELL_SIZE_M] [RASTERIZER]
 //! ```
+//!
+//! `RASTERIZER` is `blocked` (the default: AVX2 where the processor has it), `baseline` (the blocked loop on SSE2)
+//! or `scalar` (the reference loop); see `pmon_monitor::Rasterizer`.
 //!
 //! `CHECKS` (default 1) checks run on consecutive frames of the sequence with one reused monitor; the instruction
 //! count of one steady-state check is the difference between the runs with 2 and 1 checks.
@@ -13,7 +16,7 @@
 use std::process::ExitCode;
 
 use pmon_bench::{Sequence, SyntheticSpec};
-use pmon_monitor::{Monitor, MonitorParams};
+use pmon_monitor::{Monitor, MonitorParams, Rasterizer};
 
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
@@ -21,7 +24,7 @@ fn main() -> ExitCode {
         None => 1,
         Some(Ok(n)) => n,
         Some(Err(_)) => {
-            eprintln!("usage: one_check [CHECKS] [CELL_SIZE_M]");
+            eprintln!("usage: one_check [CHECKS] [CELL_SIZE_M] [blocked|baseline|scalar]");
             return ExitCode::from(2);
         }
     };
@@ -29,7 +32,18 @@ fn main() -> ExitCode {
         None => 0.5,
         Some(Ok(c)) => c,
         Some(Err(_)) => {
-            eprintln!("usage: one_check [CHECKS] [CELL_SIZE_M]");
+            eprintln!("usage: one_check [CHECKS] [CELL_SIZE_M] [blocked|baseline|scalar]");
+            return ExitCode::from(2);
+        }
+    };
+    let rasterizer = match args.next().as_deref() {
+        None | Some("blocked") => Rasterizer::Blocked,
+        Some("baseline") => Rasterizer::BlockedBaseline,
+        Some("scalar") => Rasterizer::Scalar,
+        Some(other) => {
+            eprintln!(
+                "unknown rasterizer `{other}`; usage: one_check [CHECKS] [CELL_SIZE_M] [blocked|baseline|scalar]"
+            );
             return ExitCode::from(2);
         }
     };
@@ -41,6 +55,8 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    monitor.set_rasterizer(rasterizer);
+    eprintln!("rasterizer: {}", rasterizer.instruction_set());
     for i in 0..checks {
         let Some(frame) = seq.frame(i, Sequence::timestamp_s(i)) else { return ExitCode::FAILURE };
         match monitor.check(&frame) {

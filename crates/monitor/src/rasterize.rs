@@ -5,20 +5,22 @@
 //!
 //! - [`rasterize_scalar`], the reference: one point at a time, as the stage was first written.
 //! - [`rasterize_blocked`]: blocks of [`BLOCK`] points in two passes. Pass 1 has no branches and writes only to
-//!   small stack arrays, so the compiler vectorises it (4 points per SSE2 instruction): it transforms the points
-//!   into the ego frame, classifies them by the height band, and computes the grid cell (or [`NO_CELL`]), the
-//!   squared range and the azimuth bin of each. Pass 2 applies the updates to the visibility map (without
-//!   branches on the data: whether a return is the nearest or farthest so far is not predictable) and to the
-//!   grid, in point order, which is what keeps the results identical (ties in the nearest obstacle keep the first
-//!   point; the touched-cell list is in the order of first touch).
+//!   small stack arrays, so the compiler vectorises it (4 points per SSE2 instruction, 8 per AVX2 instruction in
+//!   the version chosen at run time, see [`Rasterizer::Blocked`]): it transforms the points into the ego frame,
+//!   classifies them by the height band, and computes the grid cell (or [`NO_CELL`]), the squared range and the
+//!   azimuth bin of each. Pass 2 applies the updates in point order, which is what keeps the results identical
+//!   (ties in the nearest obstacle keep the first point; the touched-cell list is in the order of first touch):
+//!   to the visibility map without branches on the data (whether a return is the nearest or farthest so far is
+//!   not predictable; the nearest obstacle is the smallest key `(r^2 bits, point index)`), and to the grid one
+//!   run of consecutive hits of a cell at a time (see `OccupancyGrid::add_hits`).
 //!
 //! Pass 1 computes the reference's floating-point operations in the reference's order (Rust neither contracts
-//! `a * b + c` into a fused multiply-add nor reassociates), so each lane has the reference's bits. Three things
-//! are written differently, each exact and argued where it is done: the diamond angle without branches
-//! ([`crate::geometry::diamond_angle_select`]), float-to-integer truncation by float operations
-//! ([`floor_small`], as SSE2 has no vector form of Rust's saturating `as`), and, for an upright sensor (identity
-//! rotation, the usual extrinsic), the transform as a translation. The division of the diamond angle stays: no
-//! multiplication by a reciprocal rounds like it.
+//! `a * b + c` into a fused multiply-add nor reassociates, whatever the instruction set), so each lane has the
+//! reference's bits. Three things are written differently, each exact and argued where it is done: the diamond
+//! angle without branches ([`crate::geometry::diamond_angle_select`]), float-to-integer truncation by float
+//! operations ([`floor_small`], as SSE2 has no vector form of Rust's saturating `as`), and, for an upright sensor
+//! (identity rotation, the usual extrinsic), the transform as a translation. The division of the diamond angle
+//! stays: no multiplication by a reciprocal rounds like it.
 
 use crate::frame::Isometry3;
 use crate::geometry::diamond_angle_select;
