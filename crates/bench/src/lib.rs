@@ -21,7 +21,7 @@ mod machine;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use pmon_monitor::{FrameError, Monitor, MonitorParams, ParamError, Stage};
+use pmon_monitor::{FrameError, Monitor, MonitorParams, ParamError, Rasterizer, Stage};
 use serde::{Deserialize, Serialize};
 
 pub use frames::{Sequence, SyntheticSpec};
@@ -67,13 +67,22 @@ pub struct BenchOptions {
     pub real_data: bool,
     /// Measure the largest accepted frame (400,000 points, 1,024 objects).
     pub worst_case: bool,
+    /// The rasterize loop to measure (`Blocked`, the monitor's default, picks AVX2 where the processor has it).
+    pub rasterizer: Rasterizer,
 }
 
 impl Default for BenchOptions {
     /// 300 iterations per case, at most 2 s per case, real data and worst case included: about 10 s in a
     /// release build on a 2-core machine.
     fn default() -> Self {
-        Self { iterations: 300, max_seconds_per_case: 2.0, data_dir: None, real_data: true, worst_case: true }
+        Self {
+            iterations: 300,
+            max_seconds_per_case: 2.0,
+            data_dir: None,
+            real_data: true,
+            worst_case: true,
+            rasterizer: Rasterizer::Blocked,
+        }
     }
 }
 
@@ -288,7 +297,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
     if !(opts.max_seconds_per_case.is_finite() && opts.max_seconds_per_case > 0.0) {
         return Err(BenchError::Options("max_seconds_per_case must be finite and > 0".to_string()));
     }
-    let machine = Machine::current();
+    let machine = Machine::current(opts.rasterizer);
     let mut notes = Vec::new();
     if !machine.optimized_build {
         notes.push("DEBUG BUILD: figures are not representative; build with --release".to_string());
@@ -425,6 +434,7 @@ fn median_u32(v: &mut [u32]) -> u32 {
 fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, BenchError> {
     let p = params(def.cell_size_m, def.grid_size_m);
     let mut monitor = Monitor::new(p).map_err(|source| BenchError::Params { case: def.name.clone(), source })?;
+    monitor.set_rasterizer(opts.rasterizer);
     let seq = def.sequence;
     let n = seq.frames.len().max(1);
     let frame_err = |source| BenchError::Frame { case: def.name.clone(), source };
@@ -602,8 +612,8 @@ impl BenchReport {
         let load = m.load_average_1min.map_or_else(|| "n/a".to_string(), |l| format!("{l:.2}"));
         let _ = writeln!(
             s,
-            "machine: {} | {} logical cores | {} | load average {load} | single thread",
-            m.cpu_model, m.logical_cores, m.platform
+            "machine: {} | {} logical cores | {} | load average {load} | single thread | rasterize loop: {}",
+            m.cpu_model, m.logical_cores, m.platform, m.rasterizer
         );
         let _ = writeln!(
             s,

@@ -16,12 +16,16 @@ pub struct Machine {
     pub platform: String,
     /// True for an optimised build (the figures of a debug build are not representative).
     pub optimized_build: bool,
+    /// The rasterize loop measured and its instruction set on this processor: `blocked (avx2)`,
+    /// `blocked (baseline)`, `baseline` or `scalar` (see `pmon_monitor::Rasterizer`).
+    #[serde(default)]
+    pub rasterizer: String,
 }
 
 impl Machine {
     /// Reads the machine's description (Linux `/proc` files where present).
     #[must_use]
-    pub fn current() -> Self {
+    pub fn current(rasterizer: pmon_monitor::Rasterizer) -> Self {
         let cpu_model = std::fs::read_to_string("/proc/cpuinfo")
             .ok()
             .and_then(|text| cpu_model_of(&text))
@@ -35,6 +39,11 @@ impl Machine {
             load_average_1min,
             platform: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
             optimized_build: !cfg!(debug_assertions),
+            rasterizer: match rasterizer {
+                pmon_monitor::Rasterizer::Blocked => format!("blocked ({})", rasterizer.instruction_set()),
+                pmon_monitor::Rasterizer::BlockedBaseline => "baseline".to_string(),
+                pmon_monitor::Rasterizer::Scalar => "scalar".to_string(),
+            },
         }
     }
 }

@@ -5,7 +5,14 @@ use pmon_bench::{run_bench, BenchError, BenchOptions, BenchReport, Timing};
 use pmon_monitor::Stage;
 
 fn quick() -> BenchOptions {
-    BenchOptions { iterations: 3, max_seconds_per_case: 1.0, data_dir: None, real_data: false, worst_case: false }
+    BenchOptions {
+        iterations: 3,
+        max_seconds_per_case: 1.0,
+        data_dir: None,
+        real_data: false,
+        worst_case: false,
+        rasterizer: pmon_monitor::Rasterizer::Blocked,
+    }
 }
 
 #[test]

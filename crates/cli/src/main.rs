@@ -9,7 +9,7 @@ mod view;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{Parser, Subcommand, ValueEnum};
 
 /// pmon: a lightweight perception monitor for automated driving.
 ///
@@ -21,6 +21,17 @@ use clap::{Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+}
+
+/// `pmon bench --rasterizer`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum RasterizerArg {
+    /// The blocked loop, AVX2 where the processor has it (the monitor's default).
+    Blocked,
+    /// The blocked loop on the target's baseline instruction set.
+    Baseline,
+    /// The reference per-point loop.
+    Scalar,
 }
 
 #[derive(Subcommand, Debug)]
@@ -53,6 +64,10 @@ enum Command {
         /// them.
         #[arg(long)]
         no_real_data: bool,
+        /// The rasterize loop: `blocked` (the monitor's default: AVX2 where the processor has it), `baseline` (the
+        /// same loop on the target's baseline, SSE2 on x86-64) or `scalar` (the reference loop).
+        #[arg(long, value_enum, default_value_t = RasterizerArg::Blocked)]
+        rasterizer: RasterizerArg,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -78,13 +93,18 @@ fn main() -> ExitCode {
         Command::Simulate(args) => simulate::run(&args),
         Command::Check(args) => check::run(&args),
         Command::View(args) => view::run(&args),
-        Command::Bench { json, iterations, max_seconds_per_case, worst_case, no_real_data } => {
+        Command::Bench { json, iterations, max_seconds_per_case, worst_case, no_real_data, rasterizer } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
                 max_seconds_per_case,
                 data_dir: None,
                 real_data: !no_real_data,
                 worst_case,
+                rasterizer: match rasterizer {
+                    RasterizerArg::Blocked => pmon_monitor::Rasterizer::Blocked,
+                    RasterizerArg::Baseline => pmon_monitor::Rasterizer::BlockedBaseline,
+                    RasterizerArg::Scalar => pmon_monitor::Rasterizer::Scalar,
+                },
             };
             pmon_bench::run_bench(&opts).map_err(anyhow::Error::from).and_then(|r| {
                 if json {

@@ -478,15 +478,21 @@ impl Monitor {
                 let cb = cluster.bounds_m;
                 let gap_x = (cb[0] - rb[2]).max(rb[0] - cb[2]).max(0.0);
                 let gap_y = (cb[1] - rb[3]).max(rb[1] - cb[3]).max(0.0);
-                // Bounds are of cell centres: allow half a diagonal, as the exact test below does.
-                if libm::hypotf(gap_x, gap_y) - half_diagonal > reach {
+                // Bounds are of cell centres: allow half a diagonal, as the exact test below does. First without
+                // the square root: `hypot(gx, gy) >= max(gx, gy)` also after rounding, so this skips only pairs
+                // the test with `hypotf` skips (most pairs are far apart).
+                if gap_x.max(gap_y) - half_diagonal > reach || libm::hypotf(gap_x, gap_y) - half_diagonal > reach {
                     continue;
                 }
-                // Distance from the cell (not its centre) to the region: centre distance less half a diagonal.
+                // Distance from the cell (not its centre) to the region: centre distance less half a diagonal
+                // (no cell can come nearer than touching).
                 let mut d = f32::INFINITY;
                 for &c in cells {
                     let (x, y) = geometry.cell_center(c);
                     d = d.min((region.grown.distance(x, y) - half_diagonal).max(0.0));
+                    if d <= 0.0 {
+                        break;
+                    }
                 }
                 let inconsistent = self.reports.get(j).is_some_and(|r| r.sensor.eta < tau_tp);
                 let within = if inconsistent { reach } else { spill };
