@@ -4,8 +4,9 @@
 //! crate may not depend on it): a synthetic 64-beam sweep (120,000 points) with 100 objects, a 32-beam sweep
 //! (34,720 points) with 30 objects, the largest accepted frame (400,000 points, 1,024 objects), object lists
 //! without a cloud, and the real KITTI and nuScenes sweeps of the shared data (`PMON_DATA_DIR`, default
-//! `<workspace>/../shared/data`; skipped with a message when absent). Argoverse 2 sweeps (Feather) are not
-//! benched: reading them needs an Arrow reader this crate does not have.
+//! `<workspace>/../shared/data`; skipped with a message when absent). Argoverse 2 sweeps (Feather) are
+//! benched in `pmon-bench` (`cargo bench -p pmon-bench --bench real_sweeps`), which has the Arrow reader this
+//! crate does not.
 //!
 //! Each benchmark reuses one `Monitor` and cycles through its frames with increasing timestamps, as in a car.
 //! Per-stage medians (rasterize, regions, conflicts, plausibility, verdicts) come from `pmon bench` (the
