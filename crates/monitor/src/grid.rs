@@ -133,7 +133,7 @@ impl GridGeometry {
     /// the range (at most the whole grid). (A closure rather than an iterator: a `flat_map` iterator here cost
     /// the regions stage 45 % in `pmon bench`.)
     ///
-    /// The same cells as testing every cell of the range ([`GridGeometry::for_each_cell_overlapping_scan`]), with
+    /// The same cells as testing every cell of the range (the tests compare the two), with
     /// a few tests per row instead of one per cell: in a row, the cells that pass form one run. (Each of the
     /// test's conditions compares the absolute value of a quantity computed from the cell centre `x` by
     /// operations that are monotonic in `x` in floating point too (a subtraction, a multiplication by a constant,
@@ -192,8 +192,10 @@ impl GridGeometry {
         }
     }
 
-    /// [`GridGeometry::for_each_cell_overlapping`] by testing every cell of the range: the reference.
-    pub fn for_each_cell_overlapping_scan(
+    /// [`GridGeometry::for_each_cell_overlapping`] by testing every cell of the range: the reference the tests
+    /// compare the walk with.
+    #[cfg(test)]
+    pub(crate) fn for_each_cell_overlapping_scan(
         self,
         rect: &OrientedRect,
         range: (u32, u32, u32, u32),
@@ -227,8 +229,8 @@ pub struct OccupancyGrid {
     /// Hits per cell, at most [`MAX_HITS`] (a byte: half the cache footprint of the grid's hottest array).
     hits: Vec<u8>,
     flags: Vec<u8>,
-    /// The touched cells are `touched[..touched_len]`; the buffer has its full length from construction, so
-    /// that [`OccupancyGrid::add_hits`] can write a cell before knowing whether it is a first touch.
+    /// The touched cells are `touched[..touched_len]`; the buffer has its full length from construction and
+    /// never grows (no allocation per frame; a full list records no new cell).
     touched: Vec<u32>,
     touched_len: usize,
     /// One bit per cell: set when the cell has hits. Lets the region loops visit only the hit cells of a row.
@@ -277,17 +279,7 @@ impl OccupancyGrid {
     /// Adds one hit to a cell. Returns false when the touched list is full (the hit is then not recorded).
     #[inline]
     pub fn add_hit(&mut self, index: u32) -> bool {
-        let Some(h) = self.hits.get_mut(index as usize) else { return false };
-        if *h == 0 {
-            let Some(slot) = self.touched.get_mut(self.touched_len) else { return false };
-            *slot = index;
-            self.touched_len += 1;
-            if let Some(w) = self.hit_bits.get_mut(index as usize / 64) {
-                *w |= 1 << (index % 64);
-            }
-        }
-        *h += u8::from(u16::from(*h) < MAX_HITS);
-        true
+        self.add_run(index, 1)
     }
 
     /// [`OccupancyGrid::add_hit`] on each of 64 cells in turn, skipping cells outside the grid (such as
@@ -316,18 +308,18 @@ impl OccupancyGrid {
             let before = ends & ((1u64 << j) - 1);
             let start = if before == 0 { 0 } else { 64 - before.leading_zeros() };
             if let Some(&c) = cells.get(j as usize) {
-                self.add_run(c, j + 1 - start);
+                let _ = self.add_run(c, j + 1 - start);
             }
         }
     }
 
-    /// `n` hits on one cell: the same as `n` calls of [`OccupancyGrid::add_hit`].
+    /// `n` hits on one cell: the same as `n` calls of [`OccupancyGrid::add_hit`]. False when no hit was recorded
+    /// (outside the grid, or a new cell while the touched list is full).
     #[inline(always)]
-    fn add_run(&mut self, index: u32, n: u32) {
-        let Some(h) = self.hits.get_mut(index as usize) else { return };
+    fn add_run(&mut self, index: u32, n: u32) -> bool {
+        let Some(h) = self.hits.get_mut(index as usize) else { return false };
         if *h == 0 {
-            // A full list records no hit of a new cell.
-            let Some(slot) = self.touched.get_mut(self.touched_len) else { return };
+            let Some(slot) = self.touched.get_mut(self.touched_len) else { return false };
             *slot = index;
             self.touched_len += 1;
             if let Some(w) = self.hit_bits.get_mut(index as usize / 64) {
@@ -336,6 +328,7 @@ impl OccupancyGrid {
         }
         let sum = u32::from(*h).saturating_add(n).min(u32::from(MAX_HITS));
         *h = u8::try_from(sum).unwrap_or(u8::MAX);
+        true
     }
 
     /// Calls `f(grid, index)` for each cell with hits among the cells of a range that overlap a rectangle (those

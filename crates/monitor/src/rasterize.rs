@@ -288,17 +288,29 @@ pub(crate) fn rasterize_blocked(
         return rasterize_scalar(points, t, band, grid, visibility);
     };
     let ego = band.ego_m != Band::NO_EGO;
-    let wide = wide && wide::available();
-    match (k.translation_only(), ego, wide) {
-        (true, false, false) => blocks::<true, false>(&k, points, grid, visibility),
-        (false, false, false) => blocks::<false, false>(&k, points, grid, visibility),
-        (true, true, false) => blocks::<true, true>(&k, points, grid, visibility),
-        (false, true, false) => blocks::<false, true>(&k, points, grid, visibility),
-        (true, false, true) => wide::blocks::<true, false>(&k, points, grid, visibility),
-        (false, false, true) => wide::blocks::<false, false>(&k, points, grid, visibility),
-        (true, true, true) => wide::blocks::<true, true>(&k, points, grid, visibility),
-        (false, true, true) => wide::blocks::<false, true>(&k, points, grid, visibility),
+    match (k.translation_only(), ego) {
+        (true, false) => blocks_on::<true, false>(&k, points, grid, visibility, wide),
+        (false, false) => blocks_on::<false, false>(&k, points, grid, visibility, wide),
+        (true, true) => blocks_on::<true, true>(&k, points, grid, visibility, wide),
+        (false, true) => blocks_on::<false, true>(&k, points, grid, visibility, wide),
     }
+}
+
+/// [`blocks`] with the wider vector unit when `wide` and the processor has one, else on the baseline.
+fn blocks_on<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
+    k: &Pass1,
+    points: &[[f32; 3]],
+    grid: &mut OccupancyGrid,
+    visibility: &mut VisibilityMap,
+    wide: bool,
+) -> u32 {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if wide {
+        return wide::blocks::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility);
+    }
+    // Without run-time detection (`wide::available` is false) the flag has nothing to choose.
+    let _ = wide;
+    blocks::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility)
 }
 
 /// The block loop compiled for a wider vector unit, chosen at run time.
@@ -349,21 +361,9 @@ mod wide {
 /// `-C target-feature=+avx2` or a `target-cpu` to widen it).
 #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
 mod wide {
-    use super::{OccupancyGrid, Pass1, VisibilityMap};
-
     /// Never: no run-time detection here.
     pub(super) fn available() -> bool {
         false
-    }
-
-    /// The baseline loop.
-    pub(super) fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
-        k: &Pass1,
-        points: &[[f32; 3]],
-        grid: &mut OccupancyGrid,
-        visibility: &mut VisibilityMap,
-    ) -> u32 {
-        super::blocks::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility)
     }
 }
 
