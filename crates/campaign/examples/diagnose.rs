@@ -24,6 +24,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut writer =
         pmon_recording::RecordingWriter::create(out, pmon_recording::RecordingMeta::new("injected", path.as_str()))?;
     let mut shown = 0;
+    let mut clean_monitor = Monitor::new(MonitorParams { conflict_association_m: reach, ..MonitorParams::default() })?;
+    let mut misses: BTreeMap<String, u64> = BTreeMap::new();
     let mut by: BTreeMap<String, u64> = BTreeMap::new();
     let mut clean: BTreeMap<String, u64> = BTreeMap::new();
     for (k, f) in frames.iter().enumerate() {
@@ -31,18 +33,70 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let inj = injector.apply(k as u64, &mut f.objects);
         let mut roi = Vec::new();
         let view = f.as_frame(&mut roi);
+        let confirmed: Vec<bool> = {
+            let mut croi = Vec::new();
+            let cview = frames[k].as_frame(&mut croi);
+            clean_monitor.check(&cview)?.objects.iter().map(|r| r.sensor.eta_own >= 0.8).collect()
+        };
+        if std::env::var("PMON_DEBUG").is_ok() {
+            eprintln!("FRAME {k}");
+        }
         let rep = monitor.check(&view)?;
+        for (i, r) in rep.objects.iter().enumerate() {
+            let injected = inj.iter().any(|x| x.index as usize == i);
+            let alarm = matches!(
+                r.sensor.verdict,
+                pmon_monitor::SensorVerdict::PositionError | pmon_monitor::SensorVerdict::Ghost
+            );
+            if !injected || !confirmed.get(i).copied().unwrap_or(false) || alarm {
+                continue;
+            }
+            let Some(region) = clean_monitor.region_of(&f.objects[i]) else { continue };
+            let mut near: Vec<String> = rep
+                .clusters
+                .iter()
+                .filter(|c| c.in_roi)
+                .map(|c| (region.grown.distance(c.centroid_m[0], c.centroid_m[1]), c))
+                .filter(|(d, _)| *d < 2.5)
+                .map(|(d, c)| {
+                    let who = match c.object {
+                        None => "free".to_string(),
+                        Some(o) => format!("{:?}", rep.objects[o as usize].sensor.verdict).chars().take(12).collect(),
+                    };
+                    format!("{:.1}{}", (d * 2.0).round() / 2.0, who)
+                })
+                .collect();
+            near.sort();
+            // Is the object's true place (clean state) inside another object's region?
+            let truth = &frames[k].objects[i];
+            let covered = f.objects.iter().enumerate().any(|(m, o)| {
+                m != i && clean_monitor.region_of(o).is_some_and(|r| r.grown.distance(truth.x_m, truth.y_m) < 0.3)
+            });
+            let key = format!(
+                "{:?} truth_covered{} own{} vis{:.1} near[{}]",
+                u8::from(covered),
+                r.sensor.verdict,
+                u8::from(r.sensor.eta_own >= 0.8),
+                r.sensor.visible_fraction,
+                near.first().cloned().unwrap_or_default()
+            );
+            if std::env::var("PMON_DEBUG").is_ok() {
+                eprintln!("MISS obj {i} {key}");
+            }
+            *misses.entry(key).or_default() += 1;
+        }
         writer.write_frame(&f)?;
         for (i, r) in rep.objects.iter().enumerate() {
             let injected = inj.iter().any(|x| x.index as usize == i);
             let o = &f.objects[i];
             let range = o.x_m.hypot(o.y_m);
             let key = format!(
-                "{:<11} {:>2}0 m {:?} {}",
+                "{:<11} {:>2}0 m {:?} {} {}",
                 o.class.name(),
                 (range / 10.0) as u32,
                 r.sensor.verdict,
-                if r.sensor.eta >= 0.8 { "eta>=tau" } else { "eta<tau" }
+                if r.sensor.eta >= 0.8 { "eta>=tau" } else { "eta<tau" },
+                if r.sensor.eta_own >= 0.8 { "own>=tau" } else { "own<tau" }
             );
             if injected
                 && shown < 6
@@ -74,6 +128,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("-- injected");
     for (k, v) in &by {
+        println!("{v:>6}  {k}");
+    }
+    println!("-- verifiable misses");
+    let mut m: Vec<_> = misses.iter().collect();
+    m.sort_by(|a, b| b.1.cmp(a.1));
+    for (k, v) in m.iter().take(40) {
         println!("{v:>6}  {k}");
     }
     println!("-- clean");

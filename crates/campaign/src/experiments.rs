@@ -138,6 +138,9 @@ pub struct SceneIds {
     pub intersection: usize,
     /// The residential street seen by a 32-beam LiDAR at 20 Hz (dt = 0.05 s), for the speed errors.
     pub pedestrians_20hz: Option<usize>,
+    /// The residential street under the paper's conditions (no position uncertainty in the ground truth,
+    /// parked cars part of the map, fewer pedestrians), for the permanent position errors.
+    pub pedestrians_paper: Option<usize>,
 }
 
 /// How much to run.
@@ -198,8 +201,21 @@ pub fn figure_specs() -> Vec<FigureSpec> {
             (0.0, 0.16),
         ),
         fig(
+            "permanent_position_paper",
+            "Permanent position errors away from the ego, paper conditions (no position uncertainty, parked cars in the map, 60 pedestrians)",
+            "Fig. PositionError",
+            "position error [m]",
+            "rate",
+            vec![
+                (true, 0.9, "90 %".into()),
+                (false, 0.7, "paper: 0.7 m @ 0.5 m cells".into()),
+                (false, 0.4, "paper: 0.4 m @ 0.2 m cells".into()),
+            ],
+            pct,
+        ),
+        fig(
             "permanent_position",
-            "Permanent position errors away from the ego (pedestrian scenario)",
+            "Permanent position errors away from the ego, hard conditions (0.1 m uncertainty, parked cars as objects, 120 pedestrians)",
             "Fig. PositionError",
             "position error [m]",
             "rate",
@@ -361,6 +377,36 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
                 probe("permanent_position", "sensor precision, 0.2 m cells", m, Measure::SensorPrecision),
             ],
         );
+        if let Some(paper) = ids.pedestrians_paper {
+            for (params, cells) in [(p05, "0.5"), (p02, "0.2")] {
+                push(
+                    paper,
+                    params,
+                    f,
+                    (0.0, 0.0),
+                    vec![
+                        probe(
+                            "permanent_position_paper",
+                            &format!("sensor recall, {cells} m cells"),
+                            m,
+                            Measure::SensorRecall,
+                        ),
+                        probe(
+                            "permanent_position_paper",
+                            &format!("sensor recall (verifiable), {cells} m cells"),
+                            m,
+                            Measure::SensorRecallVerifiable,
+                        ),
+                        probe(
+                            "permanent_position_paper",
+                            &format!("sensor precision, {cells} m cells"),
+                            m,
+                            Measure::SensorPrecision,
+                        ),
+                    ],
+                );
+            }
+        }
         for dir in [Direction::Towards, Direction::Random] {
             let f = Fault::PermanentPosition { magnitude_m: m as f32, direction: dir };
             push(
@@ -588,18 +634,34 @@ pub fn claims(figs: &[Figure], latency_ms: Option<(f64, f64)>) -> Vec<Claim> {
             });
         }
     }
-    // 3-4. Permanent position errors.
-    for (cells, paper_from) in [("0.5", 0.7), ("0.2", 0.4)] {
-        let all = curve(figs, "permanent_position", &format!("sensor recall, {cells} m cells"));
-        let r = curve(figs, "permanent_position", &format!("sensor recall (verifiable), {cells} m cells"));
-        let p = curve(figs, "permanent_position", &format!("sensor precision, {cells} m cells"));
+    // 3-4. Permanent position errors: under the paper's conditions (the claim), and under the harder
+    // conditions of the built-in street (beyond the paper; the goal is 90 % from 1.0 m).
+    for (fig_id, conditions, cells, paper_from) in [
+        ("permanent_position_paper", "paper conditions", "0.5", 0.7),
+        ("permanent_position_paper", "paper conditions", "0.2", 0.4),
+        (
+            "permanent_position",
+            "hard conditions: 0.1 m uncertainty, crowded street, parked cars as objects",
+            "0.5",
+            1.0,
+        ),
+        (
+            "permanent_position",
+            "hard conditions: 0.1 m uncertainty, crowded street, parked cars as objects",
+            "0.2",
+            1.0,
+        ),
+    ] {
+        let all = curve(figs, fig_id, &format!("sensor recall, {cells} m cells"));
+        let r = curve(figs, fig_id, &format!("sensor recall (verifiable), {cells} m cells"));
+        let p = curve(figs, fig_id, &format!("sensor precision, {cells} m cells"));
         if let (Some(r), Some(p), Some(all)) = (r, p, all) {
             let from = joint_threshold(r, p, 0.9);
             let at_2m =
                 all.points.last().map_or("n/a".into(), |q| format!("{:.0} % at {:.1} m", 100.0 * q.rate.value, q.x));
             out.push(Claim {
                 paper: format!(
-                    "Permanent position errors: recall and precision above 90 % from {paper_from} m ({cells} m cells)"
+                    "Permanent position errors: recall and precision above 90 % from {paper_from} m ({cells} m cells; {conditions})"
                 ),
                 pmon: format!(
                     "{}; recall over all errors, occluded objects included: {at_2m}",
@@ -680,7 +742,7 @@ mod tests {
 
     #[test]
     fn plan_is_deterministic_and_covers_every_figure() {
-        let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: Some(2) };
+        let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: Some(2), pedestrians_paper: Some(3) };
         let a = plan(Scale::Quick, ids, &MonitorParams::default(), 7);
         let b = plan(Scale::Quick, ids, &MonitorParams::default(), 7);
         assert_eq!(

@@ -732,7 +732,12 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
     let cuboids = read_annotations(&ann_path)?;
     let poses_path = dir.join("city_SE3_egovehicle.feather");
     let poses = PoseTrack::read(&poses_path)?;
-    let raster = if dir.join("map").is_dir() { Some(GroundRaster::open(&dir.join("map"))?) } else { None };
+    // The ground raster is optional: some published logs ship only the vector map (the nominal ground height
+    // is used then, as without a map folder).
+    let map_dir = dir.join("map");
+    let has_raster = map_dir.is_dir()
+        && !list_dir(&map_dir, |n| n.contains("_ground_height_surface____") && n.ends_with(".npy"))?.is_empty();
+    let raster = if has_raster { Some(GroundRaster::open(&map_dir)?) } else { None };
     let lidar_dir = dir.join("sensors").join("lidar");
     let sweep_files: BTreeMap<i64, PathBuf> = if lidar_dir.is_dir() {
         list_dir(&lidar_dir, |n| n.ends_with(".feather"))?

@@ -51,6 +51,42 @@ struct ObjectScratch {
     region: Option<Region>,
     /// Attributed cluster and its size.
     cluster: Option<(u16, u32)>,
+    /// `eta_own`: the highest occupancy probability among the cells this object owns (see [`SensorOutcome`]).
+    eta_own: f32,
+    /// What the sensor saw of the footprint; computed for objects without evidence of their own only.
+    sight: Option<FootprintSight>,
+}
+
+/// What the sensor saw of an object's footprint (the cells overlapping it), for objects without evidence of
+/// their own: was the place visibly empty, hidden, or taken by another object's evidence?
+#[derive(Clone, Copy, Debug, Default)]
+struct FootprintSight {
+    /// Footprint cells.
+    total: u32,
+    /// Seen empty: rays passed over them and returned from beyond.
+    visible: u32,
+    /// Shadowed by evidence no object explains, in the region of interest (likely this object, displaced).
+    unexplained_shadow: u32,
+    /// Occupied by evidence that another object owns, with the cell's centre inside that object's footprint:
+    /// two objects cannot stand in one place.
+    foreign: u32,
+    /// A cell of the unexplained evidence that shadows the footprint (`NO_CELL`: none).
+    occluder: u32,
+}
+
+impl FootprintSight {
+    fn fraction(&self, k: u32) -> f32 {
+        if self.total > 0 {
+            k as f32 / self.total as f32
+        } else {
+            0.0
+        }
+    }
+
+    /// Share of the footprint the sensor contradicts: seen empty, behind unexplained evidence, or taken.
+    fn contradicted(&self) -> f32 {
+        self.fraction(self.visible + self.unexplained_shadow + self.foreign)
+    }
 }
 
 /// The perception monitor. Construct once with [`Monitor::new`]; call [`Monitor::check`] every frame.
@@ -65,6 +101,12 @@ pub struct Monitor {
     grid: OccupancyGrid,
     visibility: VisibilityMap,
     scratch: Vec<ObjectScratch>,
+    /// Per cell, valid where the cell is flagged `FLAG_EXPLAINED` this frame: the object in whose region it
+    /// lies deepest among those whose regions cover it (ties to the lower index), and that depth (see `claim`).
+    owner: Vec<u32>,
+    owner_depth: Vec<f32>,
+    /// Candidate (distance, cluster, object) pairs of the evidence assignment.
+    pairs: Vec<(f32, u32, u32)>,
     valid: Vec<bool>,
     motion: Vec<MotionOutcome>,
     reports: Vec<ObjectReport>,
@@ -94,6 +136,7 @@ const fn sensor_outcome(verdict: SensorVerdict) -> SensorOutcome {
     SensorOutcome {
         verdict,
         eta: 0.0,
+        eta_own: 0.0,
         margin_length_m: 0.0,
         margin_width_m: 0.0,
         visible_fraction: 0.0,
@@ -118,6 +161,9 @@ impl Monitor {
             grid: OccupancyGrid::new(geometry, params.hit_probability, max_points),
             visibility: VisibilityMap::new(params.visibility_bins),
             scratch: Vec::with_capacity(max_objects),
+            owner: alloc::vec![0; cells],
+            owner_depth: alloc::vec![0.0; cells],
+            pairs: Vec::with_capacity(max_clusters.saturating_mul(ASSOCIATION_CANDIDATES)),
             valid: Vec::with_capacity(max_objects),
             motion: Vec::with_capacity(max_objects),
             reports: Vec::with_capacity(max_objects),
@@ -205,7 +251,7 @@ impl Monitor {
             &self.params,
         );
         on_stage(Stage::Plausibility);
-        self.finish_reports(frame);
+        self.finish_reports();
         on_stage(Stage::Verdicts);
         Ok(FrameReport {
             objects: &self.reports,
@@ -220,6 +266,7 @@ impl Monitor {
         self.clusters.clear();
         self.cluster_spans.clear();
         self.queue.clear();
+        self.pairs.clear();
         self.stats = GridStats::default();
         self.valid.clear();
         self.scratch.clear();
@@ -227,7 +274,7 @@ impl Monitor {
         self.reports.clear();
         for o in frame.objects {
             self.valid.push(object_is_valid(o, &self.params));
-            self.scratch.push(ObjectScratch { region: None, cluster: None });
+            self.scratch.push(ObjectScratch { region: None, cluster: None, eta_own: 0.0, sight: None });
             self.motion.push(MotionOutcome::not_monitored(NotMonitoredReason::InvalidState));
         }
         self.sensor_status = match &frame.cloud {
@@ -322,7 +369,7 @@ impl Monitor {
                         out.verdict = SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid);
                         // Not judged, but its evidence inside the grid is explained: no conflict at the edge.
                         if self.sensor_status.is_none() {
-                            self.explain_cells(&region, geometry.cell_range_clipped(bounds));
+                            self.explain_cells(i, &region, geometry.cell_range_clipped(bounds));
                         }
                     }
                     Some(_) if self.sensor_status.is_some() => {
@@ -331,10 +378,11 @@ impl Monitor {
                     }
                     Some(range) => {
                         let mut eta = self.grid.probability_of_hits(0);
+                        let (owner, owner_depth) = (&mut self.owner, &mut self.owner_depth);
                         self.grid.for_each_hit_cell_overlapping(&region.grown, range, |grid, idx| {
                             if grid.flags(idx) & FLAG_STATIC == 0 {
                                 eta = eta.max(grid.probability(idx));
-                                grid.set_flags(idx, FLAG_EXPLAINED);
+                                claim(grid, owner, owner_depth, &region, i, idx);
                             }
                         });
                         out.eta = eta;
@@ -354,10 +402,13 @@ impl Monitor {
         }
     }
 
-    /// Marks the hit cells of a cell range that overlap a region as explained.
-    fn explain_cells(&mut self, region: &Region, range: Option<(u32, u32, u32, u32)>) {
+    /// Marks the hit cells of a cell range that overlap object `i`'s region as explained (and claims them).
+    fn explain_cells(&mut self, i: usize, region: &Region, range: Option<(u32, u32, u32, u32)>) {
         let Some(range) = range else { return };
-        self.grid.for_each_hit_cell_overlapping(&region.grown, range, |grid, idx| grid.set_flags(idx, FLAG_EXPLAINED));
+        let (owner, owner_depth) = (&mut self.owner, &mut self.owner_depth);
+        self.grid.for_each_hit_cell_overlapping(&region.grown, range, |grid, idx| {
+            claim(grid, owner, owner_depth, region, i, idx);
+        });
     }
 
     /// Conflict cells (`kappa > tau_fn`, eq. conflict) grouped into 8-connected clusters.
@@ -452,71 +503,203 @@ impl Monitor {
         }
     }
 
-    /// Attributes each cluster in the region of interest to the nearest object region within
-    /// `conflict_association_m`: for an inconsistent object its evidence moved out, for a consistent one its
-    /// evidence spills over the region's edge. Evidence outside the ROI or in known scenery is nobody's.
-    fn attribute_clusters(&mut self) {
+    /// `eta_own` of every object: the highest occupancy probability among the cells it owns (one pass over the
+    /// touched cells).
+    fn own_evidence(&mut self) {
+        let floor = self.grid.probability_of_hits(0);
+        for s in &mut self.scratch {
+            s.eta_own = floor;
+        }
+        for &idx in self.grid.touched() {
+            if self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED {
+                continue;
+            }
+            let Some(&o) = self.owner.get(idx as usize) else { continue };
+            if let Some(s) = self.scratch.get_mut(o as usize) {
+                s.eta_own = s.eta_own.max(self.grid.probability(idx));
+            }
+        }
+    }
+
+    /// What the sensor saw of object `j`'s footprint (see [`FootprintSight`]).
+    fn footprint_sight(&self, j: usize, footprint: &crate::geometry::OrientedRect) -> FootprintSight {
         let geometry = self.grid.geometry;
-        let reach = self.params.conflict_association_m;
-        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
-        let tau_tp = self.params.tau_tp;
-        // A cluster "touches" a region when a cell of it is adjacent to the region.
-        let spill = 0.5 * geometry.cell_size_m;
-        for (k, cluster) in self.clusters.iter_mut().enumerate() {
-            let Some(&(start, end)) = self.cluster_spans.get(k) else { continue };
-            let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
-            // Prefer an object without evidence of its own (its evidence moved out) within reach; a consistent
-            // object only when the cluster touches its region (its evidence spills over the edge).
-            let mut best: Option<(usize, f32, bool)> = None;
-            for (j, s) in self.scratch.iter().enumerate() {
-                let Some(region) = &s.region else { continue };
-                // Evidence outside the region of interest (or in known scenery) is nobody's.
-                if !cluster.in_roi {
-                    continue;
-                }
-                let rb = region.grown.aabb();
-                let cb = cluster.bounds_m;
-                let gap_x = (cb[0] - rb[2]).max(rb[0] - cb[2]).max(0.0);
-                let gap_y = (cb[1] - rb[3]).max(rb[1] - cb[3]).max(0.0);
-                // Bounds are of cell centres: allow half a diagonal, as the exact test below does. First without
-                // the square root: `hypot(gx, gy) >= max(gx, gy)` also after rounding, so this skips only pairs
-                // the test with `hypotf` skips (most pairs are far apart).
-                if gap_x.max(gap_y) - half_diagonal > reach || libm::hypotf(gap_x, gap_y) - half_diagonal > reach {
-                    continue;
-                }
-                // Distance from the cell (not its centre) to the region: centre distance less half a diagonal
-                // (no cell can come nearer than touching).
-                let mut d = f32::INFINITY;
-                for &c in cells {
-                    let (x, y) = geometry.cell_center(c);
-                    d = d.min((region.grown.distance(x, y) - half_diagonal).max(0.0));
-                    if d <= 0.0 {
-                        break;
-                    }
-                }
-                let inconsistent = self.reports.get(j).is_some_and(|r| r.sensor.eta < tau_tp);
-                let within = if inconsistent { reach } else { spill };
-                let better = match best {
-                    None => true,
-                    Some((_, bd, b_inc)) => (inconsistent && !b_inc) || (inconsistent == b_inc && d < bd),
-                };
-                if d <= within && better {
-                    best = Some((j, d, inconsistent));
+        let mut sight = FootprintSight { occluder: NO_CELL, ..FootprintSight::default() };
+        let Some(range) = geometry.cell_range(footprint.aabb()) else { return sight };
+        let (grid, visibility, tau) = (&self.grid, &self.visibility, self.params.tau_fn);
+        geometry.for_each_cell_overlapping(footprint, range, |idx, cx, cy| {
+            sight.total += 1;
+            if grid.probability(idx) > tau && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED {
+                let other = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
+                let taken = other != j
+                    && self.scratch.get(other).and_then(|s| s.region).is_some_and(|r| r.footprint.contains(cx, cy));
+                if taken {
+                    sight.foreign += 1;
+                    return;
                 }
             }
-            if let Some((j, _, _)) = best {
-                cluster.object = u32::try_from(j).ok();
-                if let Some(s) = self.scratch.get_mut(j) {
-                    if s.cluster.is_none_or(|(_, size)| cluster.cells > size) {
-                        s.cluster = u16::try_from(k).ok().map(|k16| (k16, cluster.cells));
+            match visibility.sight(cx, cy) {
+                Sight::Visible => sight.visible += 1,
+                // Behind evidence nobody explains, in the region of interest.
+                Sight::Shadowed(c) => {
+                    if let Some(k) = self.unexplained_at(c) {
+                        sight.unexplained_shadow += 1;
+                        sight.occluder = k;
                     }
                 }
+                Sight::Unreached => {}
+            }
+        });
+        sight
+    }
+
+    /// The conflict cell (of a cluster in the region of interest) that stands for the nearest return `c` of a
+    /// visibility bin: `c` itself, or, when `c` is unexplained but holds too few hits to be occupied (the first
+    /// return of an object is often alone in its cell), an 8-neighbour of it. `None` when `c` is explained,
+    /// scenery, or not next to unexplained evidence in the region of interest.
+    fn unexplained_at(&self, c: u32) -> Option<u32> {
+        if c == NO_CELL || self.grid.hits(c) == 0 {
+            return None;
+        }
+        let flags = self.grid.flags(c);
+        if flags & FLAG_ROI_CONFLICT != 0 {
+            return Some(c);
+        }
+        if flags & (FLAG_EXPLAINED | FLAG_STATIC) != 0 {
+            return None;
+        }
+        let n = self.grid.geometry.cells_per_side;
+        let (cx, cy) = (c % n, c / n);
+        for y in cy.saturating_sub(1)..=(cy + 1).min(n - 1) {
+            for x in cx.saturating_sub(1)..=(cx + 1).min(n - 1) {
+                let idx = y * n + x;
+                if self.grid.flags(idx) & FLAG_ROI_CONFLICT != 0 {
+                    return Some(idx);
+                }
+            }
+        }
+        None
+    }
+
+    /// Distance from a cluster's cells (not their centres: no cell comes nearer than touching) to a region,
+    /// metres, or `None` when it exceeds `reach` (decided first on bounding boxes, which skips most pairs).
+    fn cluster_distance(&self, k: usize, region: &crate::geometry::OrientedRect, reach: f32) -> Option<f32> {
+        let geometry = self.grid.geometry;
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
+        let cluster = self.clusters.get(k)?;
+        let &(start, end) = self.cluster_spans.get(k)?;
+        let rb = region.aabb();
+        let cb = cluster.bounds_m;
+        let gap_x = (cb[0] - rb[2]).max(rb[0] - cb[2]).max(0.0);
+        let gap_y = (cb[1] - rb[3]).max(rb[1] - cb[3]).max(0.0);
+        // Bounds are of cell centres: allow half a diagonal, as the exact test below does. First without the
+        // square root: `hypot(gx, gy) >= max(gx, gy)` also after rounding, so this skips only pairs the test
+        // with `hypotf` skips (most pairs are far apart).
+        if gap_x.max(gap_y) - half_diagonal > reach || libm::hypotf(gap_x, gap_y) - half_diagonal > reach {
+            return None;
+        }
+        let mut d = f32::INFINITY;
+        for &c in self.queue.get(start as usize..end as usize).unwrap_or(&[]) {
+            let (x, y) = geometry.cell_center(c);
+            d = d.min((region.distance(x, y) - half_diagonal).max(0.0));
+            if d <= 0.0 {
+                break;
+            }
+        }
+        (d <= reach).then_some(d)
+    }
+
+    /// Gives the evidence no object explains to the objects it belongs to.
+    ///
+    /// 1. Ownership: each explained cell belongs to the object whose footprint is nearest (`eta_own`). An object
+    ///    whose own evidence is below `tau_tp` is *unconfirmed*: occluded, a ghost, or displaced.
+    /// 2. Assignment: clusters in the region of interest go to unconfirmed objects by a gated, one-to-one,
+    ///    deterministic assignment on the displacement it implies (the distance from the cluster to the
+    ///    region `A_o`), nearest pairs first. The gate is `conflict_association_m` for an object whose
+    ///    footprint the sensor contradicts (seen empty, behind unexplained evidence, or taken by another
+    ///    object's evidence: it is not where it claims) and touching only for one hidden from the sensor (an
+    ///    occluded object has no reason to be displaced). A confirmed object takes no displaced evidence.
+    /// 3. Spill-over: a cluster left over that continues a confirmed object's own evidence (8-adjacent cells) and
+    ///    fits its box together with it, or that touches an unconfirmed object's region (within half a cell)
+    ///    and fits its box, is that object's evidence reaching over its edge (the nearest such object).
+    ///
+    /// Everything else is a missed object. Bounded: pairs are kept up to a fixed capacity
+    /// (`ASSOCIATION_CANDIDATES` per cluster on average), sorted in place.
+    fn attribute_clusters(&mut self) {
+        self.own_evidence();
+        let tau_tp = self.params.tau_tp;
+        let touch = 0.5 * self.grid.geometry.cell_size_m;
+        let gate = self.params.conflict_association_m;
+        for j in 0..self.scratch.len() {
+            let Some(s) = self.scratch.get(j).copied() else { continue };
+            let Some(region) = s.region else { continue };
+            if s.eta_own < tau_tp {
+                let sight = self.footprint_sight(j, &region.footprint);
+                if let Some(sj) = self.scratch.get_mut(j) {
+                    sj.sight = Some(sight);
+                }
+            }
+        }
+        // Candidate pairs.
+        for k in 0..self.clusters.len() {
+            if !self.clusters.get(k).is_some_and(|c| c.in_roi) {
+                continue;
+            }
+            for j in 0..self.scratch.len() {
+                let Some(s) = self.scratch.get(j) else { continue };
+                let (Some(region), Some(sight)) = (s.region, s.sight) else { continue };
+                // The whole gate for an object the sensor contradicts, or one that claims to stand behind the
+                // evidence on its own line of sight (displaced away from it; its place is then hidden, often also
+                // behind a low obstacle the rays passed over); touching only for one merely hidden.
+                let in_line = self.clusters.get(k).is_some_and(|c| self.behind(&region.footprint, c.centroid_m));
+                let reach =
+                    if in_line || sight.contradicted() >= self.params.ghost_visible_fraction { gate } else { touch };
+                let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
+                if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
+                    self.pairs.push((d, k as u32, j as u32));
+                }
+            }
+        }
+        // Nearest first; ties by cluster, then object: deterministic.
+        self.pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        for p in 0..self.pairs.len() {
+            let Some(&(_, k, j)) = self.pairs.get(p) else { continue };
+            let free = self.clusters.get(k as usize).is_some_and(|c| c.object.is_none());
+            if free && self.scratch.get(j as usize).is_some_and(|s| s.cluster.is_none()) {
+                self.give(k as usize, j as usize);
+            }
+        }
+        // Spill-over of the clusters left.
+        for k in 0..self.clusters.len() {
+            if !self.clusters.get(k).is_some_and(|c| c.in_roi && c.object.is_none()) {
+                continue;
+            }
+            let mut best: Option<(f32, usize)> = None;
+            for j in 0..self.scratch.len() {
+                let Some(region) = self.scratch.get(j).and_then(|s| s.region) else { continue };
+                // A confirmed object's own evidence continues into the cluster (8-adjacent cells), and both
+                // together fit its box: the box is displaced (or too small). Evidence merely near a confirmed box
+                // is not its. An unconfirmed object takes a cluster that touches its region and fits its box.
+                let confirmed = self.scratch.get(j).is_some_and(|s| s.eta_own >= tau_tp);
+                let reach = if confirmed { gate } else { touch };
+                let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
+                let ok = if confirmed {
+                    self.cluster_touches_own_evidence(j, k) && self.evidence_fits(j, &region, k, true)
+                } else {
+                    self.evidence_fits(j, &region, k, false)
+                };
+                if ok && best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, j));
+                }
+            }
+            if let Some((_, j)) = best {
+                self.give(k, j);
             }
         }
     }
 
     /// Index of the reported cluster that contains a cell (linear in the conflict cells; only called for
-    /// evidence-free objects).
+    /// objects without evidence of their own).
     fn cluster_of(spans: &[(u32, u32)], queue: &[u32], cell: u32) -> Option<usize> {
         if cell == NO_CELL {
             return None;
@@ -524,71 +707,163 @@ impl Monitor {
         spans.iter().position(|&(a, b)| queue.get(a as usize..b as usize).is_some_and(|cells| cells.contains(&cell)))
     }
 
-    /// Sensor verdicts (f(o) with the cluster attribution and the occlusion test) and the combined verdicts.
-    fn finish_reports(&mut self, frame: &Frame<'_>) {
+    /// True when a footprint lies behind a point as the sensor sees them: the point's bearing within the
+    /// footprint's angular extent (plus half a cell), and the point nearer than the footprint's centre.
+    fn behind(&self, footprint: &crate::geometry::OrientedRect, point: [f32; 2]) -> bool {
+        let o = self.visibility.origin();
+        let (fx, fy) = (footprint.cx - o[0], footprint.cy - o[1]);
+        let (px, py) = (point[0] - o[0], point[1] - o[1]);
+        let (rf, rp) = (libm::hypotf(fx, fy), libm::hypotf(px, py));
+        // Also false for NaN distances.
+        if rp.partial_cmp(&rf) != Some(core::cmp::Ordering::Less) || rf <= 0.0 {
+            return false;
+        }
+        let reach = libm::hypotf(footprint.half_length, footprint.half_width) + 0.5 * self.grid.geometry.cell_size_m;
+        // Angle between the two directions, from their cross and dot products.
+        let angle = libm::atan2f((fx * py - fy * px).abs(), fx * px + fy * py);
+        angle <= libm::asinf((reach / rf).min(1.0))
+    }
+
+    /// Cells of cluster `k`.
+    fn cluster_cells(&self, k: usize) -> &[u32] {
+        self.cluster_spans.get(k).and_then(|&(a, b)| self.queue.get(a as usize..b as usize)).unwrap_or(&[])
+    }
+
+    /// True when a cell of cluster `k` is 8-adjacent to an occupied cell that object `j` owns.
+    fn cluster_touches_own_evidence(&self, j: usize, k: usize) -> bool {
+        let n = self.grid.geometry.cells_per_side;
+        let tau = self.params.tau_fn;
+        self.cluster_cells(k).iter().any(|&c| {
+            let (cx, cy) = (c % n, c / n);
+            (cy.saturating_sub(1)..=(cy + 1).min(n - 1)).any(|y| {
+                (cx.saturating_sub(1)..=(cx + 1).min(n - 1)).any(|x| {
+                    let idx = y * n + x;
+                    self.grid.probability(idx) > tau
+                        && self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                        && self.owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+                })
+            })
+        })
+    }
+
+    /// Could cluster `k` (with object `j`'s own occupied evidence, when `with_own`) be the evidence of `j`'s box
+    /// moved somewhere? True when its extent along and across the box, over cell centres, is at most the box's
+    /// length and width plus one cell diagonal (a cell centre is within half a diagonal of every point of the
+    /// cell) and twice the safety margin (LiDAR noise). A wall, a hedge or two objects side by side do not fit
+    /// a pedestrian.
+    fn evidence_fits(&self, j: usize, region: &Region, k: usize, with_own: bool) -> bool {
         let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+        let mut add = |x: f32, y: f32| {
+            let (u, v) = fp.local(x, y);
+            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+        };
+        for &c in self.cluster_cells(k) {
+            let (x, y) = geometry.cell_center(c);
+            add(x, y);
+        }
+        if with_own {
+            let tau = self.params.tau_fn;
+            if let Some(range) = geometry.cell_range(region.grown.aabb()) {
+                let (grid, owner) = (&self.grid, &self.owner);
+                geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
+                    if grid.probability(idx) > tau
+                        && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                        && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+                    {
+                        add(x, y);
+                    }
+                });
+            }
+        }
+        let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+
+    /// Attributes cluster `k` to object `j` (an object keeps its largest cluster as the one it reports).
+    fn give(&mut self, k: usize, j: usize) {
+        let Some(cluster) = self.clusters.get_mut(k) else { return };
+        cluster.object = u32::try_from(j).ok();
+        let cells = cluster.cells;
+        if let Some(s) = self.scratch.get_mut(j) {
+            if s.cluster.is_none_or(|(_, size)| cells > size) {
+                s.cluster = u16::try_from(k).ok().map(|k16| (k16, cells));
+            }
+        }
+    }
+
+    /// Sensor verdicts (f(o) with the evidence attribution and the occlusion test) and the combined verdicts.
+    fn finish_reports(&mut self) {
         let tau_tp = self.params.tau_tp;
-        for (j, report) in self.reports.iter_mut().enumerate() {
-            let scratch = self.scratch.get(j).copied();
-            if let Some(ObjectScratch { region: Some(region), cluster }) = scratch {
+        for j in 0..self.reports.len() {
+            let Some(scratch) = self.scratch.get(j).copied() else { continue };
+            if let ObjectScratch { region: Some(region), cluster, eta_own, sight } = scratch {
+                // Hidden behind evidence that no object explains and nobody took: that evidence is likely the
+                // object itself, displaced (a ghost otherwise).
+                let mut cluster = cluster.map(|(k, _)| usize::from(k));
+                let mut occluded = false;
+                if cluster.is_none() && eta_own < tau_tp {
+                    let sight = sight.unwrap_or_default();
+                    if sight.contradicted() < self.params.ghost_visible_fraction {
+                        occluded = true;
+                    } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, sight.occluder)
+                        .filter(|&k| self.clusters.get(k).is_some_and(|c| c.in_roi && c.object.is_none()))
+                    {
+                        self.give(k, j);
+                        cluster = Some(k);
+                    }
+                }
+                let Some(report) = self.reports.get_mut(j) else { continue };
                 let s = &mut report.sensor;
-                if let Some((k, _)) = cluster {
-                    s.verdict = SensorVerdict::PositionError;
-                    s.cluster = Some(k);
-                    if let Some(c) = self.clusters.get(k as usize) {
+                s.eta_own = eta_own;
+                if let Some(sight) = sight {
+                    s.visible_fraction = sight.fraction(sight.visible);
+                }
+                s.verdict = if let Some(k) = cluster {
+                    s.cluster = u16::try_from(k).ok();
+                    if let Some(c) = self.clusters.get(k) {
                         let (nx, ny) = region.footprint.nearest_point(c.centroid_m[0], c.centroid_m[1]);
                         s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
                     }
-                } else if s.eta < tau_tp {
-                    // Was the place the object claims to occupy (its footprint, not the margin around it)
-                    // visible to the sensor? A footprint hidden behind evidence that no object explains is not
-                    // excused: that evidence is likely the object itself, displaced.
-                    let (mut visible, mut unexplained_shadow, mut total) = (0u32, 0u32, 0u32);
-                    let mut occluder = NO_CELL;
-                    if let Some(range) = geometry.cell_range(region.footprint.aabb()) {
-                        let (visibility, grid) = (&self.visibility, &self.grid);
-                        geometry.for_each_cell_overlapping(&region.footprint, range, |_, cx, cy| {
-                            total += 1;
-                            match visibility.sight(cx, cy) {
-                                Sight::Visible => visible += 1,
-                                Sight::Shadowed(c) if c != NO_CELL => {
-                                    // Behind evidence nobody explains, in the region of interest.
-                                    if grid.flags(c) & FLAG_ROI_CONFLICT != 0 {
-                                        unexplained_shadow += 1;
-                                        occluder = c;
-                                    }
-                                }
-                                Sight::Shadowed(_) | Sight::Unreached => {}
-                            }
-                        });
-                    }
-                    let frac = |k: u32| if total > 0 { k as f32 / total as f32 } else { 0.0 };
-                    s.visible_fraction = frac(visible);
-                    s.verdict = if frac(visible + unexplained_shadow) < self.params.ghost_visible_fraction {
-                        SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
-                    } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, occluder)
-                        .filter(|&k| self.clusters.get(k).is_some_and(|c| c.in_roi))
-                    {
-                        // Hidden behind evidence no object explains: that evidence is the object, displaced.
-                        s.cluster = u16::try_from(k).ok();
-                        if let Some(c) = self.clusters.get_mut(k) {
-                            let (nx, ny) = region.footprint.nearest_point(c.centroid_m[0], c.centroid_m[1]);
-                            s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
-                            if c.object.is_none() {
-                                c.object = u32::try_from(j).ok();
-                            }
-                        }
-                        SensorVerdict::PositionError
-                    } else {
-                        SensorVerdict::Ghost
-                    };
-                }
+                    SensorVerdict::PositionError
+                } else if eta_own >= tau_tp {
+                    SensorVerdict::Consistent
+                } else if occluded {
+                    SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
+                } else {
+                    SensorVerdict::Ghost
+                };
             }
+            let Some(report) = self.reports.get_mut(j) else { continue };
             if let Some(m) = self.motion.get(j) {
                 report.motion = *m;
             }
             report.verdict = Verdict::combine(report.sensor.verdict, report.motion.verdict);
         }
-        let _ = frame;
     }
+}
+
+/// Average number of candidate objects per conflict cluster the evidence assignment keeps room for.
+const ASSOCIATION_CANDIDATES: usize = 8;
+
+/// Marks a hit cell as explained by object `i`'s region and makes `i` its owner when the cell lies deepest in
+/// `i`'s region so far (strictly: ties stay with the lower index).
+///
+/// Depth is measured relative to the region's size, `max(|u| / half length, |v| / half width)` in the region's
+/// axes (1 on its edge): evidence on an object's face lies well inside its own region, while a neighbour whose
+/// region only reaches it with its margin sees it near its edge, whatever the two objects' sizes.
+#[inline]
+fn claim(grid: &mut OccupancyGrid, owner: &mut [u32], owner_depth: &mut [f32], region: &Region, i: usize, idx: u32) {
+    let (x, y) = grid.geometry.cell_center(idx);
+    let (u, v) = region.grown.local(x, y);
+    let d = (u.abs() / region.grown.half_length).max(v.abs() / region.grown.half_width);
+    let first = grid.flags(idx) & FLAG_EXPLAINED == 0;
+    if let (Some(o), Some(od)) = (owner.get_mut(idx as usize), owner_depth.get_mut(idx as usize)) {
+        if first || d < *od {
+            *o = u32::try_from(i).unwrap_or(u32::MAX);
+            *od = d;
+        }
+    }
+    grid.set_flags(idx, FLAG_EXPLAINED);
 }

@@ -169,7 +169,7 @@ impl MonitorParams {
         tau_fn: 0.8,
         gamma_sens: 3.0,
         min_cluster_cells: 1,
-        conflict_association_m: 1.0,
+        conflict_association_m: 2.0,
         ghost_visible_fraction: 0.5,
         visibility_bins: 720,
         motion_limits: MotionLimits {

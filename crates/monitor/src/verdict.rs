@@ -148,6 +148,10 @@ pub struct SensorOutcome {
     pub verdict: SensorVerdict,
     /// Consistency `eta(o)` (eq. consistency), the highest occupancy probability in `A_o`; 0 when not computed.
     pub eta: f32,
+    /// The object's *own* consistency: the highest occupancy probability over the cells of `A_o` whose nearest
+    /// footprint (among all objects whose regions cover the cell) is this object's. Below `tau_tp` while `eta`
+    /// is above it, the object only borrows a neighbour's evidence. 0 when not computed.
+    pub eta_own: f32,
     /// Growth of the footprint along its length, `delta_safe + gamma_sens (Delta lon + Delta L)`, metres.
     pub margin_length_m: f32,
     /// Growth of the footprint across its width, `delta_safe + gamma_sens (Delta lat + Delta W)`, metres.

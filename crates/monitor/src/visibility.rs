@@ -188,6 +188,12 @@ impl VisibilityMap {
         }
     }
 
+    /// The sensor origin of the current frame, ego frame, metres.
+    #[must_use]
+    pub fn origin(&self) -> [f32; 2] {
+        self.origin
+    }
+
     /// What the sensor saw of an ego-frame position.
     #[must_use]
     #[inline]

@@ -153,6 +153,10 @@ pub struct AgentsConfig {
     pub cyclists: u32,
     /// Fraction of the parking lanes' length taken by parked cars, in [0, 1].
     pub parked_fill: f64,
+    /// Parked cars are part of the map (their footprints in the frame's static scenery) rather than objects of
+    /// the object list: the way a simulator's ground truth lists only its actors, not the cars that are part of
+    /// the town's static geometry (the paper's CARLA set-up).
+    pub parked_as_scenery: bool,
     /// Probability that a pedestrian, choosing its next goal, crosses the street, in [0, 1].
     pub crossing_probability: f64,
     /// Probability that a pedestrian, choosing its next goal, stops for 1-6 s instead, in [0, 1].
@@ -168,6 +172,7 @@ impl Default for AgentsConfig {
             trucks: 1,
             cyclists: 3,
             parked_fill: 0.5,
+            parked_as_scenery: false,
             crossing_probability: 0.3,
             stop_probability: 0.15,
         }

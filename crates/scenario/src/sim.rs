@@ -270,7 +270,8 @@ impl Simulator {
             // List every object whose footprint can reach into the grid, so that its evidence at the grid's
             // edge is explained (the monitor judges only those wholly inside; see NotMonitoredReason::OutsideGrid).
             let reach = 0.5 * a.size[0].hypot(a.size[1]) + 1.0;
-            if ex.abs() <= half + reach && ey.abs() <= half + reach {
+            let listed = !(self.cfg.agents.parked_as_scenery && matches!(a.behaviour, Behaviour::Parked));
+            if listed && ex.abs() <= half + reach && ey.abs() <= half + reach {
                 let mut o = ObjectState {
                     id: a.id,
                     class: a.class,
@@ -313,6 +314,21 @@ impl Simulator {
         let sidewalks: &[Vec<[f64; 2]>] = if self.cfg.roi == RoiMode::Walkable { &self.world.sidewalks } else { &[] };
         let roi_in_ego = self.world.roi.iter().chain(sidewalks).filter_map(|p| to_grid(p)).collect();
         let mut static_in_ego = Vec::new();
+        if self.cfg.agents.parked_as_scenery {
+            for a in self.traffic.agents.iter().filter(|a| a.active && matches!(a.behaviour, Behaviour::Parked)) {
+                let (ex, ey) = to_ego(a.x, a.y);
+                let (s, c) = (a.heading - ego.heading).sin_cos();
+                let (hl, hw) = (0.5 * a.size[0], 0.5 * a.size[1]);
+                let corners: Vec<[f64; 2]> = [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)]
+                    .iter()
+                    .map(|&(u, v)| [ex + u * c - v * s, ey + u * s + v * c])
+                    .collect();
+                let clipped = clip_to_square(&corners, half);
+                if clipped.len() >= 3 {
+                    static_in_ego.push(clipped.iter().map(|p| [p[0] as f32, p[1] as f32]).collect());
+                }
+            }
+        }
         if self.cfg.static_scenery {
             let reach = half * std::f64::consts::SQRT_2;
             for s in &self.world.scenery {

@@ -1,0 +1,90 @@
+//! The evidence attribution (`Monitor::check`'s ownership, gated assignment and spill-over rules): a displaced
+//! object's evidence goes to that object, not to its clean neighbours; evidence that cannot be an object's
+//! (too large, or merely near a confirmed box) is nobody's.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
+
+mod common;
+
+use common::*;
+use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectReport, PointCloud, Pose2, SensorVerdict};
+
+fn run(monitor: &mut Monitor, objects: &[pmon_monitor::ObjectState], points_ego: &[[f32; 3]]) -> Vec<ObjectReport> {
+    let pts = to_sensor(points_ego);
+    let frame = Frame {
+        timestamp_s: 0.0,
+        world_from_ego: Pose2::default(),
+        objects,
+        cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
+        roi_in_ego: &[],
+        static_in_ego: &[],
+    };
+    monitor.check(&frame).unwrap().objects.to_vec()
+}
+
+/// Two pedestrians side by side; one is reported 1.5 m further away than it is. The displaced one is the
+/// position error, with its own evidence; the clean one stays consistent.
+#[test]
+fn displaced_pedestrian_takes_its_evidence_and_its_neighbour_is_not_blamed() {
+    for cells in [0.5, 0.2] {
+        let mut m = Monitor::new(MonitorParams { cell_size_m: cells, ..MonitorParams::default() }).unwrap();
+        let clean = object(1, 14.0, 1.2, 0.0, 0.6, 0.6);
+        let truth = object(2, 14.0, 0.0, 0.0, 0.6, 0.6);
+        let mut pts = visible_face_points(&clean, 0.05);
+        pts.extend(visible_face_points(&truth, 0.05));
+        pts.extend(ground_points(45.0));
+        let mut reported = truth;
+        reported.x_m += 1.5;
+        let r = run(&mut m, &[clean, reported], &pts);
+        assert_eq!(
+            r[0].sensor.verdict,
+            SensorVerdict::Consistent,
+            "{cells} m cells: clean neighbour {:?}",
+            r[0].sensor
+        );
+        assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "{cells} m cells: displaced {:?}", r[1].sensor);
+        // The offset points from the evidence back to the reported box: about +1.5 m along x, less the box.
+        assert!(r[1].sensor.offset_m[0] > 0.5 && r[1].sensor.offset_m[0] < 1.7, "{:?}", r[1].sensor.offset_m);
+    }
+}
+
+/// A pedestrian reported on top of its neighbour's evidence (it borrows it: `eta` is high) while its own
+/// evidence stands 1.5 m nearer: the borrowed evidence does not confirm it.
+#[test]
+fn object_on_a_neighbours_evidence_is_not_confirmed_by_it() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let neighbour = object(1, 16.0, 0.4, 0.0, 0.6, 0.6);
+    let truth = object(2, 14.5, -0.3, 0.0, 0.6, 0.6);
+    let mut pts = visible_face_points(&neighbour, 0.05);
+    pts.extend(visible_face_points(&truth, 0.05));
+    pts.extend(ground_points(45.0));
+    let mut reported = truth;
+    reported.x_m = 16.2;
+    reported.y_m = 0.0;
+    let r = run(&mut m, &[neighbour, reported], &pts);
+    assert!(r[1].sensor.eta >= 0.8, "the displaced box covers the neighbour's evidence: {:?}", r[1].sensor);
+    assert!(r[1].sensor.eta_own < 0.8, "but does not own it: {:?}", r[1].sensor);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "{:?}", r[1].sensor);
+}
+
+/// A wall 1 m beside a confirmed car and near an evidence-free ghost is nobody's evidence: it is too long to be
+/// either box's, so it becomes a missed object and neither box is blamed for it.
+#[test]
+fn a_wall_is_too_large_to_be_a_pedestrians_evidence() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let car = object(1, 15.0, 3.0, 0.0, 4.5, 1.9);
+    let ghost = object(2, 20.0, -3.0, 0.0, 0.6, 0.6);
+    let mut pts = visible_face_points(&car, 0.1);
+    // A 6 m wall along x at y = -4.6, from x = 17 to 23 (1 m from the ghost's region, beside the car's lane).
+    let mut x = 17.0f32;
+    while x <= 23.0 {
+        for z in [0.5f32, 1.0, 1.5] {
+            pts.push([x, -4.6, z]);
+        }
+        x += 0.05;
+    }
+    pts.extend(ground_points(45.0));
+    let r = run(&mut m, &[car, ghost], &pts);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
+    assert_ne!(r[1].sensor.verdict, SensorVerdict::PositionError, "{:?}", r[1].sensor);
+}
