@@ -17,14 +17,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         _ => Direction::Away,
     };
     let (_, frames) = pmon_recording::read_recording(std::path::Path::new(path))?;
-    let reach: f32 = std::env::var("REACH").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
-    let mut monitor = Monitor::new(MonitorParams { conflict_association_m: reach, ..MonitorParams::default() })?;
+    let reach: f32 = std::env::var("REACH")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(MonitorParams::default().conflict_association_m);
+    let cells: f32 = std::env::var("CELLS").ok().and_then(|v| v.parse().ok()).unwrap_or(0.5);
+    let params = MonitorParams { conflict_association_m: reach, cell_size_m: cells, ..MonitorParams::default() };
+    let mut monitor = Monitor::new(params)?;
     let mut injector = Injector::new(InjectionConfig::new(Fault::PermanentPosition { magnitude_m, direction }, 7));
     let out = std::path::Path::new("/tmp/diagnose-injected");
     let mut writer =
         pmon_recording::RecordingWriter::create(out, pmon_recording::RecordingMeta::new("injected", path.as_str()))?;
     let mut shown = 0;
-    let mut clean_monitor = Monitor::new(MonitorParams { conflict_association_m: reach, ..MonitorParams::default() })?;
+    let mut clean_monitor = Monitor::new(params)?;
     let mut misses: BTreeMap<String, u64> = BTreeMap::new();
     let mut by: BTreeMap<String, u64> = BTreeMap::new();
     let mut clean: BTreeMap<String, u64> = BTreeMap::new();

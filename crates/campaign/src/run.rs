@@ -92,7 +92,7 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
             let clean_report = clean_monitor.check(&view).map_err(|e| format!("{}: frame {k}: {e}", scene.name))?;
             confirmed.clear();
             confirmed.extend(clean_report.objects.iter().map(|r| {
-                !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_)) && r.sensor.eta >= spec.params.tau_tp
+                !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_)) && r.sensor.eta_own >= spec.params.tau_tp
             }));
         }
         view.objects = &objects;

@@ -28,6 +28,8 @@ pub const FLAG_VISITED: u8 = 2;
 pub const FLAG_ROI_CONFLICT: u8 = 4;
 /// Cell flag: inside known static scenery; its evidence is explained by the map and confirms no object.
 pub const FLAG_STATIC: u8 = 8;
+/// Cell flag: part of a conflict cluster attributed to an object (that object's evidence, displaced).
+pub const FLAG_ATTRIBUTED: u8 = 16;
 
 /// The state of one cell, for display and inspection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -38,6 +38,7 @@ pub use verdict::{
     ObjectReport, SensorOutcome, SensorVerdict, Verdict,
 };
 
+mod evidence_memory;
 pub mod geometry;
 pub mod grid;
 pub mod monitor;

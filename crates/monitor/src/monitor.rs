@@ -2,8 +2,11 @@
 
 use alloc::vec::Vec;
 
+use crate::evidence_memory::{EvidenceKind, EvidenceMemory};
 use crate::frame::{Frame, ObjectState, Uncertainty};
-use crate::grid::{GridGeometry, OccupancyGrid, FLAG_EXPLAINED, FLAG_ROI_CONFLICT, FLAG_STATIC, FLAG_VISITED};
+use crate::grid::{
+    GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_ROI_CONFLICT, FLAG_STATIC, FLAG_VISITED,
+};
 use crate::params::{MonitorParams, ParamError};
 use crate::plausibility::TrackTable;
 use crate::region::Region;
@@ -55,6 +58,10 @@ struct ObjectScratch {
     eta_own: f32,
     /// What the sensor saw of the footprint; computed for objects without evidence of their own only.
     sight: Option<FootprintSight>,
+    /// The track's evidence in the previous frame: kind and offset from the centre (ego frame, metres).
+    recalled: Option<(EvidenceKind, [f32; 2])>,
+    /// Sum of the centres of the occupied cells the object owns, and their number.
+    own_sum: [f32; 3],
 }
 
 /// What the sensor saw of an object's footprint (the cells overlapping it), for objects without evidence of
@@ -114,6 +121,7 @@ pub struct Monitor {
     cluster_spans: Vec<(u32, u32)>,
     queue: Vec<u32>,
     tracks: TrackTable,
+    memory: EvidenceMemory,
     stats: GridStats,
     sensor_status: Option<NotMonitoredReason>,
     rasterizer: crate::rasterize::Rasterizer,
@@ -171,6 +179,7 @@ impl Monitor {
             cluster_spans: Vec::with_capacity(max_clusters),
             queue: Vec::with_capacity(max_points.min(cells)),
             tracks: TrackTable::new(max_objects),
+            memory: EvidenceMemory::new(max_objects),
             stats: GridStats::default(),
             sensor_status: None,
             rasterizer: crate::rasterize::Rasterizer::default(),
@@ -203,6 +212,7 @@ impl Monitor {
     /// Forgets all track histories (for example after a jump in the recording).
     pub fn reset_tracks(&mut self) {
         self.tracks.clear();
+        self.memory.clear();
     }
 
     /// Runs the sensor and plausibility checks on one frame.
@@ -251,7 +261,7 @@ impl Monitor {
             &self.params,
         );
         on_stage(Stage::Plausibility);
-        self.finish_reports();
+        self.finish_reports(frame);
         on_stage(Stage::Verdicts);
         Ok(FrameReport {
             objects: &self.reports,
@@ -274,7 +284,16 @@ impl Monitor {
         self.reports.clear();
         for o in frame.objects {
             self.valid.push(object_is_valid(o, &self.params));
-            self.scratch.push(ObjectScratch { region: None, cluster: None, eta_own: 0.0, sight: None });
+            let recalled =
+                self.memory.recall(o.id, frame.timestamp_s, frame.world_from_ego.yaw_rad, self.params.max_time_step_s);
+            self.scratch.push(ObjectScratch {
+                region: None,
+                cluster: None,
+                eta_own: 0.0,
+                sight: None,
+                recalled,
+                own_sum: [0.0; 3],
+            });
             self.motion.push(MotionOutcome::not_monitored(NotMonitoredReason::InvalidState));
         }
         self.sensor_status = match &frame.cloud {
@@ -379,10 +398,16 @@ impl Monitor {
                     Some(range) => {
                         let mut eta = self.grid.probability_of_hits(0);
                         let (owner, owner_depth) = (&mut self.owner, &mut self.owner_depth);
+                        // A track whose evidence stood apart from it last frame claims cells only where no
+                        // other object does: what lies under a displaced box is probably someone else's.
+                        let penalty = match self.scratch.get(i).and_then(|s| s.recalled) {
+                            Some((EvidenceKind::Displaced, _)) => 1.0,
+                            _ => 0.0,
+                        };
                         self.grid.for_each_hit_cell_overlapping(&region.grown, range, |grid, idx| {
                             if grid.flags(idx) & FLAG_STATIC == 0 {
                                 eta = eta.max(grid.probability(idx));
-                                claim(grid, owner, owner_depth, &region, i, idx);
+                                claim(grid, owner, owner_depth, &region, i, idx, penalty);
                             }
                         });
                         out.eta = eta;
@@ -407,7 +432,7 @@ impl Monitor {
         let Some(range) = range else { return };
         let (owner, owner_depth) = (&mut self.owner, &mut self.owner_depth);
         self.grid.for_each_hit_cell_overlapping(&region.grown, range, |grid, idx| {
-            claim(grid, owner, owner_depth, region, i, idx);
+            claim(grid, owner, owner_depth, region, i, idx, 0.0);
         });
     }
 
@@ -510,13 +535,19 @@ impl Monitor {
         for s in &mut self.scratch {
             s.eta_own = floor;
         }
+        let tau = self.params.tau_fn;
         for &idx in self.grid.touched() {
             if self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED {
                 continue;
             }
             let Some(&o) = self.owner.get(idx as usize) else { continue };
             if let Some(s) = self.scratch.get_mut(o as usize) {
-                s.eta_own = s.eta_own.max(self.grid.probability(idx));
+                let p = self.grid.probability(idx);
+                s.eta_own = s.eta_own.max(p);
+                if p > tau {
+                    let (x, y) = self.grid.geometry.cell_center(idx);
+                    s.own_sum = [s.own_sum[0] + x, s.own_sum[1] + y, s.own_sum[2] + 1.0];
+                }
             }
         }
     }
@@ -562,6 +593,10 @@ impl Monitor {
             return None;
         }
         let flags = self.grid.flags(c);
+        if flags & FLAG_ATTRIBUTED != 0 {
+            // Another object's displaced evidence: it hides what lies behind it, like any object.
+            return None;
+        }
         if flags & FLAG_ROI_CONFLICT != 0 {
             return Some(c);
         }
@@ -573,7 +608,7 @@ impl Monitor {
         for y in cy.saturating_sub(1)..=(cy + 1).min(n - 1) {
             for x in cx.saturating_sub(1)..=(cx + 1).min(n - 1) {
                 let idx = y * n + x;
-                if self.grid.flags(idx) & FLAG_ROI_CONFLICT != 0 {
+                if self.grid.flags(idx) & (FLAG_ROI_CONFLICT | FLAG_ATTRIBUTED) == FLAG_ROI_CONFLICT {
                     return Some(idx);
                 }
             }
@@ -630,6 +665,7 @@ impl Monitor {
         let tau_tp = self.params.tau_tp;
         let touch = 0.5 * self.grid.geometry.cell_size_m;
         let gate = self.params.conflict_association_m;
+        let follow = 0.5 * gate;
         for j in 0..self.scratch.len() {
             let Some(s) = self.scratch.get(j).copied() else { continue };
             let Some(region) = s.region else { continue };
@@ -646,8 +682,20 @@ impl Monitor {
                 continue;
             }
             for j in 0..self.scratch.len() {
-                let Some(s) = self.scratch.get(j) else { continue };
-                let (Some(region), Some(sight)) = (s.region, s.sight) else { continue };
+                let Some(s) = self.scratch.get(j).copied() else { continue };
+                let Some(region) = s.region else { continue };
+                // A track whose evidence stood apart from it last frame: its evidence is expected where the
+                // offset puts it now (the cost is how far the cluster is from there).
+                if let Some((EvidenceKind::Displaced, r)) = s.recalled {
+                    let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
+                    if let Some(d) = self.cluster_point_distance(k, expected, follow) {
+                        if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
+                            self.pairs.push((d, k as u32, j as u32));
+                        }
+                        continue;
+                    }
+                }
+                let Some(sight) = s.sight else { continue };
                 // The whole gate for an object the sensor contradicts, or one that claims to stand behind the
                 // evidence on its own line of sight (displaced away from it; its place is then hidden, often also
                 // behind a low obstacle the rays passed over); touching only for one merely hidden.
@@ -724,6 +772,25 @@ impl Monitor {
         angle <= libm::asinf((reach / rf).min(1.0))
     }
 
+    /// Distance from a cluster's cells to a point, metres (no cell comes nearer than touching), or `None` beyond
+    /// `reach`.
+    fn cluster_point_distance(&self, k: usize, p: [f32; 2], reach: f32) -> Option<f32> {
+        let geometry = self.grid.geometry;
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
+        let cb = self.clusters.get(k)?.bounds_m;
+        let gap_x = (cb[0] - p[0]).max(p[0] - cb[2]).max(0.0);
+        let gap_y = (cb[1] - p[1]).max(p[1] - cb[3]).max(0.0);
+        if gap_x.max(gap_y) - half_diagonal > reach {
+            return None;
+        }
+        let mut d = f32::INFINITY;
+        for &c in self.cluster_cells(k) {
+            let (x, y) = geometry.cell_center(c);
+            d = d.min((libm::hypotf(x - p[0], y - p[1]) - half_diagonal).max(0.0));
+        }
+        (d <= reach).then_some(d)
+    }
+
     /// Cells of cluster `k`.
     fn cluster_cells(&self, k: usize) -> &[u32] {
         self.cluster_spans.get(k).and_then(|&(a, b)| self.queue.get(a as usize..b as usize)).unwrap_or(&[])
@@ -786,6 +853,11 @@ impl Monitor {
         let Some(cluster) = self.clusters.get_mut(k) else { return };
         cluster.object = u32::try_from(j).ok();
         let cells = cluster.cells;
+        if let Some(&(a, b)) = self.cluster_spans.get(k) {
+            for &c in self.queue.get(a as usize..b as usize).unwrap_or(&[]) {
+                self.grid.set_flags(c, FLAG_ATTRIBUTED);
+            }
+        }
         if let Some(s) = self.scratch.get_mut(j) {
             if s.cluster.is_none_or(|(_, size)| cells > size) {
                 s.cluster = u16::try_from(k).ok().map(|k16| (k16, cells));
@@ -794,17 +866,20 @@ impl Monitor {
     }
 
     /// Sensor verdicts (f(o) with the evidence attribution and the occlusion test) and the combined verdicts.
-    fn finish_reports(&mut self) {
+    fn finish_reports(&mut self, frame: &Frame<'_>) {
         let tau_tp = self.params.tau_tp;
+        self.memory.begin();
         for j in 0..self.reports.len() {
             let Some(scratch) = self.scratch.get(j).copied() else { continue };
-            if let ObjectScratch { region: Some(region), cluster, eta_own, sight } = scratch {
+            if let ObjectScratch { region: Some(region), cluster, eta_own, sight, own_sum, .. } = scratch {
                 // Hidden behind evidence that no object explains and nobody took: that evidence is likely the
                 // object itself, displaced (a ghost otherwise).
                 let mut cluster = cluster.map(|(k, _)| usize::from(k));
                 let mut occluded = false;
                 if cluster.is_none() && eta_own < tau_tp {
-                    let sight = sight.unwrap_or_default();
+                    // Seen again now that the displaced evidence has its objects: evidence attributed to
+                    // another object hides this one; it does not contradict it.
+                    let sight = self.footprint_sight(j, &region.footprint);
                     if sight.contradicted() < self.params.ghost_visible_fraction {
                         occluded = true;
                     } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, sight.occluder)
@@ -834,6 +909,23 @@ impl Monitor {
                 } else {
                     SensorVerdict::Ghost
                 };
+                // What the next frame recalls of this track's evidence.
+                let centre = [region.footprint.cx, region.footprint.cy];
+                let evidence = match s.verdict {
+                    SensorVerdict::PositionError => s
+                        .cluster
+                        .and_then(|k| self.clusters.get(usize::from(k)))
+                        .map(|c| (EvidenceKind::Displaced, c.centroid_m)),
+                    SensorVerdict::Consistent if own_sum[2] >= 1.0 => {
+                        Some((EvidenceKind::Own, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
+                    }
+                    _ => None,
+                };
+                if let Some((kind, at)) = evidence {
+                    let id = report.id;
+                    let offset = [at[0] - centre[0], at[1] - centre[1]];
+                    self.memory.record(id, j, frame.timestamp_s, frame.world_from_ego.yaw_rad, offset, kind);
+                }
             }
             let Some(report) = self.reports.get_mut(j) else { continue };
             if let Some(m) = self.motion.get(j) {
@@ -841,6 +933,7 @@ impl Monitor {
             }
             report.verdict = Verdict::combine(report.sensor.verdict, report.motion.verdict);
         }
+        self.memory.commit();
     }
 }
 
@@ -854,10 +947,18 @@ const ASSOCIATION_CANDIDATES: usize = 8;
 /// axes (1 on its edge): evidence on an object's face lies well inside its own region, while a neighbour whose
 /// region only reaches it with its margin sees it near its edge, whatever the two objects' sizes.
 #[inline]
-fn claim(grid: &mut OccupancyGrid, owner: &mut [u32], owner_depth: &mut [f32], region: &Region, i: usize, idx: u32) {
+fn claim(
+    grid: &mut OccupancyGrid,
+    owner: &mut [u32],
+    owner_depth: &mut [f32],
+    region: &Region,
+    i: usize,
+    idx: u32,
+    penalty: f32,
+) {
     let (x, y) = grid.geometry.cell_center(idx);
     let (u, v) = region.grown.local(x, y);
-    let d = (u.abs() / region.grown.half_length).max(v.abs() / region.grown.half_width);
+    let d = (u.abs() / region.grown.half_length).max(v.abs() / region.grown.half_width) + penalty;
     let first = grid.flags(idx) & FLAG_EXPLAINED == 0;
     if let (Some(o), Some(od)) = (owner.get_mut(idx as usize), owner_depth.get_mut(idx as usize)) {
         if first || d < *od {

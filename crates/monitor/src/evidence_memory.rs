@@ -1,0 +1,146 @@
+//! Where each track's LiDAR evidence stood in the previous frame, relative to the object: its own evidence
+//! (inside its region), or evidence displaced outside it (a position error). The sensor checks use it so that
+//! evidence follows its object from frame to frame (beyond the paper, whose checks look at one frame):
+//!
+//! - a track whose evidence stood apart from it keeps that offset while the error persists, so its evidence is
+//!   found again where the offset predicts it, before any neighbour can claim it;
+//! - a track whose own evidence is where it was (relative to the object) is not blamed for evidence next to it.
+//!
+//! Offsets are kept in world-frame axes, so that the ego vehicle turning does not turn them. Fixed capacity, two
+//! buffers swapped each frame, sorted by id in place: no allocation per frame.
+
+use alloc::vec::Vec;
+
+/// What a track's evidence was in the previous frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum EvidenceKind {
+    /// Its own evidence, inside its region (the object was confirmed).
+    Own,
+    /// Evidence outside its region attributed to it (a position error).
+    Displaced,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    id: u64,
+    /// Input order within its frame: makes the sort by id deterministic when ids repeat.
+    seq: u32,
+    t_s: f64,
+    offset_world_m: [f32; 2],
+    kind: EvidenceKind,
+    /// The id appeared more than once in its frame: its entry is not used.
+    duplicate: bool,
+}
+
+/// The evidence offsets of the previous frame's tracks.
+#[derive(Debug)]
+pub(crate) struct EvidenceMemory {
+    prev: Vec<Entry>,
+    next: Vec<Entry>,
+}
+
+/// `R(yaw) v`.
+fn rotate(v: [f32; 2], yaw_rad: f64) -> [f32; 2] {
+    let (s, c) = libm::sincos(yaw_rad);
+    let (x, y) = (f64::from(v[0]), f64::from(v[1]));
+    [(c * x - s * y) as f32, (s * x + c * y) as f32]
+}
+
+impl EvidenceMemory {
+    /// Room for `capacity` tracks per frame.
+    pub(crate) fn new(capacity: usize) -> Self {
+        Self { prev: Vec::with_capacity(capacity), next: Vec::with_capacity(capacity) }
+    }
+
+    /// Forgets everything.
+    pub(crate) fn clear(&mut self) {
+        self.prev.clear();
+        self.next.clear();
+    }
+
+    /// The previous frame's evidence of track `id`, as `(kind, offset from the object's centre in the current ego
+    /// frame)`, if that frame was `0 < t_s - t_prev <= max_dt_s` ago and the id was unique in it.
+    pub(crate) fn recall(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<(EvidenceKind, [f32; 2])> {
+        let i = self.prev.binary_search_by_key(&id, |e| e.id).ok()?;
+        let e = self.prev.get(i)?;
+        let dt = t_s - e.t_s;
+        (!e.duplicate && dt > 0.0 && dt <= max_dt_s && yaw_rad.is_finite())
+            .then(|| (e.kind, rotate(e.offset_world_m, -yaw_rad)))
+    }
+
+    /// Starts recording a frame.
+    pub(crate) fn begin(&mut self) {
+        self.next.clear();
+    }
+
+    /// Records track `id`'s evidence offset (ego frame) in the frame being recorded. Non-finite values and
+    /// entries beyond the capacity are not recorded.
+    pub(crate) fn record(
+        &mut self,
+        id: u64,
+        seq: usize,
+        t_s: f64,
+        yaw_rad: f64,
+        offset_ego_m: [f32; 2],
+        kind: EvidenceKind,
+    ) {
+        let offset_world_m = rotate(offset_ego_m, yaw_rad);
+        if !(t_s.is_finite() && offset_world_m.iter().all(|v| v.is_finite())) || self.next.len() >= self.next.capacity()
+        {
+            return;
+        }
+        let seq = u32::try_from(seq).unwrap_or(u32::MAX);
+        self.next.push(Entry { id, seq, t_s, offset_world_m, kind, duplicate: false });
+    }
+
+    /// Ends the frame: its records become the memory the next frame recalls.
+    pub(crate) fn commit(&mut self) {
+        self.next.sort_unstable_by_key(|e| (e.id, e.seq));
+        let mut i = 1;
+        while i < self.next.len() {
+            let same = self.next.get(i - 1).map(|e| e.id) == self.next.get(i).map(|e| e.id);
+            if same {
+                for k in [i - 1, i] {
+                    if let Some(e) = self.next.get_mut(k) {
+                        e.duplicate = true;
+                    }
+                }
+            }
+            i += 1;
+        }
+        core::mem::swap(&mut self.prev, &mut self.next);
+        self.next.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn offsets_turn_with_the_ego_and_expire() {
+        let mut m = EvidenceMemory::new(4);
+        m.begin();
+        m.record(7, 0, 1.0, core::f64::consts::FRAC_PI_2, [1.0, 0.0], EvidenceKind::Displaced);
+        m.commit();
+        // The ego turned back to yaw 0: the offset, along ego y before, is along world y, so ego y now.
+        let (kind, o) = m.recall(7, 1.1, 0.0, 0.5).unwrap();
+        assert_eq!(kind, EvidenceKind::Displaced);
+        assert!(o[0].abs() < 1e-6 && (o[1] - 1.0).abs() < 1e-6, "{o:?}");
+        assert!(m.recall(7, 1.0, 0.0, 0.5).is_none(), "zero time step");
+        assert!(m.recall(7, 1.6, 0.0, 0.5).is_none(), "too old");
+        assert!(m.recall(8, 1.1, 0.0, 0.5).is_none(), "unknown id");
+    }
+
+    #[test]
+    fn duplicate_ids_are_not_recalled() {
+        let mut m = EvidenceMemory::new(4);
+        m.begin();
+        m.record(3, 0, 0.0, 0.0, [1.0, 0.0], EvidenceKind::Own);
+        m.record(3, 1, 0.0, 0.0, [2.0, 0.0], EvidenceKind::Own);
+        m.record(4, 2, 0.0, 0.0, [f32::NAN, 0.0], EvidenceKind::Own);
+        m.commit();
+        assert!(m.recall(3, 0.1, 0.0, 0.5).is_none());
+        assert!(m.recall(4, 0.1, 0.0, 0.5).is_none(), "a NaN offset is never recorded");
+    }
+}
