@@ -66,7 +66,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|(d, c)| {
                     let who = match c.object {
                         None => "free".to_string(),
-                        Some(o) => format!("{:?}", rep.objects[o as usize].sensor.verdict).chars().take(12).collect(),
+                        Some(o) => format!(
+                            "{}:{}",
+                            if inj.iter().any(|x| x.index == o) { "inj" } else { "CLEAN" },
+                            format!("{:?}", rep.objects[o as usize].sensor.verdict).chars().take(8).collect::<String>()
+                        ),
                     };
                     format!("{:.1}{}", (d * 2.0).round() / 2.0, who)
                 })

@@ -79,6 +79,11 @@ struct FootprintSight {
     foreign: u32,
     /// A cell of the unexplained evidence that shadows the footprint (`NO_CELL`: none).
     occluder: u32,
+    /// The first few distinct cells that stood for the unexplained evidence, with the shadowed cells each
+    /// accounts for, so that the test can be brought up to date once evidence is attributed without a second
+    /// walk over the footprint (`occluders_len > OCCLUDERS`: too many to keep; walk again).
+    occluders: [(u32, u32); OCCLUDERS],
+    occluders_len: usize,
 }
 
 impl FootprintSight {
@@ -112,6 +117,16 @@ pub struct Monitor {
     /// lies deepest among those whose regions cover it (ties to the lower index), and that depth (see `claim`).
     owner: Vec<u32>,
     owner_depth: Vec<f32>,
+    /// Per object, compact for the loops over cluster-object pairs: the grown region's bounding box (empty
+    /// when the object has no region) and the `CANDIDATE_*` bits.
+    candidates: Vec<([f32; 4], u8)>,
+    /// Objects with a region as `(left edge of the region's bounding box, index)`, sorted: the pair loops look
+    /// only at the objects whose boxes can reach a cluster along x. And the tracks whose evidence stood apart
+    /// last frame (looked at for every cluster).
+    by_x: Vec<(f32, u32)>,
+    displaced: Vec<u32>,
+    /// Widest region bounding box of the frame, metres.
+    widest_m: f32,
     /// Candidate (distance, cluster, object) pairs of the evidence assignment.
     pairs: Vec<(f32, u32, u32)>,
     valid: Vec<bool>,
@@ -173,6 +188,10 @@ impl Monitor {
             owner_depth: alloc::vec![0.0; cells],
             pairs: Vec::with_capacity(max_clusters.saturating_mul(ASSOCIATION_CANDIDATES)),
             valid: Vec::with_capacity(max_objects),
+            candidates: Vec::with_capacity(max_objects),
+            by_x: Vec::with_capacity(max_objects),
+            displaced: Vec::with_capacity(max_objects),
+            widest_m: 0.0,
             motion: Vec::with_capacity(max_objects),
             reports: Vec::with_capacity(max_objects),
             clusters: Vec::with_capacity(max_clusters),
@@ -279,6 +298,10 @@ impl Monitor {
         self.pairs.clear();
         self.stats = GridStats::default();
         self.valid.clear();
+        self.candidates.clear();
+        self.by_x.clear();
+        self.displaced.clear();
+        self.widest_m = 0.0;
         self.scratch.clear();
         self.motion.clear();
         self.reports.clear();
@@ -558,7 +581,16 @@ impl Monitor {
         let mut sight = FootprintSight { occluder: NO_CELL, ..FootprintSight::default() };
         let Some(range) = geometry.cell_range(footprint.aabb()) else { return sight };
         let (grid, visibility, tau) = (&self.grid, &self.visibility, self.params.tau_fn);
+        // At most `SIGHT_SAMPLES` cells along each axis of the range are looked at (every `stride`-th row and
+        // column): the fractions need no more, and a car at 0.1 m cells would otherwise cost 900 look-ups.
+        let span = (range.2 - range.0).max(range.3 - range.1) + 1;
+        let stride = span.div_ceil(SIGHT_SAMPLES).max(1);
+        let n = geometry.cells_per_side;
         geometry.for_each_cell_overlapping(footprint, range, |idx, cx, cy| {
+            if stride > 1 && !((idx % n - range.0).is_multiple_of(stride) && (idx / n - range.1).is_multiple_of(stride))
+            {
+                return;
+            }
             sight.total += 1;
             if grid.probability(idx) > tau && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED {
                 let other = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
@@ -576,6 +608,15 @@ impl Monitor {
                     if let Some(k) = self.unexplained_at(c) {
                         sight.unexplained_shadow += 1;
                         sight.occluder = k;
+                        let n = sight.occluders_len.min(OCCLUDERS);
+                        if let Some(o) = sight.occluders.get_mut(..n).and_then(|l| l.iter_mut().find(|o| o.0 == k)) {
+                            o.1 += 1;
+                        } else {
+                            if let Some(o) = sight.occluders.get_mut(n) {
+                                *o = (k, 1);
+                            }
+                            sight.occluders_len += 1;
+                        }
                     }
                 }
                 Sight::Unreached => {}
@@ -666,44 +707,74 @@ impl Monitor {
         let touch = 0.5 * self.grid.geometry.cell_size_m;
         let gate = self.params.conflict_association_m;
         let follow = 0.5 * gate;
-        for j in 0..self.scratch.len() {
-            let Some(s) = self.scratch.get(j).copied() else { continue };
-            let Some(region) = s.region else { continue };
-            if s.eta_own < tau_tp {
-                let sight = self.footprint_sight(j, &region.footprint);
-                if let Some(sj) = self.scratch.get_mut(j) {
-                    sj.sight = Some(sight);
+        for s in &self.scratch {
+            let entry = match s.region {
+                None => ([f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY], 0),
+                Some(r) => {
+                    let mut bits = CANDIDATE_REGION;
+                    if s.eta_own >= tau_tp {
+                        bits |= CANDIDATE_CONFIRMED;
+                    }
+                    if matches!(s.recalled, Some((EvidenceKind::Displaced, _))) {
+                        bits |= CANDIDATE_DISPLACED;
+                    }
+                    (r.grown.aabb(), bits)
+                }
+            };
+            let j = self.candidates.len();
+            if j < self.candidates.capacity() {
+                self.candidates.push(entry);
+                let index = u32::try_from(j).unwrap_or(u32::MAX);
+                if entry.1 & CANDIDATE_REGION != 0 && self.by_x.len() < self.by_x.capacity() {
+                    self.by_x.push((entry.0[0], index));
+                    self.widest_m = self.widest_m.max(entry.0[2] - entry.0[0]);
+                }
+                if entry.1 & CANDIDATE_DISPLACED != 0 && self.displaced.len() < self.displaced.capacity() {
+                    self.displaced.push(index);
                 }
             }
         }
+        self.by_x.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         // Candidate pairs.
         for k in 0..self.clusters.len() {
-            if !self.clusters.get(k).is_some_and(|c| c.in_roi) {
-                continue;
+            let Some(cb) = self.clusters.get(k).filter(|c| c.in_roi).map(|c| c.bounds_m) else { continue };
+            // A track whose evidence stood apart from it last frame: its evidence is expected where the offset puts
+            // it now (the cost is how far the cluster is from there).
+            for m in 0..self.displaced.len() {
+                let Some(j) = self.displaced.get(m).map(|&j| j as usize) else { continue };
+                let Some(s) = self.scratch.get(j) else { continue };
+                let (Some(region), Some((_, r))) = (s.region, s.recalled) else { continue };
+                let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
+                if let Some(d) = self.cluster_point_distance(k, expected, follow) {
+                    if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
+                        self.pairs.push((d, k as u32, j as u32));
+                    }
+                }
             }
-            for j in 0..self.scratch.len() {
-                let Some(s) = self.scratch.get(j).copied() else { continue };
+            // Objects without evidence of their own (a followed track's pair above stands for it).
+            let (lo, hi) = self.x_window(cb, gate);
+            for m in lo..hi {
+                let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
+                let Some(&(rb, bits)) = self.candidates.get(j) else { continue };
+                if bits & CANDIDATE_CONFIRMED != 0 || self.far_apart(cb, rb, gate) {
+                    continue;
+                }
+                let Some(s) = self.scratch.get(j) else { continue };
                 let Some(region) = s.region else { continue };
-                // A track whose evidence stood apart from it last frame: its evidence is expected where the
-                // offset puts it now (the cost is how far the cluster is from there).
-                if let Some((EvidenceKind::Displaced, r)) = s.recalled {
+                if let (true, Some((_, r))) = (bits & CANDIDATE_DISPLACED != 0, s.recalled) {
                     let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
-                    if let Some(d) = self.cluster_point_distance(k, expected, follow) {
-                        if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
-                            self.pairs.push((d, k as u32, j as u32));
-                        }
+                    if self.cluster_point_distance(k, expected, follow).is_some() {
                         continue;
                     }
                 }
-                let Some(sight) = s.sight else { continue };
+                let Some(d) = self.cluster_distance(k, &region.grown, gate) else { continue };
                 // The whole gate for an object the sensor contradicts, or one that claims to stand behind the
                 // evidence on its own line of sight (displaced away from it; its place is then hidden, often also
                 // behind a low obstacle the rays passed over); touching only for one merely hidden.
-                let in_line = self.clusters.get(k).is_some_and(|c| self.behind(&region.footprint, c.centroid_m));
-                let reach =
-                    if in_line || sight.contradicted() >= self.params.ghost_visible_fraction { gate } else { touch };
-                let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
-                if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
+                let reachable = d <= touch
+                    || self.clusters.get(k).is_some_and(|c| self.behind(&region.footprint, c.centroid_m))
+                    || self.sight_of(j, &region).contradicted() >= self.params.ghost_visible_fraction;
+                if reachable && self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
                     self.pairs.push((d, k as u32, j as u32));
                 }
             }
@@ -718,25 +789,34 @@ impl Monitor {
             }
         }
         // Spill-over of the clusters left.
+        let adjacent = core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 1e-3;
         for k in 0..self.clusters.len() {
-            if !self.clusters.get(k).is_some_and(|c| c.in_roi && c.object.is_none()) {
+            let Some(cb) = self.clusters.get(k).filter(|c| c.in_roi && c.object.is_none()).map(|c| c.bounds_m) else {
                 continue;
-            }
+            };
             let mut best: Option<(f32, usize)> = None;
-            for j in 0..self.scratch.len() {
-                let Some(region) = self.scratch.get(j).and_then(|s| s.region) else { continue };
+            let (lo, hi) = self.x_window(cb, adjacent);
+            for m in lo..hi {
+                let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
+                let Some(&(rb, bits)) = self.candidates.get(j) else { continue };
                 // A confirmed object's own evidence continues into the cluster (8-adjacent cells), and both
                 // together fit its box: the box is displaced (or too small). Evidence merely near a confirmed box
                 // is not its. An unconfirmed object takes a cluster that touches its region and fits its box.
-                let confirmed = self.scratch.get(j).is_some_and(|s| s.eta_own >= tau_tp);
-                let reach = if confirmed { gate } else { touch };
+                let confirmed = bits & CANDIDATE_CONFIRMED != 0;
+                // A cell next to an owned cell (which overlaps the region) is at most a cell diagonal from it.
+                let reach = if confirmed { adjacent } else { touch };
+                if bits & CANDIDATE_REGION == 0 || self.far_apart(cb, rb, reach) {
+                    continue;
+                }
+                let Some(region) = self.scratch.get(j).and_then(|s| s.region) else { continue };
                 let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
                 let ok = if confirmed {
                     self.cluster_touches_own_evidence(j, k) && self.evidence_fits(j, &region, k, true)
                 } else {
                     self.evidence_fits(j, &region, k, false)
                 };
-                if ok && best.is_none_or(|(bd, _)| d < bd) {
+                // Nearest; ties to the lower index (deterministic whatever the loop order).
+                if ok && best.is_none_or(|(bd, bj)| d.total_cmp(&bd).then(j.cmp(&bj)).is_lt()) {
                     best = Some((d, j));
                 }
             }
@@ -744,6 +824,51 @@ impl Monitor {
                 self.give(k, j);
             }
         }
+    }
+
+    /// The range of `by_x` whose regions' bounding boxes can come within `reach` of a cluster's bounds along x.
+    fn x_window(&self, cluster_bounds: [f32; 4], reach: f32) -> (usize, usize) {
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * self.grid.geometry.cell_size_m;
+        let lo = cluster_bounds[0] - reach - half_diagonal - self.widest_m;
+        let hi = cluster_bounds[2] + reach + half_diagonal;
+        let start = self.by_x.partition_point(|&(x, _)| x < lo);
+        let end = self.by_x.partition_point(|&(x, _)| x <= hi);
+        (start, end.max(start))
+    }
+
+    /// A sight brought up to date after the attribution: shadows cast by evidence now attributed to an object
+    /// hide rather than contradict.
+    fn without_attributed(&self, mut sight: FootprintSight) -> FootprintSight {
+        sight.occluder = NO_CELL;
+        for &(cell, count) in sight.occluders.get(..sight.occluders_len).unwrap_or(&[]) {
+            if self.grid.flags(cell) & FLAG_ATTRIBUTED != 0 {
+                sight.unexplained_shadow = sight.unexplained_shadow.saturating_sub(count);
+            } else {
+                sight.occluder = cell;
+            }
+        }
+        sight
+    }
+
+    /// What the sensor saw of object `j`'s footprint, computed once per frame (see [`FootprintSight`]).
+    fn sight_of(&mut self, j: usize, region: &Region) -> FootprintSight {
+        if let Some(sight) = self.scratch.get(j).and_then(|s| s.sight) {
+            return sight;
+        }
+        let sight = self.footprint_sight(j, &region.footprint);
+        if let Some(s) = self.scratch.get_mut(j) {
+            s.sight = Some(sight);
+        }
+        sight
+    }
+
+    /// True when a cluster's bounds (of cell centres) and a region's bounding box are more than `reach` apart,
+    /// cells included (a lower bound of [`Monitor::cluster_distance`]: skips most pairs cheaply).
+    fn far_apart(&self, cluster_bounds: [f32; 4], region_aabb: [f32; 4], reach: f32) -> bool {
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * self.grid.geometry.cell_size_m;
+        let gap_x = (cluster_bounds[0] - region_aabb[2]).max(region_aabb[0] - cluster_bounds[2]);
+        let gap_y = (cluster_bounds[1] - region_aabb[3]).max(region_aabb[1] - cluster_bounds[3]);
+        gap_x.max(gap_y) - half_diagonal > reach
     }
 
     /// Index of the reported cluster that contains a cell (linear in the conflict cells; only called for
@@ -767,9 +892,10 @@ impl Monitor {
             return false;
         }
         let reach = libm::hypotf(footprint.half_length, footprint.half_width) + 0.5 * self.grid.geometry.cell_size_m;
-        // Angle between the two directions, from their cross and dot products.
-        let angle = libm::atan2f((fx * py - fy * px).abs(), fx * px + fy * py);
-        angle <= libm::asinf((reach / rf).min(1.0))
+        // The angle between the two directions is at most `asin(reach / rf)`: in front (positive dot product),
+        // and `sin(angle) = |cross| / (rf rp) <= reach / rf` (any angle up to 90 degrees once `reach >= rf`).
+        let (cross, dot) = ((fx * py - fy * px).abs(), fx * px + fy * py);
+        dot > 0.0 && (reach >= rf || cross <= reach * rp)
     }
 
     /// Distance from a cluster's cells to a point, metres (no cell comes nearer than touching), or `None` beyond
@@ -821,6 +947,15 @@ impl Monitor {
     fn evidence_fits(&self, j: usize, region: &Region, k: usize, with_own: bool) -> bool {
         let geometry = self.grid.geometry;
         let fp = &region.footprint;
+        let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
+        // First on the cluster's bounds: two of its cells as far apart as its bounding box is wide cannot both lie
+        // in a box whose diagonal is shorter (this skips walls and hedges without a look at their cells).
+        if let Some(b) = self.clusters.get(k).map(|c| c.bounds_m) {
+            let diagonal = libm::hypotf(2.0 * fp.half_length + slack, 2.0 * fp.half_width + slack);
+            if (b[2] - b[0]).max(b[3] - b[1]) > diagonal {
+                return false;
+            }
+        }
         let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
         let mut add = |x: f32, y: f32| {
             let (u, v) = fp.local(x, y);
@@ -844,7 +979,6 @@ impl Monitor {
                 });
             }
         }
-        let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
         span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
     }
 
@@ -876,10 +1010,17 @@ impl Monitor {
                 // object itself, displaced (a ghost otherwise).
                 let mut cluster = cluster.map(|(k, _)| usize::from(k));
                 let mut occluded = false;
+                let mut sight = sight;
                 if cluster.is_none() && eta_own < tau_tp {
-                    // Seen again now that the displaced evidence has its objects: evidence attributed to
-                    // another object hides this one; it does not contradict it.
-                    let sight = self.footprint_sight(j, &region.footprint);
+                    // Seen again now that the displaced evidence has its objects, if unexplained evidence shadowed
+                    // it: evidence attributed to another object hides this one; it does not contradict it.
+                    let seen = match sight {
+                        Some(s) if s.unexplained_shadow == 0 => s,
+                        Some(s) if s.occluders_len <= OCCLUDERS => self.without_attributed(s),
+                        _ => self.footprint_sight(j, &region.footprint),
+                    };
+                    sight = Some(seen);
+                    let sight = seen;
                     if sight.contradicted() < self.params.ghost_visible_fraction {
                         occluded = true;
                     } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, sight.occluder)
@@ -936,6 +1077,19 @@ impl Monitor {
         self.memory.commit();
     }
 }
+
+/// Distinct occluding cells a [`FootprintSight`] keeps count of.
+const OCCLUDERS: usize = 4;
+
+/// Most cells looked at along each axis of a footprint's cell range by the sight test.
+const SIGHT_SAMPLES: u32 = 8;
+
+/// Candidate bit: the object has a region in the grid.
+const CANDIDATE_REGION: u8 = 1;
+/// Candidate bit: the object is confirmed by its own evidence (`eta_own >= tau_tp`).
+const CANDIDATE_CONFIRMED: u8 = 2;
+/// Candidate bit: the track's evidence stood apart from it in the previous frame.
+const CANDIDATE_DISPLACED: u8 = 4;
 
 /// Average number of candidate objects per conflict cluster the evidence assignment keeps room for.
 const ASSOCIATION_CANDIDATES: usize = 8;

@@ -156,7 +156,9 @@ pub struct SensorOutcome {
     pub margin_length_m: f32,
     /// Growth of the footprint across its width, `delta_safe + gamma_sens (Delta lat + Delta W)`, metres.
     pub margin_width_m: f32,
-    /// Fraction of the footprint's cells visible to the sensor, in [0, 1]; computed only when `eta < tau_tp`.
+    /// Fraction of the footprint's cells visible to the sensor, in [0, 1]; computed only for objects without
+    /// evidence of their own (`eta_own < tau_tp`) that the evidence attribution needed to look at or that got
+    /// no cluster (0 otherwise).
     pub visible_fraction: f32,
     /// Index into [`FrameReport::clusters`] of the conflict cluster attributed to this object, if any.
     pub cluster: Option<u16>,
