@@ -1010,6 +1010,7 @@ impl Monitor {
                 // object itself, displaced (a ghost otherwise).
                 let mut cluster = cluster.map(|(k, _)| usize::from(k));
                 let mut occluded = false;
+                let mut shared = false;
                 let mut sight = sight;
                 if cluster.is_none() && eta_own < tau_tp {
                     // Seen again now that the displaced evidence has its objects, if unexplained evidence shadowed
@@ -1021,8 +1022,14 @@ impl Monitor {
                     };
                     sight = Some(seen);
                     let sight = seen;
+                    let open = sight.fraction(sight.visible + sight.unexplained_shadow);
                     if sight.contradicted() < self.params.ghost_visible_fraction {
                         occluded = true;
+                    } else if open < self.params.ghost_visible_fraction && s_eta(&self.reports, j) >= tau_tp {
+                        // Its place is taken by evidence another object owns and no displaced evidence came its
+                        // way: the two cannot be told apart (objects standing in one place, or one box on its
+                        // neighbour's evidence). The paper's f(o) stands: the region holds evidence.
+                        shared = true;
                     } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, sight.occluder)
                         .filter(|&k| self.clusters.get(k).is_some_and(|c| c.in_roi && c.object.is_none()))
                     {
@@ -1043,7 +1050,7 @@ impl Monitor {
                         s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
                     }
                     SensorVerdict::PositionError
-                } else if eta_own >= tau_tp {
+                } else if eta_own >= tau_tp || shared {
                     SensorVerdict::Consistent
                 } else if occluded {
                     SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
@@ -1076,6 +1083,11 @@ impl Monitor {
         }
         self.memory.commit();
     }
+}
+
+/// The paper's consistency `eta` of report `j`.
+fn s_eta(reports: &[ObjectReport], j: usize) -> f32 {
+    reports.get(j).map_or(0.0, |r| r.sensor.eta)
 }
 
 /// Distinct occluding cells a [`FootprintSight`] keeps count of.
