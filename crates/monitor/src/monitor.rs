@@ -836,6 +836,41 @@ impl Monitor {
         (start, end.max(start))
     }
 
+    /// True when the rays pass through most of object `j`'s footprint and end on its own evidence behind it:
+    /// of 3 x 3 points spread over the box (at -0.6, 0 and 0.6 of its half length and half width), at least
+    /// `ghost_visible_fraction` lie in front of the nearest obstacle of their direction by more than the
+    /// region's margin (an object displaced by its stated uncertainty is not caught), and that obstacle is
+    /// evidence the object owns (rays that pass beside a box's body, or end on something else, prove
+    /// nothing). Points, not cells: the visibility map keeps the ranges of the returns themselves.
+    fn seen_through(&self, j: usize, region: &Region) -> bool {
+        let fp = &region.footprint;
+        let margin = region.margin_length_m.max(region.margin_width_m);
+        let tau = self.params.tau_fn;
+        let mut free = 0u32;
+        for u in [-0.6f32, 0.0, 0.6] {
+            for v in [-0.6f32, 0.0, 0.6] {
+                let (lu, lv) = (u * fp.half_length, v * fp.half_width);
+                let (x, y) = (fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos);
+                let Some((clearance, cell)) = self.visibility.clearance(x, y) else { continue };
+                let own = |c: u32| {
+                    self.grid.probability(c) > tau
+                        && self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                        && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
+                };
+                // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
+                let n = self.grid.geometry.cells_per_side;
+                let near_own = own(cell)
+                    || [cell.wrapping_sub(1), cell + 1, cell.wrapping_sub(n), cell + n]
+                        .into_iter()
+                        .any(|c| c < n * n && own(c));
+                if clearance > margin && near_own {
+                    free += 1;
+                }
+            }
+        }
+        free as f32 >= self.params.ghost_visible_fraction * 9.0
+    }
+
     /// A sight brought up to date after the attribution: shadows cast by evidence now attributed to an object
     /// hide rather than contradict.
     fn without_attributed(&self, mut sight: FootprintSight) -> FootprintSight {
@@ -1037,6 +1072,8 @@ impl Monitor {
                         cluster = Some(k);
                     }
                 }
+                let seen_through =
+                    cluster.is_none() && eta_own >= tau_tp && own_sum[2] >= 1.0 && self.seen_through(j, &region);
                 let Some(report) = self.reports.get_mut(j) else { continue };
                 let s = &mut report.sensor;
                 s.eta_own = eta_own;
@@ -1050,6 +1087,14 @@ impl Monitor {
                         s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
                     }
                     SensorVerdict::PositionError
+                } else if seen_through {
+                    // Confirmed by evidence in its margin, but the rays prove its footprint empty: the object
+                    // stands in front of its evidence, displaced towards the sensor (beyond the paper, whose
+                    // checks cannot see this direction).
+                    let c = [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
+                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
+                    s.offset_m = [nx - c[0], ny - c[1]];
+                    SensorVerdict::PositionError
                 } else if eta_own >= tau_tp || shared {
                     SensorVerdict::Consistent
                 } else if occluded {
@@ -1060,10 +1105,14 @@ impl Monitor {
                 // What the next frame recalls of this track's evidence.
                 let centre = [region.footprint.cx, region.footprint.cy];
                 let evidence = match s.verdict {
-                    SensorVerdict::PositionError => s
-                        .cluster
-                        .and_then(|k| self.clusters.get(usize::from(k)))
-                        .map(|c| (EvidenceKind::Displaced, c.centroid_m)),
+                    SensorVerdict::PositionError => match s.cluster.and_then(|k| self.clusters.get(usize::from(k))) {
+                        Some(c) => Some((EvidenceKind::Displaced, c.centroid_m)),
+                        // Seen through: its own evidence, behind it, is where it stands apart.
+                        None if own_sum[2] >= 1.0 => {
+                            Some((EvidenceKind::Displaced, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
+                        }
+                        None => None,
+                    },
                     SensorVerdict::Consistent if own_sum[2] >= 1.0 => {
                         Some((EvidenceKind::Own, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
                     }

@@ -213,6 +213,18 @@ impl VisibilityMap {
         }
     }
 
+    /// For a visible position, how far in front of the nearest obstacle of its bin it lies, metres, and that
+    /// obstacle's grid cell; `None` when the position is not visible or its bin has no obstacle.
+    #[must_use]
+    pub fn clearance(&self, x: f32, y: f32) -> Option<(f32, u32)> {
+        let dx = x - self.origin[0];
+        let dy = y - self.origin[1];
+        let r2 = dx * dx + dy * dy;
+        let bin = self.bins.get(self.bin(dx, dy)).copied()?;
+        (r2 < bin.nearest_obstacle_r2 && r2 <= bin.farthest_return_r2 && bin.nearest_obstacle_cell != NO_CELL)
+            .then(|| (libm::sqrtf(bin.nearest_obstacle_r2) - libm::sqrtf(r2), bin.nearest_obstacle_cell))
+    }
+
     /// True when the ego-frame position is visible: before the nearest obstacle and the farthest return of
     /// its bin.
     #[must_use]
