@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use pmon_datasets::{points_in_box, DatasetFrame};
 use pmon_monitor::geometry::OrientedRect;
 use pmon_monitor::{
-    ClusterReport, GridGeometry, MonitorParams, NotMonitoredReason, ObjectState, Region, SensorVerdict,
+    ClusterReport, GridGeometry, Monitor, MonitorParams, NotMonitoredReason, ObjectState, Region, SensorVerdict,
 };
 
 use super::sensor::{range_of, SensorSet};
@@ -246,6 +246,7 @@ pub(super) fn clean_summary(set: &SensorSet, run: &FrameRun) -> (Vec<String>, Ve
         nearest = nearest.min(c.centroid_m[0].hypot(c.centroid_m[1]));
     }
     sizes.sort_unstable();
+    let (per_frame, without_roi) = missed_per_frame(set, run);
     let get = |k: &str| counts.get(k).copied().unwrap_or(0);
     let states: usize = set.frames.iter().map(|f| f.frame.objects.len()).sum();
     let nm = not_monitored.iter().map(|(r, n)| format!("{r} {n}")).collect::<Vec<_>>().join(", ");
@@ -264,7 +265,10 @@ pub(super) fn clean_summary(set: &SensorSet, run: &FrameRun) -> (Vec<String>, Ve
         } else {
             mechanisms.iter().map(|(m, n)| format!("{m}: {n}")).collect::<Vec<_>>().join("; ")
         },
+        set.roi.clone(),
         run.metrics.missed_object_alarms.to_string(),
+        spread(&per_frame),
+        without_roi.map_or_else(|| "same".into(), |w| spread(&w)),
         if sizes.is_empty() {
             "-".into()
         } else {
@@ -278,12 +282,46 @@ pub(super) fn clean_summary(set: &SensorSet, run: &FrameRun) -> (Vec<String>, Ve
     let fa = get("ghost") + get("position_error");
     let claim = format!(
         "{}: {fa} of {in_scope} clean boxes in scope flagged ({} ghost, {} position error; {}), {} missed-object \
-         alarms (no ROI)",
+         alarms (ROI: {}; per frame {})",
         set.key,
         get("ghost"),
         get("position_error"),
         mechanisms.iter().map(|(m, n)| format!("{m}: {n}")).collect::<Vec<_>>().join(", "),
-        run.metrics.missed_object_alarms
+        run.metrics.missed_object_alarms,
+        set.roi,
+        spread(&per_frame)
     );
     (row, flagged, claim)
+}
+
+/// Missed-object alarms per frame of a clean run and, when the frames carry a ROI, of the same frames checked
+/// without it (the whole grid), for the comparison.
+fn missed_per_frame(set: &SensorSet, run: &FrameRun) -> (Vec<u64>, Option<Vec<u64>>) {
+    let per_frame: Vec<u64> =
+        run.clusters.iter().map(|f| f.iter().filter(|c| c.is_missed_object()).count() as u64).collect();
+    if set.frames.iter().all(|f| f.frame.roi_in_ego.is_empty()) {
+        return (per_frame, None);
+    }
+    let Ok(mut monitor) = Monitor::new(set.params) else { return (per_frame, None) };
+    let mut without = Vec::new();
+    for f in &set.frames {
+        let mut frame = f.frame.clone();
+        frame.roi_in_ego.clear();
+        let mut polygons = Vec::new();
+        let view = frame.as_frame(&mut polygons);
+        if let Ok(rep) = monitor.check(&view) {
+            without.push(rep.missed_objects() as u64);
+        }
+    }
+    (per_frame, Some(without))
+}
+
+/// `min / median / max` of counts.
+fn spread(v: &[u64]) -> String {
+    let mut s = v.to_vec();
+    s.sort_unstable();
+    match (s.first(), s.get(s.len() / 2), s.last()) {
+        (Some(a), Some(m), Some(b)) => format!("{a} / {m} / {b}"),
+        _ => "-".into(),
+    }
 }

@@ -16,6 +16,7 @@
 
 use std::path::Path;
 
+use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{open_with, Dataset, DatasetFrame, ReadOptions};
 use pmon_monitor::{
     ClusterReport, Monitor, MonitorParams, MotionVerdict, NotMonitoredReason, ObjectClass, ObjectReport, ObjectState,
@@ -134,14 +135,14 @@ pub fn real_data_experiments_with(
         return Ok(out);
     }
     let notes = &mut out.notes;
-    let nuscenes = load(data_dir, NUSCENES_DIR, "nuscenes", "nuScenes keyframe", true, notes)?;
-    let kitti = load(data_dir, KITTI_OBJECT_DIR, "kitti", "KITTI object frames", true, notes)?;
-    let av2_sweeps = load(data_dir, AV2_SWEEP_LOG, "av2", "Argoverse 2 log 7fab2350", true, notes)?;
-    let av2_tracks = load(data_dir, AV2_TRACK_LOG, "av2", "Argoverse 2 log 3b3570b4", false, notes)?;
+    let nuscenes = load(data_dir, NUSCENES_DIR, "nuscenes", "nuScenes keyframe", true, base.grid_size_m, notes)?;
+    let kitti = load(data_dir, KITTI_OBJECT_DIR, "kitti", "KITTI object frames", true, base.grid_size_m, notes)?;
+    let av2_sweeps = load(data_dir, AV2_SWEEP_LOG, "av2", "Argoverse 2 log 7fab2350", true, base.grid_size_m, notes)?;
+    let av2_tracks = load(data_dir, AV2_TRACK_LOG, "av2", "Argoverse 2 log 3b3570b4", false, base.grid_size_m, notes)?;
     let mut commonroad = Vec::new();
     for rel in COMMONROAD_FILES {
         let what = format!("CommonRoad {}", rel.trim_start_matches("commonroad/"));
-        commonroad.extend(load(data_dir, rel, "commonroad", &what, false, notes)?);
+        commonroad.extend(load(data_dir, rel, "commonroad", &what, false, base.grid_size_m, notes)?);
     }
 
     // ---- 1 and 2: sensor checks on real LiDAR ----
@@ -173,6 +174,7 @@ pub fn real_data_experiments_with(
                 ..*base
             },
             frames,
+            roi: ds.roi_note().map_or_else(|| "none".to_string(), roi_label),
         });
     }
     sensor_experiments(&sets, seed, opts, &mut out)?;
@@ -196,6 +198,17 @@ pub fn real_data_experiments_with(
     Ok(out)
 }
 
+/// A short label of a dataset's ROI note.
+fn roi_label(note: &str) -> String {
+    if note.starts_with("none") {
+        "none".into()
+    } else if note.contains("vector map") {
+        "vector map".into()
+    } else {
+        note.split(" (").next().unwrap_or(note).to_string()
+    }
+}
+
 fn steps(from: f64, to: f64, step: f64) -> Vec<f64> {
     let n = ((to - from) / step).round() as i64;
     (0..=n).map(|i| ((from + i as f64 * step) * 1000.0).round() / 1000.0).collect()
@@ -208,6 +221,7 @@ fn load(
     scheme: &str,
     what: &str,
     load_clouds: bool,
+    grid_size_m: f32,
     notes: &mut Vec<String>,
 ) -> Result<Option<Dataset>, String> {
     let path = data_dir.join(rel);
@@ -216,7 +230,13 @@ fn load(
         return Ok(None);
     }
     let spec = format!("{scheme}:{}", path.display());
-    open_with(&spec, &ReadOptions { load_clouds }).map(Some).map_err(|e| format!("{what}: {e}"))
+    // The dataset's own map, where it has one, is the frames' ROI, clipped to the monitor's grid.
+    let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(grid_size_m), ..RoiOptions::default() };
+    let ds = open_with(&spec, &ReadOptions { load_clouds, roi }).map_err(|e| format!("{what}: {e}"))?;
+    if load_clouds {
+        notes.push(format!("{what}: region of interest: {}", ds.roi_note().unwrap_or("none")));
+    }
+    Ok(Some(ds))
 }
 
 /// SplitMix64 of a seed and a tag: independent, reproducible seeds per run.
