@@ -159,6 +159,8 @@ struct Totals {
     verdicts: BTreeMap<String, u64>,
     missed_objects: u64,
     frames_with_alarms: u64,
+    /// Frames whose sensor checks ran (with a cloud).
+    sensor_frames: u64,
 }
 
 fn describe_alarm(o: &ObjectState, r: &ObjectReport) -> String {
@@ -285,6 +287,9 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
         let view = frame.as_frame(&mut polygons);
         let rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;
         totals.frames += 1;
+        if rep.sensor_status.is_none() {
+            totals.sensor_frames += 1;
+        }
         totals.objects += rep.objects.len() as u64;
         let missed = rep.missed_objects() as u64;
         totals.missed_objects += missed;
@@ -325,11 +330,12 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
         if let Some(note) = &frames_roi_note {
             writeln!(out, "  region of interest: {note}")?;
         }
-        if totals.frames > 0 {
+        if totals.sensor_frames > 0 {
             writeln!(
                 out,
-                "  missed-object alarms per frame: {:.1}",
-                totals.missed_objects as f64 / totals.frames as f64
+                "  missed-object alarms per frame with a LiDAR sweep: {:.1} ({} frames)",
+                totals.missed_objects as f64 / totals.sensor_frames as f64,
+                totals.sensor_frames
             )?;
         }
         for (k, v) in &totals.verdicts {

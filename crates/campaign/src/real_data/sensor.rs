@@ -447,7 +447,7 @@ pub(super) fn sensor_experiments(
          interest and every cluster of occupied cells that no label explains (buildings, walls, poles, vegetation, \
          parked objects nobody labelled, sloped ground above the height band) is reported as a missed object: those \
          counts say nothing about missed road users. The Argoverse 2 log's vector map gives its ROI: drivable areas, \
-         pedestrian crossings and a 3 m sidewalk band (docs/datasets.md); the clean table shows its missed-object \
+         pedestrian crossings, no sidewalk band by default (docs/datasets.md); the clean table shows its missed-object \
          alarms per frame with and without it."
             .into(),
     );
