@@ -896,13 +896,16 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
     ];
     if let Some(m) = &vector_map {
         notes.push(format!(
-            "{ROI_NOTE_PREFIX}the log's vector map {}: {} drivable areas, {} pedestrian crossings and a {} m \
-             sidewalk band along the drivable areas' boundary, clipped to the {} m grid square ({:.0} polygons per \
-             frame on average){}",
+            "{ROI_NOTE_PREFIX}the log's vector map {}: {} drivable areas and {} pedestrian crossings, {}, clipped to \
+             the {} m grid square ({:.0} polygons per frame on average){}",
             m.path.file_name().and_then(|n| n.to_str()).unwrap_or("?"),
             m.drivable_areas.len(),
             m.crossings.len(),
-            map_opts.sidewalk_width_m,
+            if map_opts.sidewalk_width_m > 0.0 {
+                format!("a {} m sidewalk band along the drivable areas' boundary", map_opts.sidewalk_width_m)
+            } else {
+                "no sidewalk band (--sidewalk-m 0)".to_string()
+            },
             2.0 * map_opts.clip_half_extent_m,
             roi_polygons as f64 / frames.len().max(1) as f64,
             if m.skipped_areas + m.skipped_crossings > 0 {
