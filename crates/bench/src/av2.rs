@@ -19,6 +19,11 @@
 //! Returns of the down lidar get the up lidar's origin (as in the reader): a small error in ray directions near
 //! the car, none in where the points are.
 //!
+//! # Region of interest
+//! Each sweep carries its frame's region of interest from the log's vector map (`map/log_map_archive_*.json`:
+//! drivable areas and pedestrian crossings, the reader's defaults), so the cluster stage pays for the ROI test as
+//! it does in `pmon check`.
+//!
 //! # Objects
 //! Like the KITTI sweeps, which come from a 64-beam sensor of about the same point count, the AV2 sweeps carry the
 //! synthetic object list of [`OBJECTS`] (100 objects, the goal size of a 64-beam frame), not the log's cuboids:
@@ -117,7 +122,7 @@ fn read_log(dir: &Path) -> Result<Av2Log, String> {
             Some((seconds_of_ns(ns), name.to_string()))
         })
         .collect();
-    let dataset = av2::open_log(dir, &ReadOptions { load_clouds: true })
+    let dataset = av2::open_log(dir, &ReadOptions { load_clouds: true, ..ReadOptions::default() })
         .map_err(|e| format!("Argoverse 2 log {}: {e}", dir.display()))?;
     let ground_z_m = dataset.info.ground_z_m;
     if !ground_z_m.is_finite() {
@@ -153,6 +158,7 @@ fn read_log(dir: &Path) -> Result<Av2Log, String> {
             label: format!("{short}/{file}"),
             points_in_sensor: cloud.points_in_sensor,
             ego_from_sensor: Isometry3 { rotation: e.rotation, translation_m: [x, y, z - ground_z_m] },
+            roi_in_ego: frame.frame.roi_in_ego,
         });
     }
     if sweeps.is_empty() {
@@ -254,5 +260,13 @@ mod tests {
         }
         let seq = sequence(log.sweeps.clone()).unwrap();
         assert_eq!((seq.frames.len(), seq.max_objects(), seq.max_points()), (6, 100, 99_466));
+        // The log's vector map reaches the benchmark frames: the ego stands in the region of interest.
+        for k in 0..seq.frames.len() {
+            let mut roi = Vec::new();
+            let f = seq.frame_with_roi(k, 0.0, &mut roi).unwrap();
+            assert!(!f.roi_in_ego.is_empty(), "frame {k}: no ROI");
+            assert!(f.roi_in_ego.iter().any(|p| pmon_monitor::geometry::polygon_contains(p, 1.0, 0.0)), "frame {k}");
+        }
+        assert!(seq.frame(0, 0.0).unwrap().roi_in_ego.is_empty(), "frame() keeps the whole grid");
     }
 }

@@ -90,6 +90,9 @@ pub struct Sweep {
     pub points_in_sensor: Vec<[f32; 3]>,
     /// Extrinsic `ego_from_sensor`.
     pub ego_from_sensor: Isometry3,
+    /// The frame's region of interest, ego frame (empty: the whole grid). The Argoverse 2 sweeps carry their log's
+    /// vector map; see [`Sequence::frame_with_roi`].
+    pub roi_in_ego: Vec<Vec<[f32; 2]>>,
 }
 
 /// One frame of a sequence: an object list and the index of its sweep (if any).
@@ -137,6 +140,21 @@ impl Sequence {
         })
     }
 
+    /// [`Sequence::frame`] with its sweep's region of interest, lent through `roi` (scratch space, filled here).
+    #[must_use]
+    pub fn frame_with_roi<'a>(
+        &'a self,
+        k: usize,
+        timestamp_s: f64,
+        roi: &'a mut Vec<&'a [[f32; 2]]>,
+    ) -> Option<Frame<'a>> {
+        let f = self.frame(k, timestamp_s)?;
+        let sweep = self.frames.get(k % self.frames.len())?.sweep.and_then(|s| self.sweeps.get(s));
+        roi.clear();
+        roi.extend(sweep.iter().flat_map(|s| s.roi_in_ego.iter().map(Vec::as_slice)));
+        Some(Frame { roi_in_ego: roi.as_slice(), ..f })
+    }
+
     /// The same frame without its cloud (plausibility checks only).
     #[must_use]
     pub fn frame_without_cloud(&self, k: usize, timestamp_s: f64) -> Option<Frame<'_>> {
@@ -174,6 +192,7 @@ impl Sequence {
                     label: "synthetic".to_string(),
                     points_in_sensor: world.cast(spec, t),
                     ego_from_sensor: Isometry3::from_translation(0.0, 0.0, SENSOR_HEIGHT_M),
+                    roi_in_ego: Vec::new(),
                 });
                 Some(sweeps.len() - 1)
             } else {
@@ -493,6 +512,7 @@ fn sweeps(dir: &Path, suffix: &str, stride: usize, height_m: f32) -> Result<Vec<
                 label: path.file_name().and_then(|n| n.to_str()).unwrap_or("?").to_string(),
                 points_in_sensor: read_sweep(&path, stride)?,
                 ego_from_sensor: Isometry3::from_translation(0.0, 0.0, height_m),
+                roi_in_ego: Vec::new(),
             })
         })
         .collect()

@@ -392,6 +392,13 @@ fn real_sequences(opts: &BenchOptions, notes: &mut Vec<String>) -> Result<RealSe
     }
     for log in &av2_logs {
         notes.push(describe(&format!("Argoverse 2 log {}", log.name()), &log.sweeps));
+        let polygons: usize = log.sweeps.iter().map(|s| s.roi_in_ego.len()).sum();
+        notes.push(format!(
+            "Argoverse 2 log {}: {} ROI polygons per sweep on average from the log's vector map (drivable areas and \
+             crossings, docs/datasets.md); the cluster stage tests its clusters against them",
+            log.name(),
+            polygons / log.sweeps.len().max(1)
+        ));
         let [x, y, z] = log.up_lidar_m;
         let height = z - log.ground_z_m;
         notes.push(format!(
@@ -441,7 +448,8 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
 
     // Warm-up: one cycle (fills the tracks, touches the buffers).
     for i in 0..n {
-        if let Some(f) = seq.frame(i, Sequence::timestamp_s(i)) {
+        let mut roi = Vec::new();
+        if let Some(f) = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi) {
             monitor.check(&f).map_err(frame_err)?;
         }
     }
@@ -451,7 +459,8 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let (mut points, mut in_band, mut cells_hit, mut clusters) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let started = Instant::now();
     for i in n..n + opts.iterations {
-        let Some(frame) = seq.frame(i, Sequence::timestamp_s(i)) else { break };
+        let mut roi = Vec::new();
+        let Some(frame) = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi) else { break };
         let (report, row) = timed_check(&mut monitor, &frame).map_err(frame_err)?;
         points.push(report.grid.points_total);
         in_band.push(report.grid.points_in_band);

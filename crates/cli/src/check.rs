@@ -8,6 +8,8 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
+use pmon_datasets::roi::{RoiMode, RoiOptions};
+use pmon_datasets::ReadOptions;
 use pmon_monitor::{FrameReport, Monitor, ObjectReport, ObjectState, Verdict};
 use pmon_recording::{RecordedFrame, RecordingReader};
 use serde::Serialize;
@@ -42,6 +44,38 @@ pub struct CheckArgs {
     /// In text format, also list frames without alarms.
     #[arg(long)]
     pub all_frames: bool,
+    /// Region of interest for a dataset spec: `auto` (the dataset's map where it has one, the Argoverse 2 vector
+    /// map; else the whole grid), `none` (the whole grid) or `corridor:<width_m>` (a band of that width around
+    /// the ego's path over the log). See docs/datasets.md.
+    #[arg(long, default_value = "auto", value_parser = parse_roi)]
+    pub roi: RoiMode,
+    /// Width of the sidewalk band added along a map's drivable areas, metres.
+    #[arg(long, default_value_t = pmon_datasets::av2_map::DEFAULT_SIDEWALK_WIDTH_M, value_parser = parse_width)]
+    pub sidewalk_m: f64,
+}
+
+/// `--roi` values.
+pub fn parse_roi(s: &str) -> Result<RoiMode, String> {
+    s.parse()
+}
+
+/// `--sidewalk-m` values: finite, in `[0, 50]` m.
+pub fn parse_width(s: &str) -> Result<f64, String> {
+    let w: f64 = s.parse().map_err(|_| format!("`{s}` is not a number of metres"))?;
+    if w.is_finite() && (0.0..=50.0).contains(&w) {
+        Ok(w)
+    } else {
+        Err(format!("`{s}`: the sidewalk width must be in [0, 50] m"))
+    }
+}
+
+/// Reader options for a dataset spec: the ROI mode and sidewalk width, clipped to the monitor's grid.
+#[must_use]
+pub fn read_options(roi: RoiMode, sidewalk_m: f64, grid_size_m: f32) -> ReadOptions {
+    ReadOptions {
+        roi: RoiOptions { mode: roi, sidewalk_width_m: sidewalk_m, grid_half_extent_m: 0.5 * f64::from(grid_size_m) },
+        ..ReadOptions::default()
+    }
 }
 
 #[derive(Serialize)]
@@ -125,6 +159,8 @@ struct Totals {
     verdicts: BTreeMap<String, u64>,
     missed_objects: u64,
     frames_with_alarms: u64,
+    /// Frames whose sensor checks ran (with a cloud).
+    sensor_frames: u64,
 }
 
 fn describe_alarm(o: &ObjectState, r: &ObjectReport) -> String {
@@ -189,19 +225,23 @@ pub struct Input {
     pub ground_z_m: Option<f32>,
     /// The dataset vehicle's footprint in its ego frame (`None` for pmon recordings).
     pub ego_footprint_m: Option<[f32; 4]>,
+    /// Where a dataset's region of interest comes from (`None` for pmon recordings, whose frames carry theirs).
+    pub roi_note: Option<String>,
 }
 
 /// Opens a pmon recording (directory or `.jsonl`) or a dataset spec `scheme:path`.
-pub fn open_input(arg: &std::path::Path) -> Result<(String, Input)> {
+pub fn open_input(arg: &std::path::Path, opts: &ReadOptions) -> Result<(String, Input)> {
     let text = arg.to_string_lossy();
     if let Some((scheme, _)) = text.split_once(':') {
         if pmon_datasets::SCHEMES.contains(&scheme) {
-            let ds = pmon_datasets::open(&text).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let ds = pmon_datasets::open_with(&text, opts).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let roi_note = ds.roi_note().map(str::to_string);
             let ground = ds.info.ground_z_m;
             let ego = ds.info.format.ego_footprint_m();
             let name = ds.info.name.clone();
             let iter = ds.frames.into_iter().map(|f| Ok(f.frame));
-            return Ok((name, Input { iter: Box::new(iter), ground_z_m: Some(ground), ego_footprint_m: Some(ego) }));
+            let input = Input { iter: Box::new(iter), ground_z_m: Some(ground), ego_footprint_m: Some(ego), roi_note };
+            return Ok((name, input));
         }
     }
     let reader = RecordingReader::open(arg)?;
@@ -212,6 +252,7 @@ pub fn open_input(arg: &std::path::Path) -> Result<(String, Input)> {
             iter: Box::new(reader.map(|f| f.map_err(anyhow::Error::from))),
             ground_z_m: None,
             ego_footprint_m: None,
+            roi_note: None,
         },
     ))
 }
@@ -219,7 +260,11 @@ pub fn open_input(arg: &std::path::Path) -> Result<(String, Input)> {
 /// `pmon check`.
 pub fn run(args: &CheckArgs) -> Result<ExitCode> {
     let mut params = load_params(args.params.as_deref())?;
-    let (name, frames) = open_input(&args.recording)?;
+    let opts = read_options(args.roi, args.sidewalk_m, params.grid_size_m);
+    let (name, frames) = open_input(&args.recording, &opts)?;
+    if let (Some(note), Format::Jsonl) = (&frames.roi_note, args.format) {
+        eprintln!("region of interest: {note}");
+    }
     // A dataset's own ground height and vehicle footprint, unless the user gave parameters.
     if args.params.is_none() {
         if let Some(ground) = frames.ground_z_m {
@@ -235,12 +280,16 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
         None => Box::new(BufWriter::new(io::stdout().lock())),
     };
     let mut totals = Totals::default();
+    let frames_roi_note = frames.roi_note;
     for frame in frames.iter {
         let frame = frame?;
         let mut polygons = Vec::new();
         let view = frame.as_frame(&mut polygons);
         let rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;
         totals.frames += 1;
+        if rep.sensor_status.is_none() {
+            totals.sensor_frames += 1;
+        }
         totals.objects += rep.objects.len() as u64;
         let missed = rep.missed_objects() as u64;
         totals.missed_objects += missed;
@@ -278,6 +327,17 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             "\n{name}: {} frames, {} object states, {} frames with alarms, {} missed-object alarms",
             totals.frames, totals.objects, totals.frames_with_alarms, totals.missed_objects
         )?;
+        if let Some(note) = &frames_roi_note {
+            writeln!(out, "  region of interest: {note}")?;
+        }
+        if totals.sensor_frames > 0 {
+            writeln!(
+                out,
+                "  missed-object alarms per frame with a LiDAR sweep: {:.1} ({} frames)",
+                totals.missed_objects as f64 / totals.sensor_frames as f64,
+                totals.sensor_frames
+            )?;
+        }
         for (k, v) in &totals.verdicts {
             let share = 100.0 * *v as f64 / totals.objects.max(1) as f64;
             writeln!(out, "  {k:<45} {v:>8}  {share:>5.1} %")?;

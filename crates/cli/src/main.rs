@@ -77,6 +77,16 @@ enum Command {
         /// Output recording directory.
         #[arg(long, short)]
         out: std::path::PathBuf,
+        /// Region of interest the recording carries: `auto` (the dataset's map, where it has one), `none` or
+        /// `corridor:<width_m>` (see docs/datasets.md).
+        #[arg(long, default_value = "auto", value_parser = check::parse_roi)]
+        roi: pmon_datasets::roi::RoiMode,
+        /// Width of the sidewalk band added along a map's drivable areas, metres.
+        #[arg(long, default_value_t = pmon_datasets::av2_map::DEFAULT_SIDEWALK_WIDTH_M, value_parser = check::parse_width)]
+        sidewalk_m: f64,
+        /// The monitor's grid size the ROI is clipped to, metres (Table I: 100).
+        #[arg(long, default_value_t = pmon_monitor::MonitorParams::PAPER.grid_size_m)]
+        grid_size_m: f32,
     },
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
@@ -115,8 +125,12 @@ fn main() -> ExitCode {
                 Ok(ExitCode::SUCCESS)
             })
         }
-        Command::Convert { spec, out } => {
-            pmon_datasets::open(&spec).map_err(|e| anyhow::anyhow!("{e}")).and_then(|ds| {
+        Command::Convert { spec, out, roi, sidewalk_m, grid_size_m } => {
+            let opts = check::read_options(roi, sidewalk_m, grid_size_m);
+            pmon_datasets::open_with(&spec, &opts).map_err(|e| anyhow::anyhow!("{e}")).and_then(|ds| {
+                if let Some(note) = ds.roi_note() {
+                    eprintln!("region of interest: {note}");
+                }
                 let meta = ds.write_recording(&out)?;
                 eprintln!(
                     "wrote {}: {} frames from {spec}{}",

@@ -134,6 +134,15 @@ pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (
             kind: BoxKind::InjectedTruth,
         });
     }
+    // The frame's region of interest, clipped to the drawn square.
+    for poly in &frame.roi_in_ego {
+        let local: Vec<[f64; 2]> =
+            poly.iter().map(|p| [f64::from(p[0] - centre.0), f64::from(p[1] - centre.1)]).collect();
+        let clipped = pmon_datasets::geometry::clip_to_square(&local, f64::from(radius_m));
+        if clipped.len() >= 3 {
+            view.regions.push(clipped.iter().map(|p| [p[0] as f32 + centre.0, p[1] as f32 + centre.1]).collect());
+        }
+    }
     for c in clusters {
         let [x0, y0, x1, y1] = c.bounds_m;
         if !(inside(x0, y0) || inside(x1, y1)) {

@@ -233,3 +233,53 @@ fn datasets_convert_to_recordings_that_check_the_same() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(text(&bad).contains("nonexistent"), "{}", text(&bad));
 }
+
+/// The AV2 vector map reaches `check` and `convert` (the recording carries the ROI and checks the same); without
+/// a map the summary says so; `--roi` values are validated.
+#[test]
+fn regions_of_interest_reach_check_and_convert() {
+    let bad = pmon(&["check", "--roi", "corridor:-3", "kitti:/nonexistent/k"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(text(&bad).contains("corridor width"), "{}", text(&bad));
+    let bad = pmon(&["check", "--roi", "lanes", "kitti:/nonexistent/k"]);
+    assert!(text(&bad).contains("corridor:<width_m>"), "{}", text(&bad));
+    let Some(data) = data_dir() else { return };
+    let log = data.join("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede");
+    if !log.exists() {
+        eprintln!("SKIPPED: no Argoverse 2 log at {}", log.display());
+        return;
+    }
+    let spec = format!("av2:{}", log.display());
+    let summary = |args: &[&str]| -> (String, f64) {
+        let o = pmon(args);
+        assert_ne!(o.status.code(), Some(2), "{}", text(&o));
+        let out = String::from_utf8_lossy(&o.stdout).to_string();
+        let per_frame = out
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("missed-object alarms per frame with a LiDAR sweep: "))
+            .and_then(|r| r.split(' ').next())
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or_else(|| panic!("no per-frame count in {out}"));
+        (out, per_frame)
+    };
+    let (with_map, mapped) = summary(&["check", &spec]);
+    assert!(with_map.contains("region of interest: the log's vector map"), "{with_map}");
+    let (without, whole) = summary(&["check", "--roi", "none", &spec]);
+    assert!(without.contains("region of interest: none"), "{without}");
+    // Measured: 15 vs 153.5 per sweep; the map must remove most of the scenery.
+    assert!(mapped * 4.0 < whole, "with the map {mapped}, without {whole}");
+    // The converted recording carries the ROI: checked with the same ground and footprint, the same count.
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("av2");
+    let o = pmon(&["convert", &spec, "--out", rec.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("region of interest: the log's vector map"), "{}", text(&o));
+    let p = dir.path().join("p.toml");
+    std::fs::write(&p, "ground_z_m = -0.3234\nego_footprint_m = [-1.2, -1.2, 4.2, 1.2]\n").unwrap();
+    let (_, converted) = summary(&["check", "--params", p.to_str().unwrap(), rec.to_str().unwrap()]);
+    assert!((converted - mapped).abs() <= 1.0, "converted {converted}, direct {mapped}");
+    // KITTI has no map: the summary says so and names the fallback.
+    let kitti = format!("kitti:{}", data.join("kitti/object/training").display());
+    let (out, _) = summary(&["check", &kitti]);
+    assert!(out.contains("no map") && out.contains("--roi corridor:"), "{out}");
+}

@@ -28,7 +28,9 @@ use pmon_monitor::{Isometry3, ObjectClass, ObjectState};
 use pmon_recording::{OwnedCloud, RecordedFrame};
 use serde::Deserialize;
 
+use crate::av2_map::{find_vector_map, MapRoiOptions, VectorMap};
 use crate::geometry::{wrap_angle, Rigid3};
+use crate::roi::{RoiMode, ROI_NOTE_PREFIX};
 use crate::util::{f32_of, finite_difference_speeds, list_dir, read_bytes, read_text};
 use crate::{Dataset, DatasetError, DatasetFormat, DatasetFrame, DatasetInfo, ObjectExtra, ReadOptions, SpeedSource};
 
@@ -738,6 +740,14 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
     let has_raster = map_dir.is_dir()
         && !list_dir(&map_dir, |n| n.contains("_ground_height_surface____") && n.ends_with(".npy"))?.is_empty();
     let raster = if has_raster { Some(GroundRaster::open(&map_dir)?) } else { None };
+    // The vector map becomes each frame's region of interest (unless another ROI was asked for).
+    let vector_map = match opts.roi.mode {
+        RoiMode::Auto => find_vector_map(&map_dir)?.map(|p| VectorMap::read(&p)).transpose()?,
+        RoiMode::WholeGrid | RoiMode::Corridor { .. } => None,
+    };
+    let map_opts =
+        MapRoiOptions { sidewalk_width_m: opts.roi.sidewalk_width_m, clip_half_extent_m: opts.roi.grid_half_extent_m };
+    let mut roi_polygons = 0usize;
     let lidar_dir = dir.join("sensors").join("lidar");
     let sweep_files: BTreeMap<i64, PathBuf> = if lidar_dir.is_dir() {
         list_dir(&lidar_dir, |n| n.ends_with(".feather"))?
@@ -820,6 +830,10 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
         let pose = frame_pose.get(ts).copied().unwrap_or_default();
         let index = u64::try_from(frames.len()).unwrap_or(u64::MAX);
         let mut frame = RecordedFrame::empty(index, seconds_of_ns(*ts), pose.to_pose2());
+        if let Some(m) = &vector_map {
+            frame.roi_in_ego = m.roi_in_ego(&pose.inverse(), &map_opts);
+            roi_polygons += frame.roi_in_ego.len();
+        }
         let mut extras = Vec::with_capacity(list.len());
         for c in list {
             let k = cursor.entry(c.track_uuid.as_str()).or_insert(0);
@@ -880,6 +894,30 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
         format!("worst ego-pose time offset {:.1} ms", seconds_of_ns(worst_pose_gap_ns) * 1e3),
         format!("{sweeps_used} of {} sweep files matched an annotation timestamp", sweep_files.len()),
     ];
+    if let Some(m) = &vector_map {
+        notes.push(format!(
+            "{ROI_NOTE_PREFIX}the log's vector map {}: {} drivable areas and {} pedestrian crossings, {}, clipped to \
+             the {} m grid square ({:.0} polygons per frame on average){}",
+            m.path.file_name().and_then(|n| n.to_str()).unwrap_or("?"),
+            m.drivable_areas.len(),
+            m.crossings.len(),
+            if map_opts.sidewalk_width_m > 0.0 {
+                format!("a {} m sidewalk band along the drivable areas' boundary", map_opts.sidewalk_width_m)
+            } else {
+                "no sidewalk band (--sidewalk-m 0)".to_string()
+            },
+            2.0 * map_opts.clip_half_extent_m,
+            roi_polygons as f64 / frames.len().max(1) as f64,
+            if m.skipped_areas + m.skipped_crossings > 0 {
+                format!(
+                    "; skipped {} drivable areas with fewer than 3 points and {} crossings without two 2-point edges",
+                    m.skipped_areas, m.skipped_crossings
+                )
+            } else {
+                String::new()
+            }
+        ));
+    }
     if ego_rows > 0 {
         notes.push(format!("{ego_rows} rows of the synthetic {EGO_CATEGORY} track dropped"));
     }

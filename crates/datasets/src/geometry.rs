@@ -265,6 +265,52 @@ impl Rigid3 {
     }
 }
 
+/// Clips a polygon against the axis-aligned square `[-half, half]^2` (Sutherland-Hodgman). Exact for a convex
+/// polygon; for a non-convex one (a drivable area) the result covers exactly the clipped area but may run along
+/// the square's edge between pieces: zero-width parts that an even-odd point-in-polygon test never counts.
+#[must_use]
+pub fn clip_to_square(poly: &[[f64; 2]], half: f64) -> Vec<[f64; 2]> {
+    let mut out: Vec<[f64; 2]> = poly.to_vec();
+    // Each edge: inside test value f(p) >= 0.
+    let edges: [fn([f64; 2], f64) -> f64; 4] = [|p, h| h - p[0], |p, h| p[0] + h, |p, h| h - p[1], |p, h| p[1] + h];
+    for f in edges {
+        let input = std::mem::take(&mut out);
+        let Some(&last) = input.last() else { break };
+        let mut prev = last;
+        for &cur in &input {
+            let (fc, fp) = (f(cur, half), f(prev, half));
+            if fc >= 0.0 {
+                if fp < 0.0 {
+                    out.push(lerp_at_zero(prev, cur, fp, fc));
+                }
+                out.push(cur);
+            } else if fp >= 0.0 {
+                out.push(lerp_at_zero(prev, cur, fp, fc));
+            }
+            prev = cur;
+        }
+    }
+    out
+}
+
+fn lerp_at_zero(a: [f64; 2], b: [f64; 2], fa: f64, fb: f64) -> [f64; 2] {
+    let t = fa / (fa - fb);
+    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+}
+
+/// Signed area of a polygon (positive when counter-clockwise), square metres.
+#[must_use]
+pub fn polygon_area(poly: &[[f64; 2]]) -> f64 {
+    let Some(&last) = poly.last() else { return 0.0 };
+    let mut prev = last;
+    let mut twice = 0.0;
+    for &p in poly {
+        twice += prev[0] * p[1] - p[0] * prev[1];
+        prev = p;
+    }
+    0.5 * twice
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -306,5 +352,20 @@ mod tests {
             let k = (a - w) / (2.0 * std::f64::consts::PI);
             assert!((k - k.round()).abs() < 1e-9, "{a} -> {w}");
         }
+    }
+
+    #[test]
+    fn clip() {
+        let sq = [[-10.0, -1.0], [10.0, -1.0], [10.0, 1.0], [-10.0, 1.0]];
+        let c = clip_to_square(&sq, 5.0);
+        assert!((polygon_area(&c) - 20.0).abs() < 1e-9);
+        let far = [[20.0, 20.0], [30.0, 20.0], [30.0, 30.0]];
+        assert!(clip_to_square(&far, 5.0).is_empty());
+        // A non-convex U reaching out of the square on both arms keeps exactly its clipped area.
+        let u =
+            [[-8.0, -8.0], [8.0, -8.0], [8.0, 8.0], [4.0, 8.0], [4.0, -4.0], [-4.0, -4.0], [-4.0, 8.0], [-8.0, 8.0]];
+        let c = clip_to_square(&u, 5.0);
+        // square 100 minus the notch [-4, 4] x [-4, 5] = 72
+        assert!((polygon_area(&c) - (100.0 - 72.0)).abs() < 1e-9, "{}", polygon_area(&c));
     }
 }

@@ -19,12 +19,14 @@
 //! wrong; none panics on bad input.
 
 pub mod av2;
+pub mod av2_map;
 pub mod commonroad;
 mod error;
 pub mod geometry;
 pub mod kitti;
 pub mod motion;
 pub mod nuscenes;
+pub mod roi;
 mod util;
 
 use std::path::{Path, PathBuf};
@@ -204,15 +206,17 @@ impl Dataset {
 }
 
 /// Options shared by the readers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReadOptions {
     /// Read LiDAR sweeps (false: object lists and poses only, much less memory).
     pub load_clouds: bool,
+    /// Where the frames' region of interest (`roi_in_ego`) comes from.
+    pub roi: roi::RoiOptions,
 }
 
 impl Default for ReadOptions {
     fn default() -> Self {
-        Self { load_clouds: true }
+        Self { load_clouds: true, roi: roi::RoiOptions::default() }
     }
 }
 
@@ -236,7 +240,7 @@ pub fn open_with(spec: &str, opts: &ReadOptions) -> Result<Dataset, DatasetError
     if rest.is_empty() {
         return Err(spec_err("the path is empty".into()));
     }
-    match scheme {
+    let mut ds = match scheme {
         "kitti" => kitti::open_object(Path::new(rest), opts),
         "kitti-tracking" => kitti::open_tracking(Path::new(rest)),
         "nuscenes" => nuscenes::open_converted(Path::new(rest), opts),
@@ -250,7 +254,9 @@ pub fn open_with(spec: &str, opts: &ReadOptions) -> Result<Dataset, DatasetError
         "av2" => av2::open_log(Path::new(rest), opts),
         "commonroad" => commonroad::open_scenario(Path::new(rest)),
         other => Err(spec_err(format!("unknown scheme `{other}`, expected one of: {}", SCHEMES.join(", ")))),
-    }
+    }?;
+    roi::finish(&mut ds, &opts.roi);
+    Ok(ds)
 }
 
 /// The schemes [`open`] accepts.

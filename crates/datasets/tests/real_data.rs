@@ -320,7 +320,11 @@ fn av2_log_without_sweeps_drops_ego_track() {
 #[test]
 fn av2_object_lists_only_option() {
     let Some(dir) = data("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede") else { return };
-    let ds = pmon_datasets::open_with(&format!("av2:{}", dir.display()), &ReadOptions { load_clouds: false }).unwrap();
+    let ds = pmon_datasets::open_with(
+        &format!("av2:{}", dir.display()),
+        &ReadOptions { load_clouds: false, ..ReadOptions::default() },
+    )
+    .unwrap();
     assert!(ds.frames.iter().all(|f| f.frame.cloud.is_none()));
     assert_eq!(ds.frames.len(), 156);
 }

@@ -172,6 +172,9 @@ pub struct TopView {
     /// Injected displacements `(from, to)` `[x, y]` \[m\], drawn as arrows (e.g. from the true to the reported
     /// position).
     pub arrows: Vec<([f32; 2], [f32; 2])>,
+    /// Region-of-interest polygons `[x, y]` in the ego frame \[m\], filled light green (overlaps look darker).
+    /// The caller clips them to the extent: vertices outside it are drawn where they fall.
+    pub regions: Vec<Vec<[f32; 2]>>,
 }
 
 impl TopView {
@@ -238,6 +241,12 @@ impl TopView {
                 swatch: Swatch::Outline { color: RGBColor(90, 90, 90), dashed: true, fill: false },
             });
         }
+        if !self.regions.is_empty() {
+            e.push(LegendEntry {
+                label: "region of interest".into(),
+                swatch: Swatch::Outline { color: ROI, dashed: false, fill: true },
+            });
+        }
         if !self.clusters.is_empty() {
             e.push(LegendEntry {
                 label: "conflict cluster".into(),
@@ -254,6 +263,7 @@ impl TopView {
 const EGO: RGBColor = RGBColor(30, 30, 30);
 const POINT: RGBColor = RGBColor(25, 60, 175);
 const CLUSTER: RGBColor = RGBColor(190, 0, 0);
+const ROI: RGBColor = RGBColor(40, 160, 60);
 const ARROW: RGBColor = RGBColor(0, 0, 0);
 
 fn has_grown(b: &ViewBox) -> bool {
@@ -400,6 +410,18 @@ impl Draw for TopView {
                     }
                     pa.draw(&Rectangle::new([to_px(x0, y1), to_px(x1, y0)], color.filled())).map_err(de)?;
                 }
+            }
+        }
+
+        // Region of interest, translucent over the cells.
+        for poly in &self.regions {
+            let pts: Vec<(i32, i32)> = poly
+                .iter()
+                .filter(|p| p[0].is_finite() && p[1].is_finite())
+                .map(|p| tp((f64::from(p[0]), f64::from(p[1]))))
+                .collect();
+            if pts.len() >= 3 {
+                pa.draw(&Polygon::new(pts, ROI.mix(0.10).filled())).map_err(de)?;
             }
         }
 

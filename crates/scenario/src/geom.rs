@@ -83,44 +83,6 @@ impl Box3 {
     }
 }
 
-/// Clips a convex polygon against the axis-aligned square `[-half, half]^2` (Sutherland-Hodgman).
-pub(crate) fn clip_to_square(poly: &[[f64; 2]], half: f64) -> Vec<[f64; 2]> {
-    let mut out: Vec<[f64; 2]> = poly.to_vec();
-    // Each edge: inside test value f(p) >= 0.
-    let edges: [fn([f64; 2], f64) -> f64; 4] = [|p, h| h - p[0], |p, h| p[0] + h, |p, h| h - p[1], |p, h| p[1] + h];
-    for f in edges {
-        if out.is_empty() {
-            break;
-        }
-        let input = std::mem::take(&mut out);
-        for (i, &cur) in input.iter().enumerate() {
-            let prev = input[(i + input.len() - 1) % input.len()];
-            let (fc, fp) = (f(cur, half), f(prev, half));
-            if fc >= 0.0 {
-                if fp < 0.0 {
-                    out.push(lerp_at_zero(prev, cur, fp, fc));
-                }
-                out.push(cur);
-            } else if fp >= 0.0 {
-                out.push(lerp_at_zero(prev, cur, fp, fc));
-            }
-        }
-    }
-    out
-}
-
-fn lerp_at_zero(a: [f64; 2], b: [f64; 2], fa: f64, fb: f64) -> [f64; 2] {
-    let t = fa / (fa - fb);
-    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
-}
-
-/// Area of a simple polygon (positive when counter-clockwise), square metres.
-#[cfg(test)]
-pub(crate) fn polygon_area(poly: &[[f64; 2]]) -> f64 {
-    let n = poly.len();
-    0.5 * (0..n).map(|i| poly[i][0] * poly[(i + 1) % n][1] - poly[(i + 1) % n][0] * poly[i][1]).sum::<f64>()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,14 +102,5 @@ mod tests {
         let c = Box3 { cx: 3.5, cy: 2.0, ..b };
         assert!(!b.overlaps_xy(&c, 0.0));
         assert!(b.overlaps_xy(&c, 0.6));
-    }
-
-    #[test]
-    fn clip() {
-        let sq = [[-10.0, -1.0], [10.0, -1.0], [10.0, 1.0], [-10.0, 1.0]];
-        let c = clip_to_square(&sq, 5.0);
-        assert!((polygon_area(&c) - 20.0).abs() < 1e-9);
-        let far = [[20.0, 20.0], [30.0, 20.0], [30.0, 30.0]];
-        assert!(clip_to_square(&far, 5.0).is_empty());
     }
 }

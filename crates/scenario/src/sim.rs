@@ -13,10 +13,11 @@ use serde::Serialize;
 
 use crate::config::{RoiMode, ScenarioConfig};
 use crate::error::ScenarioError;
-use crate::geom::{clip_to_square, wrap_angle, Box3};
+use crate::geom::{wrap_angle, Box3};
 use crate::lidar::{Lidar, GROUND};
 use crate::traffic::{Behaviour, Traffic};
 use crate::world::{SceneryKind, World};
+use pmon_datasets::geometry::clip_to_square;
 
 /// Ground truth of one road user (or parked car) in one frame.
 #[derive(Clone, Debug, PartialEq, Serialize)]
