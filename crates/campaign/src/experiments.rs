@@ -641,13 +641,13 @@ pub fn claims(figs: &[Figure], latency_ms: Option<(f64, f64)>) -> Vec<Claim> {
         ("permanent_position_paper", "paper conditions", "0.2", 0.4),
         (
             "permanent_position",
-            "hard conditions: 0.1 m uncertainty, crowded street, parked cars as objects",
+            "beyond the paper, goal from 1 m: hard conditions, 0.1 m uncertainty, crowded street, parked cars as objects",
             "0.5",
             1.0,
         ),
         (
             "permanent_position",
-            "hard conditions: 0.1 m uncertainty, crowded street, parked cars as objects",
+            "beyond the paper, goal from 1 m: hard conditions, 0.1 m uncertainty, crowded street, parked cars as objects",
             "0.2",
             1.0,
         ),
