@@ -3,16 +3,17 @@
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use pmon_monitor::{FrameReport, Monitor, ObjectReport, ObjectState, Verdict};
+use pmon_monitor::{FrameReport, Monitor, MonitorParams, ObjectReport, ObjectState, Verdict};
 use pmon_recording::{RecordedFrame, RecordingReader};
 use serde::Serialize;
 
-use crate::config::load_params;
+use crate::config::load_params_over;
+use crate::output::OutputFile;
 
 /// Output format of `pmon check`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -42,6 +43,9 @@ pub struct CheckArgs {
     /// In text format, also list frames without alarms.
     #[arg(long)]
     pub all_frames: bool,
+    /// Replace `--out` even when it is a file pmon did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Serialize)]
@@ -71,6 +75,20 @@ struct ObjectRecord<'a> {
     predicted_margin_m: [f32; 2],
     position_residual_m: f32,
     position_allowance_m: f32,
+}
+
+/// The last JSONL record: the run's totals (`"record": "totals"`; object and missed-object records have no
+/// `record` key).
+#[derive(Serialize)]
+struct TotalsRecord<'a> {
+    record: &'static str,
+    name: &'a str,
+    frames: u64,
+    object_states: u64,
+    frames_with_alarms: u64,
+    missed_objects: u64,
+    verdicts: &'a BTreeMap<String, u64>,
+    written_by: &'static str,
 }
 
 #[derive(Serialize)]
@@ -181,57 +199,88 @@ fn write_text_frame(out: &mut dyn Write, f: &RecordedFrame, rep: &FrameReport<'_
     Ok(())
 }
 
-/// Frames from a recording or a dataset, and the dataset's ground height if it has one.
+/// Frames from a recording or a dataset, and the parameters the input itself needs.
 pub struct Input {
     /// The frames, in order.
     pub iter: Box<dyn Iterator<Item = Result<RecordedFrame>>>,
-    /// The dataset's ground height in its ego frame (`None` for pmon recordings).
-    pub ground_z_m: Option<f32>,
-    /// The dataset vehicle's footprint in its ego frame (`None` for pmon recordings).
-    pub ego_footprint_m: Option<[f32; 4]>,
+    /// The defaults with what this input needs on top: a dataset's ground height and ego footprint, or a
+    /// converted recording's `params.toml`. A `--params` file goes over these (see [`Input::params`]).
+    pub base_params: MonitorParams,
+}
+
+impl Input {
+    /// The parameters to check this input with: `--params` (any subset of keys) over [`Input::base_params`].
+    pub fn params(&self, file: Option<&Path>) -> Result<MonitorParams> {
+        load_params_over(self.base_params, file)
+    }
+}
+
+/// Name of the parameter file a recording may carry (written by `pmon convert`): the settings its source needs.
+pub const RECORDING_PARAMS: &str = "params.toml";
+
+/// The `params.toml` `pmon convert` writes into a recording: what `check` applies for that dataset.
+pub fn recording_params_toml(ground_z_m: f32, ego_footprint_m: [f32; 4]) -> String {
+    let [a, b, c, d] = ego_footprint_m;
+    format!(
+        "# Written by pmon convert: the settings pmon check applies for this recording's source dataset.\n\
+         # pmon check and pmon view load this file; a --params file goes over it.\n\
+         ground_z_m = {ground_z_m:?}\nego_footprint_m = [{a:?}, {b:?}, {c:?}, {d:?}]\n"
+    )
 }
 
 /// Opens a pmon recording (directory or `.jsonl`) or a dataset spec `scheme:path`.
-pub fn open_input(arg: &std::path::Path) -> Result<(String, Input)> {
+pub fn open_input(arg: &Path) -> Result<(String, Input)> {
     let text = arg.to_string_lossy();
     if let Some((scheme, _)) = text.split_once(':') {
         if pmon_datasets::SCHEMES.contains(&scheme) {
             let ds = pmon_datasets::open(&text).map_err(|e| anyhow::anyhow!("{e}"))?;
-            let ground = ds.info.ground_z_m;
-            let ego = ds.info.format.ego_footprint_m();
+            let base_params = MonitorParams {
+                ground_z_m: ds.info.ground_z_m,
+                ego_footprint_m: ds.info.format.ego_footprint_m(),
+                ..MonitorParams::default()
+            };
             let name = ds.info.name.clone();
             let iter = ds.frames.into_iter().map(|f| Ok(f.frame));
-            return Ok((name, Input { iter: Box::new(iter), ground_z_m: Some(ground), ego_footprint_m: Some(ego) }));
+            return Ok((name, Input { iter: Box::new(iter), base_params }));
         }
+        // `C:\...` on Windows and a plain path with a colon that exists are paths, not schemes.
+        if !arg.exists() && scheme.len() > 1 && scheme.chars().all(|c| c.is_ascii_alphanumeric() || c == '-') {
+            anyhow::bail!(
+                "{text}: unknown dataset prefix `{scheme}:` (known: {}), and no such file or folder",
+                pmon_datasets::SCHEMES.join(", ")
+            );
+        }
+    }
+    if arg == Path::new("-") {
+        let reader = RecordingReader::from_reader(Box::new(io::stdin().lock()), Path::new("<stdin>"))?;
+        let name = reader.meta.name.clone();
+        let iter = Box::new(reader.map(|f| f.map_err(anyhow::Error::from)));
+        return Ok((name, Input { iter, base_params: MonitorParams::default() }));
     }
     let reader = RecordingReader::open(arg)?;
     let name = reader.meta.name.clone();
-    Ok((
-        name,
-        Input {
-            iter: Box::new(reader.map(|f| f.map_err(anyhow::Error::from))),
-            ground_z_m: None,
-            ego_footprint_m: None,
-        },
-    ))
+    let mut base_params = MonitorParams::default();
+    let sidecar = arg.join(RECORDING_PARAMS);
+    if arg.is_dir() && sidecar.is_file() {
+        base_params = load_params_over(base_params, Some(&sidecar))?;
+        eprintln!("pmon: using {} (the settings the recording's source needs)", sidecar.display());
+    }
+    Ok((name, Input { iter: Box::new(reader.map(|f| f.map_err(anyhow::Error::from))), base_params }))
 }
 
 /// `pmon check`.
 pub fn run(args: &CheckArgs) -> Result<ExitCode> {
-    let mut params = load_params(args.params.as_deref())?;
     let (name, frames) = open_input(&args.recording)?;
-    // A dataset's own ground height and vehicle footprint, unless the user gave parameters.
-    if args.params.is_none() {
-        if let Some(ground) = frames.ground_z_m {
-            params.ground_z_m = ground;
-        }
-        if let Some(ego) = frames.ego_footprint_m {
-            params.ego_footprint_m = ego;
-        }
-    }
+    let params = frames.params(args.params.as_deref())?;
     let mut monitor = Monitor::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut out: Box<dyn Write> = match &args.out {
-        Some(p) => Box::new(BufWriter::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?)),
+    let out_file = match &args.out {
+        Some(p) => Some(OutputFile::prepare(p, "check", args.force)?),
+        None => None,
+    };
+    let mut out: Box<dyn Write> = match &out_file {
+        Some(f) => Box::new(BufWriter::new(
+            File::create(f.path()).with_context(|| format!("cannot create {}", f.path().display()))?,
+        )),
         None => Box::new(BufWriter::new(io::stdout().lock())),
     };
     let mut totals = Totals::default();
@@ -272,6 +321,9 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             }
         }
     }
+    if totals.frames == 0 {
+        anyhow::bail!("{}: no frames: an empty input cannot be checked", args.recording.display());
+    }
     if args.format == Format::Text {
         writeln!(
             out,
@@ -283,6 +335,26 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             writeln!(out, "  {k:<45} {v:>8}  {share:>5.1} %")?;
         }
     }
+    if args.format == Format::Jsonl {
+        let rec = TotalsRecord {
+            record: "totals",
+            name: &name,
+            frames: totals.frames,
+            object_states: totals.objects,
+            frames_with_alarms: totals.frames_with_alarms,
+            missed_objects: totals.missed_objects,
+            verdicts: &totals.verdicts,
+            written_by: "pmon check (pmon-output)",
+        };
+        serde_json::to_writer(&mut *out, &rec)?;
+        writeln!(out)?;
+    } else if out_file.is_some() {
+        writeln!(out, "(written by pmon check; {})", crate::output::FILE_TAG)?;
+    }
     out.flush()?;
+    drop(out);
+    if let Some(f) = out_file {
+        f.commit()?;
+    }
     Ok(if totals.frames_with_alarms > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
 }

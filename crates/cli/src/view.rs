@@ -9,15 +9,17 @@ use pmon_campaign::Injection;
 use pmon_monitor::{
     CellState, ClusterReport, Monitor, MotionVerdict, ObjectReport, ObjectState, SensorVerdict, Verdict,
 };
-use pmon_recording::{RecordedFrame, RecordingReader};
+use pmon_recording::RecordedFrame;
 use pmon_report::{BoxKind, TopView, ViewBox, ViewCell, ViewCluster};
 
-use crate::config::load_params;
+use crate::check::open_input;
+use crate::output::{tag_png, tag_svg, OutputFile};
 
 /// Arguments of `pmon view`.
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// A pmon recording directory.
+    /// A pmon recording directory, a `.jsonl` object list, or a dataset spec (`kitti:DIR`, `av2:LOG_DIR`, ...,
+    /// as for `pmon check`).
     pub recording: PathBuf,
     /// Frame number to draw (the monitor runs over the frames before it for the motion history).
     #[arg(long, default_value_t = 0)]
@@ -31,9 +33,13 @@ pub struct ViewArgs {
     /// Centre the picture on this object id instead of the ego vehicle.
     #[arg(long)]
     pub object: Option<u64>,
-    /// Monitor parameters (TOML); defaults to the paper's Table I.
+    /// Monitor parameters (TOML); defaults to the paper's Table I (with a dataset's ground height and ego
+    /// footprint under the file's keys).
     #[arg(long)]
     pub params: Option<PathBuf>,
+    /// Replace `--out` even when it is a file pmon did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 fn box_kind(r: &ObjectReport) -> BoxKind {
@@ -150,11 +156,20 @@ pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (
     view
 }
 
-/// Writes a view as PNG or SVG by the file's extension.
+/// Writes a view as PNG or SVG by the file's extension, tagged as pmon's output (see [`crate::output`]).
 pub fn write_view(view: &TopView, path: &std::path::Path) -> Result<()> {
+    let read = |p: &std::path::Path| std::fs::read(p).with_context(|| format!("cannot read back {}", p.display()));
     match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") => view.render_svg(path)?,
-        Some("png") | None => view.render_png(path, 1400, 1400)?,
+        Some("svg") => {
+            view.render_svg(path)?;
+            let text = String::from_utf8_lossy(&read(path)?).into_owned();
+            std::fs::write(path, tag_svg(&text)).with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        Some("png") | None => {
+            view.render_png(path, 1400, 1400)?;
+            let bytes = tag_png(&read(path)?);
+            std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
+        }
         Some(other) => bail!("{}: unknown image type `.{other}` (use .png or .svg)", path.display()),
     }
     Ok(())
@@ -162,10 +177,11 @@ pub fn write_view(view: &TopView, path: &std::path::Path) -> Result<()> {
 
 /// `pmon view`.
 pub fn run(args: &ViewArgs) -> Result<ExitCode> {
-    let params = load_params(args.params.as_deref())?;
+    let (_, input) = open_input(&args.recording)?;
+    let params = input.params(args.params.as_deref())?;
     let mut monitor = Monitor::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let reader = RecordingReader::open(&args.recording)?;
-    for frame in reader {
+    let out = OutputFile::prepare(&args.out, "view", args.force)?;
+    for frame in input.iter {
         let frame = frame?;
         let mut roi = Vec::new();
         let view = frame.as_frame(&mut roi);
@@ -186,7 +202,8 @@ pub fn run(args: &ViewArgs) -> Result<ExitCode> {
         let title = format!("{} frame {} (t = {:.2} s)", args.recording.display(), frame.index, frame.timestamp_s);
         let checked = Checked { frame: &frame, objects: &objects, clusters: &clusters, injections: &[] };
         let picture = top_view(&title, &monitor, &checked, centre, args.radius_m);
-        write_view(&picture, &args.out)?;
+        write_view(&picture, out.path())?;
+        out.commit()?;
         eprintln!("wrote {}", args.out.display());
         return Ok(ExitCode::SUCCESS);
     }

@@ -91,8 +91,13 @@ fn clean_walk_has_no_alarm_and_displacement_is_reported() {
     // The jump also breaks the motion history: frame 3 is a position error (sensor first) and the
     // plausibility check sees the 1.5 m jump.
     let o = pmon(&["check", "--format", "jsonl", shifted.to_str().unwrap()]);
-    let lines: Vec<serde_json::Value> =
+    let mut lines: Vec<serde_json::Value> =
         String::from_utf8_lossy(&o.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    // The last record holds the totals.
+    let totals = lines.pop().unwrap();
+    assert_eq!(totals["record"], "totals");
+    assert_eq!(totals["frames"], 6);
+    assert_eq!(totals["frames_with_alarms"], 3);
     assert_eq!(lines.len(), 6);
     assert_eq!(lines[2]["verdict"], "consistent");
     assert_eq!(lines[3]["verdict"], "position_error");
@@ -208,27 +213,42 @@ fn data_dir() -> Option<std::path::PathBuf> {
 fn datasets_convert_to_recordings_that_check_the_same() {
     let Some(data) = data_dir() else { return };
     let dir = tempfile::tempdir().unwrap();
-    let spec = format!("nuscenes:{}", data.join("nuscenes").display());
-    let direct = pmon(&["check", "--format", "jsonl", &spec]);
-    assert_ne!(direct.status.code(), Some(2), "{}", text(&direct));
-    let rec = dir.path().join("nusc");
-    let o = pmon(&["convert", &spec, "--out", rec.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", text(&o));
-    let p = dir.path().join("p.toml");
-    std::fs::write(&p, "ground_z_m = 0.0\nego_footprint_m = [-1.2, -1.2, 4.2, 1.2]\n").unwrap();
-    let converted = pmon(&["check", "--format", "jsonl", "--params", p.to_str().unwrap(), rec.to_str().unwrap()]);
-    assert_ne!(converted.status.code(), Some(2), "{}", text(&converted));
     let verdicts = |o: &Output| -> Vec<String> {
         String::from_utf8_lossy(&o.stdout)
             .lines()
             .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
-            .map(|v| format!("{} {}", v["id"], v["verdict"]))
+            .filter(|v| v["record"].is_null())
+            .map(|v| format!("{} {} {}", v["id"], v["verdict"], v["sensor"]))
             .collect()
     };
-    // The direct check applies nuScenes' ground (z = 0) and vehicle footprint; the converted run gets them
-    // from the parameter file: the same parameters, the same verdicts.
-    assert_eq!(verdicts(&direct), verdicts(&converted));
-    assert_eq!(verdicts(&direct).iter().filter(|v| !v.contains("missed_object")).count(), 69);
+    // Issue 10/11 (c): `convert` keeps what `check` applies for the dataset (ground height, ego footprint) in
+    // the recording's params.toml: checking the recording without any --params gives the dataset's verdicts.
+    // KITTI and Argoverse 2 have their ground well below the ego origin, so a lost ground height shows.
+    let mut boxes = Vec::new();
+    for (i, spec) in [
+        format!("nuscenes:{}", data.join("nuscenes").display()),
+        format!("kitti:{}", data.join("kitti/object/training").display()),
+        format!("av2:{}", data.join("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede").display()),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let direct = pmon(&["check", "--format", "jsonl", spec]);
+        assert_ne!(direct.status.code(), Some(2), "{}", text(&direct));
+        let rec = dir.path().join(format!("rec{i}"));
+        let o = pmon(&["convert", spec, "--out", rec.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", text(&o));
+        let converted = pmon(&["check", "--format", "jsonl", rec.to_str().unwrap()]);
+        assert_ne!(converted.status.code(), Some(2), "{}", text(&converted));
+        assert_eq!(verdicts(&direct), verdicts(&converted), "{spec}");
+        // A partial --params file keeps the dataset's settings under it (issue 10/11 (a)).
+        let p = dir.path().join("p.toml");
+        std::fs::write(&p, "tau_tp = 0.8\n").unwrap();
+        let partial = pmon(&["check", "--format", "jsonl", "--params", p.to_str().unwrap(), spec]);
+        assert_eq!(verdicts(&direct), verdicts(&partial), "{spec}");
+        boxes.push(verdicts(&direct).iter().filter(|v| !v.contains("missed_object")).count());
+    }
+    assert_eq!(boxes[0], 69);
     let bad = pmon(&["check", "kitti:/nonexistent/kitti"]);
     assert_eq!(bad.status.code(), Some(2));
     assert!(text(&bad).contains("nonexistent"), "{}", text(&bad));

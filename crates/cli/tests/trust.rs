@@ -1,0 +1,260 @@
+//! Issue 15: a tool you can trust with your data. End-to-end regression tests of the `pmon` binary, each
+//! named after what broke.
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+fn pmon(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pmon")).args(args).output().expect("pmon runs")
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A one-object, cloud-free object list with the given lines' frame numbers and timestamps.
+fn object_lines(frames: &[(u64, f64)]) -> String {
+    frames
+        .iter()
+        .map(|(k, t)| {
+            format!(
+                "{{\"frame\":{k},\"timestamp_s\":{t},\"objects\":[{{\"id\":1,\"class\":\"car\",\"x_m\":{},\"y_m\":0,\"heading_rad\":0,\"speed_mps\":10,\"length_m\":4,\"width_m\":2}}]}}\n",
+                10.0 + 10.0 * t
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn issue_15_simulate_refuses_to_overwrite_a_folder_it_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rec");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("thesis.tex"), "years of work").unwrap();
+    let args = ["simulate", "--scenario", "pedestrians", "--duration-s", "0.3", "--out", s(&out)];
+    let o = pmon(&args);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--force"), "{}", text(&o));
+    assert_eq!(std::fs::read_to_string(out.join("thesis.tex")).unwrap(), "years of work");
+    assert!(!out.join("recording.json").exists());
+    // With --force the folder is replaced as a whole: no old file mixed into the new recording.
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    let o = pmon(&forced);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!out.join("thesis.tex").exists() && out.join("recording.json").exists());
+    // Its own previous output is replaced without --force (running a command twice works).
+    let o = pmon(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    // A different command does not take it over.
+    let o = pmon(&["view", s(&out), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    // No temporary folder is left beside it.
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+}
+
+#[test]
+fn issue_15_view_refuses_to_overwrite_a_foreign_file_but_replaces_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("objects.jsonl");
+    std::fs::write(&rec, object_lines(&[(0, 0.0), (1, 0.1)])).unwrap();
+    let png = dir.path().join("photo.png");
+    std::fs::write(&png, "a holiday photo").unwrap();
+    let o = pmon(&["view", s(&rec), "--frame", "1", "--out", s(&png)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert_eq!(std::fs::read_to_string(&png).unwrap(), "a holiday photo");
+    let o = pmon(&["view", s(&rec), "--frame", "1", "--out", s(&png), "--force"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    // Now it is pmon's own image (tagged): the same command again replaces it.
+    let o = pmon(&["view", s(&rec), "--frame", "0", "--out", s(&png)]);
+    assert!(o.status.success(), "{}", text(&o));
+    for svg in [false, true] {
+        let p = dir.path().join(if svg { "v.svg" } else { "v2.png" });
+        for _ in 0..2 {
+            let o = pmon(&["view", s(&rec), "--out", s(&p)]);
+            assert!(o.status.success(), "{}", text(&o));
+        }
+    }
+}
+
+#[test]
+fn issue_15_check_out_refuses_to_overwrite_a_foreign_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("objects.jsonl");
+    std::fs::write(&rec, object_lines(&[(0, 0.0), (1, 0.1)])).unwrap();
+    let out = dir.path().join("notes.txt");
+    std::fs::write(&out, "my notes").unwrap();
+    let o = pmon(&["check", s(&rec), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "my notes");
+    let fresh = dir.path().join("verdicts.jsonl");
+    for _ in 0..2 {
+        let o = pmon(&["check", s(&rec), "--format", "jsonl", "--out", s(&fresh)]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+}
+
+#[test]
+fn issue_15_empty_input_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("empty.jsonl");
+    std::fs::write(&rec, "").unwrap();
+    let o = pmon(&["check", s(&rec)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("no frames"), "{}", text(&o));
+}
+
+#[test]
+fn issue_15_time_going_backwards_is_an_error_naming_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("back.jsonl");
+    std::fs::write(&rec, object_lines(&[(0, 0.0), (1, 0.1), (2, 0.05)])).unwrap();
+    let o = pmon(&["check", s(&rec)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("back.jsonl:3") && text(&o).contains("increase"), "{}", text(&o));
+}
+
+#[test]
+fn issue_15_skipped_frame_numbers_are_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("skip.jsonl");
+    std::fs::write(&rec, object_lines(&[(0, 0.0), (2, 0.1)])).unwrap();
+    let o = pmon(&["check", s(&rec)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("skip.jsonl:2") && text(&o).contains("frame number 2"), "{}", text(&o));
+}
+
+#[test]
+fn issue_15_negative_size_and_speed_are_errors_naming_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("neg.jsonl");
+    for (bad, key) in [("\"length_m\":4", "\"length_m\":-4"), ("\"speed_mps\":10", "\"speed_mps\":-1")] {
+        std::fs::write(&rec, object_lines(&[(0, 0.0), (1, 0.1)]).replacen(bad, key, 2).replacen(key, bad, 1)).unwrap();
+        let o = pmon(&["check", s(&rec)]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains("neg.jsonl:2"), "{}", text(&o));
+    }
+    // A value beyond f32 is an error, not an infinity.
+    std::fs::write(&rec, object_lines(&[(0, 0.0)]).replace("\"x_m\":10", "\"x_m\":1e39")).unwrap();
+    let o = pmon(&["check", s(&rec)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("neg.jsonl:1") && text(&o).contains("finite"), "{}", text(&o));
+}
+
+/// A recording directory with one frame whose cloud entry is `file` promising `points` points.
+fn recording_with_cloud(dir: &Path, file: &str, points: u64) {
+    std::fs::create_dir_all(dir.join("clouds")).unwrap();
+    std::fs::write(
+        dir.join("recording.json"),
+        "{\"format\":\"pmon-recording\",\"version\":1,\"name\":\"t\",\"source\":\"t\",\"frames\":1}\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("frames.jsonl"),
+        format!("{{\"frame\":0,\"timestamp_s\":0.0,\"objects\":[],\"cloud\":{{\"file\":\"{file}\",\"points\":{points},\"ego_from_sensor\":{{\"rotation\":[[1,0,0],[0,1,0],[0,0,1]],\"translation_m\":[0,0,1.8]}}}}}}\n"),
+    )
+    .unwrap();
+}
+
+#[test]
+fn issue_15_cloud_paths_stay_inside_the_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    for file in ["/dev/zero", "../outside.bin", "clouds/../../outside.bin"] {
+        let rec = dir.path().join("rec");
+        recording_with_cloud(&rec, file, 10);
+        let o = pmon(&["check", s(&rec)]);
+        assert_eq!(o.status.code(), Some(2), "{file}: {}", text(&o));
+        assert!(text(&o).contains("frames.jsonl:1") && text(&o).contains("relative path"), "{}", text(&o));
+    }
+}
+
+#[test]
+fn issue_15_cloud_is_not_read_past_the_size_its_frame_promises() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    recording_with_cloud(&rec, "clouds/000000.bin", 1);
+    std::fs::write(rec.join("clouds/000000.bin"), vec![0u8; 12 * 1000]).unwrap();
+    let o = pmon(&["check", s(&rec)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("frames.jsonl:1") && text(&o).contains("12000 bytes"), "{}", text(&o));
+    // A symbolic link to a device is not a regular file: refused before reading (no hang, no endless read).
+    #[cfg(unix)]
+    {
+        std::fs::remove_file(rec.join("clouds/000000.bin")).unwrap();
+        std::os::unix::fs::symlink("/dev/zero", rec.join("clouds/000000.bin")).unwrap();
+        let o = pmon(&["check", s(&rec)]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains("not a regular file"), "{}", text(&o));
+    }
+}
+
+#[test]
+fn issue_15_missing_cloud_file_names_the_referencing_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    recording_with_cloud(&rec, "clouds/000000.bin", 1);
+    let o = pmon(&["check", s(&rec)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("frames.jsonl:1") && text(&o).contains("000000.bin"), "{}", text(&o));
+}
+
+#[test]
+fn issue_15_os_errors_are_printed_once() {
+    let o = pmon(&["check", "/nonexistent/rec"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
+    let o = pmon(&["view", "/nonexistent/rec"]);
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
+}
+
+#[test]
+fn issue_15_whole_file_errors_carry_no_line_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    recording_with_cloud(&rec, "clouds/000000.bin", 1);
+    std::fs::write(
+        rec.join("recording.json"),
+        "{\"format\":\"other\",\"version\":1,\"name\":\"t\",\"source\":\"t\",\"frames\":1}\n",
+    )
+    .unwrap();
+    let o = pmon(&["check", s(&rec)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!text(&o).contains(":0:") && text(&o).contains("recording.json: format"), "{}", text(&o));
+}
+
+#[test]
+fn issue_15_unknown_dataset_prefix_says_so() {
+    for cmd in ["check", "view", "convert"] {
+        let mut args = vec![cmd, "kiti:/some/dir"];
+        if cmd == "convert" {
+            args.extend(["--out", "/nonexistent/never-written"]);
+        }
+        let o = pmon(&args);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains("unknown dataset prefix `kiti:`"), "{cmd}: {}", text(&o));
+    }
+}
+
+#[test]
+fn issue_15_dash_reads_standard_input() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pmon"))
+        .args(["check", "-", "--format", "jsonl"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    child.stdin.take().unwrap().write_all(object_lines(&[(0, 0.0), (1, 0.1), (2, 0.2)]).as_bytes()).unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert_eq!(String::from_utf8_lossy(&o.stdout).lines().filter(|l| l.contains("\"id\":1")).count(), 3);
+}
