@@ -109,7 +109,7 @@ fn object_record<'a>(f: &RecordedFrame, o: &'a ObjectState, r: &ObjectReport) ->
         class: o.class.name(),
         verdict: r.verdict.name(),
         reason: match r.verdict {
-            Verdict::NotMonitored(reason) => Some(reason.name()),
+            Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => Some(reason.name()),
             _ => None,
         },
         conditions: match r.verdict {
@@ -228,12 +228,20 @@ pub fn recording_params_toml(ground_z_m: f32, ego_footprint_m: [f32; 4]) -> Stri
     )
 }
 
+/// Says on stderr what a dataset reader substituted (a nominal calibration, ...).
+pub fn print_warnings(ds: &pmon_datasets::Dataset) {
+    for n in ds.info.notes.iter().filter(|n| n.starts_with(pmon_datasets::WARNING_PREFIX)) {
+        eprintln!("pmon: {n}");
+    }
+}
+
 /// Opens a pmon recording (directory or `.jsonl`) or a dataset spec `scheme:path`.
 pub fn open_input(arg: &Path) -> Result<(String, Input)> {
     let text = arg.to_string_lossy();
     if let Some((scheme, _)) = text.split_once(':') {
         if pmon_datasets::SCHEMES.contains(&scheme) {
             let ds = pmon_datasets::open(&text).map_err(|e| anyhow::anyhow!("{e}"))?;
+            print_warnings(&ds);
             let base_params = MonitorParams {
                 ground_z_m: ds.info.ground_z_m,
                 ego_footprint_m: ds.info.format.ego_footprint_m(),

@@ -100,6 +100,7 @@ fn convert(spec: &str, out: &std::path::Path, force: bool) -> anyhow::Result<Exi
         anyhow::bail!("{spec}: unknown dataset prefix `{scheme}:` (known: {})", pmon_datasets::SCHEMES.join(", "));
     }
     let ds = pmon_datasets::open(spec).map_err(|e| anyhow::anyhow!("{e}"))?;
+    check::print_warnings(&ds);
     if ds.frames.is_empty() {
         anyhow::bail!("{spec}: no frames: nothing to convert");
     }

@@ -6,9 +6,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use pmon_campaign::Injection;
-use pmon_monitor::{
-    CellState, ClusterReport, Monitor, MotionVerdict, ObjectReport, ObjectState, SensorVerdict, Verdict,
-};
+use pmon_monitor::{CellState, ClusterReport, Monitor, ObjectReport, ObjectState, Verdict};
 use pmon_recording::RecordedFrame;
 use pmon_report::{BoxKind, TopView, ViewBox, ViewCell, ViewCluster};
 
@@ -45,6 +43,7 @@ pub struct ViewArgs {
 fn box_kind(r: &ObjectReport) -> BoxKind {
     match r.verdict {
         Verdict::Consistent => BoxKind::Consistent,
+        Verdict::MotionOnlyConsistent(_) => BoxKind::MotionOnly,
         Verdict::Ghost => BoxKind::Ghost,
         Verdict::PositionError => BoxKind::PositionError,
         Verdict::ImplausibleMotion(_) => BoxKind::Implausible,
@@ -53,13 +52,11 @@ fn box_kind(r: &ObjectReport) -> BoxKind {
 }
 
 fn short_verdict(r: &ObjectReport) -> String {
-    match (r.verdict, r.sensor.verdict, r.motion.verdict) {
-        (Verdict::NotMonitored(reason), _, _) => format!("not monitored: {reason}"),
-        (Verdict::ImplausibleMotion(c), _, _) => format!("implausible {c}"),
-        (Verdict::Consistent, SensorVerdict::NotMonitored(reason), MotionVerdict::Plausible) => {
-            format!("plausible (sensor: {reason})")
-        }
-        (v, _, _) => format!("{} (eta {:.2})", v.name(), r.sensor.eta),
+    match r.verdict {
+        Verdict::NotMonitored(reason) => format!("not monitored: {reason}"),
+        Verdict::ImplausibleMotion(c) => format!("implausible {c}"),
+        Verdict::MotionOnlyConsistent(reason) => format!("motion only: plausible (sensor: {reason})"),
+        v => format!("{} (eta {:.2})", v.name(), r.sensor.eta),
     }
 }
 

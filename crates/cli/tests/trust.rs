@@ -258,3 +258,49 @@ fn issue_15_dash_reads_standard_input() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert_eq!(String::from_utf8_lossy(&o.stdout).lines().filter(|l| l.contains("\"id\":1")).count(), 3);
 }
+
+fn data_dir() -> Option<std::path::PathBuf> {
+    let dir = std::env::var_os("PMON_DATA_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+    if dir.exists() {
+        Some(dir)
+    } else {
+        eprintln!("SKIPPED: no real data at {} (set PMON_DATA_DIR)", dir.display());
+        None
+    }
+}
+
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_tree(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), &target).unwrap();
+        }
+    }
+}
+
+/// Issue 10/11 (d): an Argoverse 2 log without `calibration/` falls back to the documented nominal up-LiDAR
+/// origin with a warning on stderr, for `check` and `convert`, instead of failing.
+#[test]
+fn issue_11_av2_log_without_calibration_uses_the_nominal_sensor_pose_with_a_warning() {
+    let Some(data) = data_dir() else { return };
+    let log = data.join("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede");
+    let dir = tempfile::tempdir().unwrap();
+    let copy = dir.path().join("log");
+    copy_tree(&log, &copy);
+    std::fs::remove_dir_all(copy.join("calibration")).unwrap();
+    let spec = format!("av2:{}", copy.display());
+    let o = pmon(&["check", &spec]);
+    assert_ne!(o.status.code(), Some(2), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("warning:") && err.contains("nominal") && err.contains("calibration"), "{err}");
+    let out = dir.path().join("rec");
+    let o = pmon(&["convert", &spec, "--out", s(&out)]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nominal"), "{}", text(&o));
+}
