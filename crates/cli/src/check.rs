@@ -8,7 +8,10 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use pmon_monitor::{FrameReport, Monitor, MonitorParams, ObjectReport, ObjectState, Verdict};
+use pmon_monitor::{
+    FrameReport, Monitor, MonitorParams, MotionOutcome, MotionVerdict, NotMonitoredReason, ObjectReport, ObjectState,
+    SensorVerdict, Verdict,
+};
 use pmon_recording::{RecordedFrame, RecordingReader};
 use serde::Serialize;
 
@@ -22,6 +25,33 @@ pub enum Format {
     Text,
     /// One JSON record per object and frame (and one per missed object).
     Jsonl,
+}
+
+/// A family of checks (`pmon check --checks`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CheckKind {
+    /// The sensor checks (LiDAR evidence in the occupancy grid).
+    Sensor,
+    /// The plausibility checks (motion).
+    Motion,
+}
+
+/// An object's report with the switched-off checks' verdicts replaced by `not_monitored(check_disabled)`, and
+/// the combined verdict recomputed (a reason of the check that ran is kept over `check_disabled`).
+fn with_checks(mut r: ObjectReport, sensor: bool, motion: bool) -> ObjectReport {
+    let off = NotMonitoredReason::CheckDisabled;
+    if !sensor {
+        r.sensor.verdict = SensorVerdict::NotMonitored(off);
+    }
+    if !motion {
+        r.motion = MotionOutcome::not_monitored(off);
+    }
+    r.verdict = match (Verdict::combine(r.sensor.verdict, r.motion.verdict), r.sensor.verdict, r.motion.verdict) {
+        (Verdict::NotMonitored(_), SensorVerdict::NotMonitored(s), _) if s != off => Verdict::NotMonitored(s),
+        (Verdict::NotMonitored(_), _, MotionVerdict::NotMonitored(m)) if m != off => Verdict::NotMonitored(m),
+        (v, _, _) => v,
+    };
+    r
 }
 
 /// Arguments of `pmon check`.
@@ -46,6 +76,10 @@ pub struct CheckArgs {
     /// Replace `--out` even when it is a file pmon did not write.
     #[arg(long)]
     pub force: bool,
+    /// Which checks run, comma-separated: `sensor`, `motion` (default: both). A check switched off gives
+    /// `not_monitored(check_disabled)` for every object.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [CheckKind::Sensor, CheckKind::Motion])]
+    pub checks: Vec<CheckKind>,
 }
 
 #[derive(Serialize)]
@@ -292,11 +326,25 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
         None => Box::new(BufWriter::new(io::stdout().lock())),
     };
     let mut totals = Totals::default();
+    let sensor_on = args.checks.contains(&CheckKind::Sensor);
+    let motion_on = args.checks.contains(&CheckKind::Motion);
+    let mut adjusted: Vec<ObjectReport> = Vec::new();
     for frame in frames.iter {
-        let frame = frame?;
+        let mut frame = frame?;
+        if !sensor_on {
+            frame.cloud = None;
+        }
         let mut polygons = Vec::new();
         let view = frame.as_frame(&mut polygons);
-        let rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;
+        let mut rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;
+        if !(sensor_on && motion_on) {
+            adjusted.clear();
+            adjusted.extend(rep.objects.iter().map(|r| with_checks(*r, sensor_on, motion_on)));
+            rep.objects = &adjusted;
+            if !sensor_on {
+                rep.sensor_status = Some(NotMonitoredReason::CheckDisabled);
+            }
+        }
         totals.frames += 1;
         totals.objects += rep.objects.len() as u64;
         let missed = rep.missed_objects() as u64;

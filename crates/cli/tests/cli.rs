@@ -210,6 +210,7 @@ fn data_dir() -> Option<std::path::PathBuf> {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn datasets_convert_to_recordings_that_check_the_same() {
     let Some(data) = data_dir() else { return };
     let dir = tempfile::tempdir().unwrap();

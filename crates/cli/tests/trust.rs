@@ -287,6 +287,7 @@ fn copy_tree(from: &Path, to: &Path) {
 /// Issue 10/11 (d): an Argoverse 2 log without `calibration/` falls back to the documented nominal up-LiDAR
 /// origin with a warning on stderr, for `check` and `convert`, instead of failing.
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn issue_11_av2_log_without_calibration_uses_the_nominal_sensor_pose_with_a_warning() {
     let Some(data) = data_dir() else { return };
     let log = data.join("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede");
@@ -303,4 +304,68 @@ fn issue_11_av2_log_without_calibration_uses_the_nominal_sensor_pose_with_a_warn
     let o = pmon(&["convert", &spec, "--out", s(&out)]);
     assert!(o.status.success(), "{}", text(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("nominal"), "{}", text(&o));
+}
+
+#[test]
+fn issue_15_checks_choose_which_checks_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("objects.jsonl");
+    // Frame 2 jumps 50 m: an implausible motion when the motion checks run.
+    std::fs::write(&rec, object_lines(&[(0, 0.0), (1, 0.1), (2, 0.2)]).replace("\"x_m\":12,", "\"x_m\":62,")).unwrap();
+    let jsonl = |checks: &str| -> Vec<serde_json::Value> {
+        let o = pmon(&["check", s(&rec), "--format", "jsonl", "--checks", checks]);
+        assert_ne!(o.status.code(), Some(2), "{}", text(&o));
+        String::from_utf8_lossy(&o.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+    };
+    let both = jsonl("sensor,motion");
+    assert_eq!(both[2]["verdict"], "implausible_motion", "{}", both[2]);
+    // Without a LiDAR sweep, a plausible track is motion-only consistent, never `consistent`.
+    assert_eq!(both[1]["verdict"], "motion_only_consistent", "{}", both[1]);
+    assert_eq!(both[1]["reason"], "no_lidar_data", "{}", both[1]);
+    let sensor_only = jsonl("sensor");
+    for r in &sensor_only[..3] {
+        assert_eq!(r["motion"], "not_monitored(check_disabled)", "{r}");
+        assert_eq!(r["verdict"], "not_monitored", "{r}");
+    }
+    let totals = &sensor_only[3];
+    assert_eq!(totals["record"], "totals");
+    assert_eq!(totals["frames_with_alarms"], 0);
+    let motion_only = jsonl("motion");
+    assert_eq!(motion_only[2]["verdict"], "implausible_motion");
+    assert_eq!(motion_only[1]["sensor"], "not_monitored(check_disabled)");
+    let o = pmon(&["check", s(&rec), "--checks", "lidar"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}
+
+#[test]
+fn issue_15_check_piped_into_head_ends_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("objects.jsonl");
+    let frames: Vec<(u64, f64)> = (0..20_000).map(|k| (k, k as f64 * 0.1)).collect();
+    std::fs::write(&rec, object_lines(&frames)).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pmon"))
+        .args(["check", s(&rec), "--format", "jsonl"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        use std::io::Read;
+        let mut first = [0u8; 100];
+        child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+        // the pipe's reader goes away here, like `head`
+    }
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("error") && !err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(141), "{err}");
+}
+
+#[test]
+fn license_files_match_cargo_toml() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
+    assert!(manifest.contains("license = \"MIT OR Apache-2.0\""));
+    assert!(std::fs::read_to_string(root.join("LICENSE-MIT")).unwrap().contains("MIT License"));
+    assert!(std::fs::read_to_string(root.join("LICENSE-APACHE")).unwrap().contains("Apache License"));
 }

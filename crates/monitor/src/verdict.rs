@@ -35,6 +35,8 @@ pub enum NotMonitoredReason {
     /// An intermediate result of the motion check was not finite (NaN or infinite: for example a time step so
     /// small that the estimated acceleration overflows); no verdict is computed from it.
     NonFiniteEstimate,
+    /// The user switched this check off (`pmon check --checks`); the monitor itself never gives it.
+    CheckDisabled,
 }
 
 impl NotMonitoredReason {
@@ -55,6 +57,7 @@ impl NotMonitoredReason {
             Self::TimeStepTooLong => "time_step_too_long",
             Self::DuplicateId => "duplicate_id",
             Self::NonFiniteEstimate => "non_finite_estimate",
+            Self::CheckDisabled => "check_disabled",
         }
     }
 }
