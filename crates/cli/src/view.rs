@@ -80,18 +80,31 @@ pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (
     let params = monitor.params();
     let grid = monitor.grid();
     let mut view = TopView::new(title, extent, grid.geometry.cell_size_m);
-    for &idx in grid.touched() {
-        let (x, y) = grid.geometry.cell_center(idx);
-        if !inside(x, y) {
-            continue;
+    // Every grid cell in the picture: occupied or conflict from the grid; otherwise free where the sensor saw
+    // through the cell (rays passed it), unknown where it did not (shadowed, beyond the reach, no sweep): this is
+    // what explains an `occluded` verdict.
+    let has_sweep = frame.cloud.is_some();
+    let visibility = monitor.visibility();
+    if let Some((i0, j0, i1, j1)) = grid.geometry.cell_range_clipped([extent.0, extent.1, extent.2, extent.3]) {
+        let n = grid.geometry.cells_per_side;
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                let idx = j * n + i;
+                let (x, y) = grid.geometry.cell_center(idx);
+                if !inside(x, y) {
+                    continue;
+                }
+                let state = match grid.state(idx, params.tau_fn) {
+                    CellState::Occupied => pmon_report::CellState::Occupied,
+                    CellState::Conflict => pmon_report::CellState::Conflict,
+                    CellState::Unknown | CellState::Weak if has_sweep && visibility.is_visible(x, y) => {
+                        pmon_report::CellState::Free
+                    }
+                    CellState::Unknown | CellState::Weak => pmon_report::CellState::Unknown,
+                };
+                view.cells.push(ViewCell { x_m: x, y_m: y, state });
+            }
         }
-        let state = match grid.state(idx, params.tau_fn) {
-            CellState::Unknown => continue,
-            CellState::Weak => pmon_report::CellState::Unknown,
-            CellState::Occupied => pmon_report::CellState::Occupied,
-            CellState::Conflict => pmon_report::CellState::Conflict,
-        };
-        view.cells.push(ViewCell { x_m: x, y_m: y, state });
     }
     if let Some(cloud) = &frame.cloud {
         let (lo, hi) = params.obstacle_band_m();

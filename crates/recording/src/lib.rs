@@ -19,6 +19,12 @@ use std::path::{Path, PathBuf};
 use pmon_monitor::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty};
 use serde::{Deserialize, Serialize};
 
+/// The README's Rust snippet, compiled and run as a doctest (`cargo test --doc -p pmon-recording`), so that it
+/// keeps compiling as the API changes.
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+pub struct ReadmeDoctests;
+
 /// Format name in `recording.json`.
 pub const FORMAT_NAME: &str = "pmon-recording";
 /// Version this crate writes and reads.
