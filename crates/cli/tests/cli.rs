@@ -153,7 +153,8 @@ fn reproduce_writes_a_report_derived_from_the_runs() {
     let dir = tempfile::tempdir().unwrap();
     let run = |name: &str, params: Option<&str>| -> serde_json::Value {
         let out = dir.path().join(name);
-        let mut args = vec!["reproduce", "--smoke", "--seed", "3", "--out", out.to_str().unwrap()];
+        let mut args =
+            vec!["reproduce", "--smoke", "--seed", "3", "--data", "/nonexistent", "--out", out.to_str().unwrap()];
         let p = dir.path().join(format!("{name}.toml"));
         if let Some(text) = params {
             std::fs::write(&p, text).unwrap();
@@ -175,7 +176,27 @@ fn reproduce_writes_a_report_derived_from_the_runs() {
         }
         let html = std::fs::read_to_string(out.join("index.html")).unwrap();
         assert!(html.contains("Paper vs pmon"));
-        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap()
+        let results: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+        // Issue 15: the Markdown table (what the README's results table is pasted from) has every claim of
+        // results.json as a row, missed ones included, with the same verdict.
+        let md = std::fs::read_to_string(out.join("paper-vs-pmon.md")).unwrap();
+        let rows: Vec<&str> = md.lines().skip(2).collect();
+        let claims = results["claims"].as_array().unwrap();
+        assert_eq!(rows.len(), claims.len(), "{md}");
+        for (row, c) in rows.iter().zip(claims) {
+            let want = match c["met"].as_bool() {
+                Some(true) => "| met |",
+                Some(false) => "| missed |",
+                None => "| informational |",
+            };
+            assert!(row.ends_with(want), "{row} vs {c}");
+        }
+        // The run used no real data folder beside the temp dir: that is said in the table, not dropped.
+        assert!(md.contains("NOT RUN") || claims.len() > 12, "{md}");
+        // The report folder carries pmon's marker: a second run into it is allowed.
+        assert!(out.join(".pmon-output").exists());
+        results
     };
     let recall_at = |r: &serde_json::Value, curve: &str, x: f64| -> f64 {
         let figs = r["figures"].as_array().unwrap();
