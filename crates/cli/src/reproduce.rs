@@ -254,6 +254,21 @@ fn render_figure(dir: &Path, fig: &Figure) -> Result<()> {
     }
     chart.render_svg(dir.join(format!("{}.svg", s.id)))?;
     chart.render_png(dir.join(format!("{}.png", s.id)), 1600, 1000)?;
+    // Curves that lie flat on zero beside a large one (the sensor false alarms beside the white-noise
+    // plausibility ones) get a zoomed companion figure with only them, its y axis fitted to their data.
+    let top = |c: &experiments::Curve| c.points.iter().map(|p| p.rate.hi).fold(0.0f64, f64::max);
+    let highest = fig.curves.iter().map(top).fold(0.0f64, f64::max);
+    let small: Vec<usize> = (0..fig.curves.len()).filter(|&i| top(&fig.curves[i]) < 0.1 * highest).collect();
+    if !small.is_empty() && small.len() < fig.curves.len() {
+        let small_top = small.iter().map(|&i| top(&fig.curves[i])).fold(0.0f64, f64::max);
+        let mut zoom = LineChart::new(format!("{} — zoom on the curves near zero", s.title), &s.x_label, &s.y_label)
+            .with_y_range(0.0, (1.15 * small_top).max(1e-4));
+        for &i in &small {
+            zoom = zoom.with_series(series_of(&fig.curves[i], i));
+        }
+        zoom.render_svg(dir.join(format!("{}_zoom.svg", s.id)))?;
+        zoom.render_png(dir.join(format!("{}_zoom.png", s.id)), 1600, 1000)?;
+    }
     // The data behind the figure, with counts and intervals.
     let mut rows = Vec::new();
     for c in &fig.curves {
@@ -549,6 +564,13 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
             &format!("{} — reproduces {}", f.spec.title, f.spec.paper_ref),
             &format!("{}.csv", f.spec.id),
         );
+        if out.join(format!("{}_zoom.png", f.spec.id)).exists() {
+            html.figure_with_data(
+                &format!("{}_zoom.png", f.spec.id),
+                &format!("{}: the curves near zero, zoomed (same data)", f.spec.title),
+                &format!("{}.csv", f.spec.id),
+            );
+        }
     }
     html.figure_with_data("dv_theory_permanent.png", "Theory: minimal detectable permanent speed error against speed and time step (Delta x = 0.1 m, Delta v = 1 m/s, Delta theta = 10 deg).", "dv_theory_permanent.csv");
     html.figure_with_data(
