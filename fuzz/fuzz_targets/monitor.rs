@@ -26,7 +26,16 @@ impl Bytes<'_> {
         }
     }
     fn f64(&mut self) -> f64 {
-        let bits = u64::from_le_bytes([self.u8(), self.u8(), self.u8(), self.u8(), self.u8(), self.u8(), self.u8(), self.u8()]);
+        let bits = u64::from_le_bytes([
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+        ]);
         f64::from_bits(bits)
     }
 }
@@ -52,14 +61,23 @@ fuzz_target!(|data: &[u8]| {
                 uncertainty: None,
             })
             .collect();
-        let points: Vec<[f32; 3]> = (0..usize::from(b.u8()) * 4).map(|_| [b.value(2.0) - 8.0, b.value(2.0) - 8.0, b.value(0.3) - 1.5]).collect();
+        let points: Vec<[f32; 3]> = (0..usize::from(b.u8()) * 4)
+            .map(|_| [b.value(2.0) - 8.0, b.value(2.0) - 8.0, b.value(0.3) - 1.5])
+            .collect();
         let with_cloud = b.u8() % 4 != 0;
         let cloud = with_cloud.then(|| PointCloud {
             points_in_sensor: &points,
             ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
         });
         let pose = Pose2 { x_m: f64::from(b.value(1.0)), y_m: 0.0, yaw_rad: f64::from(b.value(0.1)) };
-        let frame = Frame { timestamp_s: t, world_from_ego: pose, objects: &objects, cloud, roi_in_ego: &[], static_in_ego: &[] };
+        let frame = Frame {
+            timestamp_s: t,
+            world_from_ego: pose,
+            objects: &objects,
+            cloud,
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
         let Ok(report) = monitor.check(&frame) else { continue };
         assert_eq!(report.objects.len(), objects.len());
         for r in report.objects {

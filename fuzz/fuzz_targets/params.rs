@@ -10,7 +10,13 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let Ok(mut m) = Monitor::new(params) else { return };
-    let frame =
-        Frame { timestamp_s: 0.0, world_from_ego: Pose2::default(), objects: &[], cloud: None, roi_in_ego: &[], static_in_ego: &[] };
+    let frame = Frame {
+        timestamp_s: 0.0,
+        world_from_ego: Pose2::default(),
+        objects: &[],
+        cloud: None,
+        roi_in_ego: &[],
+        static_in_ego: &[],
+    };
     let _ = m.check(&frame);
 });

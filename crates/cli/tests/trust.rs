@@ -369,3 +369,16 @@ fn license_files_match_cargo_toml() {
     assert!(std::fs::read_to_string(root.join("LICENSE-MIT")).unwrap().contains("MIT License"));
     assert!(std::fs::read_to_string(root.join("LICENSE-APACHE")).unwrap().contains("Apache License"));
 }
+
+/// Issue 10/11 (b): `pmon view` takes dataset specs like `check` does, with the dataset's ground height.
+#[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
+fn issue_11_view_accepts_dataset_specs() {
+    let Some(data) = data_dir() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("kitti.png");
+    let spec = format!("kitti:{}", data.join("kitti/object/training").display());
+    let o = pmon(&["view", &spec, "--frame", "0", "--out", s(&png)]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+}
