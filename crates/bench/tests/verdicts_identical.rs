@@ -174,6 +174,7 @@ fn real_sequences() -> Vec<(Sequence, Range<u32>)> {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn reused_and_fresh_monitors_agree_on_real_sweeps() {
     for (seq, expected_points) in real_sequences() {
         let iterations = seq.frames.len() + 2;
@@ -189,6 +190,7 @@ fn reused_and_fresh_monitors_agree_on_real_sweeps() {
 /// The three rasterizers give the same reports (compared by their `Debug` text too, which tells -0.0 from 0.0)
 /// and the same hits and flags in every cell, frame after frame, on the real sweeps.
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn rasterizers_agree_on_real_sweeps() {
     const ALL: [Rasterizer; 3] = [Rasterizer::Blocked, Rasterizer::BlockedBaseline, Rasterizer::Scalar];
     for (seq, _) in real_sequences() {

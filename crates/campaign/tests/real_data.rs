@@ -79,6 +79,7 @@ fn print(r: &RealDataResults) {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn every_dataset_gives_figures_with_samples() {
     let Some(r) = smoke() else { return };
     for id in [
@@ -118,6 +119,7 @@ fn every_dataset_gives_figures_with_samples() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn nuscenes_verifiable_recall_grows_with_the_error() {
     let Some(r) = smoke() else { return };
     let c = curve(figure(r, "real_position_nuscenes"), "sensor recall, verifiable boxes");
@@ -133,6 +135,7 @@ fn nuscenes_verifiable_recall_grows_with_the_error() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn plausibility_detects_large_transient_speed_errors_better_than_small_ones() {
     let Some(r) = smoke() else { return };
     for fam in ["av2", "commonroad"] {
@@ -143,6 +146,7 @@ fn plausibility_detects_large_transient_speed_errors_better_than_small_ones() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn same_seed_gives_the_same_json() {
     let Some(first) = smoke() else { return };
     let Some(dir) = data() else { return };
@@ -181,6 +185,7 @@ fn full_real_data_experiments() {
 
 /// The smoke run, printed (fast; for looking at the tables).
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn print_smoke_tables() {
     let Some(r) = smoke() else { return };
     print(r);

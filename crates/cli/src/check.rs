@@ -3,18 +3,22 @@
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use pmon_datasets::roi::{RoiMode, RoiOptions};
 use pmon_datasets::ReadOptions;
-use pmon_monitor::{FrameReport, Monitor, ObjectReport, ObjectState, Verdict};
+use pmon_monitor::{
+    FrameReport, Monitor, MonitorParams, MotionOutcome, MotionVerdict, NotMonitoredReason, ObjectReport, ObjectState,
+    SensorVerdict, Verdict,
+};
 use pmon_recording::{RecordedFrame, RecordingReader};
 use serde::Serialize;
 
-use crate::config::load_params;
+use crate::config::load_params_over;
+use crate::output::OutputFile;
 
 /// Output format of `pmon check`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -23,6 +27,33 @@ pub enum Format {
     Text,
     /// One JSON record per object and frame (and one per missed object).
     Jsonl,
+}
+
+/// A family of checks (`pmon check --checks`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CheckKind {
+    /// The sensor checks (LiDAR evidence in the occupancy grid).
+    Sensor,
+    /// The plausibility checks (motion).
+    Motion,
+}
+
+/// An object's report with the switched-off checks' verdicts replaced by `not_monitored(check_disabled)`, and
+/// the combined verdict recomputed (a reason of the check that ran is kept over `check_disabled`).
+fn with_checks(mut r: ObjectReport, sensor: bool, motion: bool) -> ObjectReport {
+    let off = NotMonitoredReason::CheckDisabled;
+    if !sensor {
+        r.sensor.verdict = SensorVerdict::NotMonitored(off);
+    }
+    if !motion {
+        r.motion = MotionOutcome::not_monitored(off);
+    }
+    r.verdict = match (Verdict::combine(r.sensor.verdict, r.motion.verdict), r.sensor.verdict, r.motion.verdict) {
+        (Verdict::NotMonitored(_), SensorVerdict::NotMonitored(s), _) if s != off => Verdict::NotMonitored(s),
+        (Verdict::NotMonitored(_), _, MotionVerdict::NotMonitored(m)) if m != off => Verdict::NotMonitored(m),
+        (v, _, _) => v,
+    };
+    r
 }
 
 /// Arguments of `pmon check`.
@@ -44,6 +75,13 @@ pub struct CheckArgs {
     /// In text format, also list frames without alarms.
     #[arg(long)]
     pub all_frames: bool,
+    /// Replace `--out` even when it is a file pmon did not write.
+    #[arg(long)]
+    pub force: bool,
+    /// Which checks run, comma-separated: `sensor`, `motion` (default: both). A check switched off gives
+    /// `not_monitored(check_disabled)` for every object.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [CheckKind::Sensor, CheckKind::Motion])]
+    pub checks: Vec<CheckKind>,
     /// Region of interest for a dataset spec: `auto` (the dataset's map where it has one, the Argoverse 2 vector
     /// map; else the whole grid), `none` (the whole grid) or `corridor:<width_m>` (a band of that width around
     /// the ego's path over the log). See docs/datasets.md.
@@ -107,6 +145,20 @@ struct ObjectRecord<'a> {
     position_allowance_m: f32,
 }
 
+/// The last JSONL record: the run's totals (`"record": "totals"`; object and missed-object records have no
+/// `record` key).
+#[derive(Serialize)]
+struct TotalsRecord<'a> {
+    record: &'static str,
+    name: &'a str,
+    frames: u64,
+    object_states: u64,
+    frames_with_alarms: u64,
+    missed_objects: u64,
+    verdicts: &'a BTreeMap<String, u64>,
+    written_by: &'static str,
+}
+
 #[derive(Serialize)]
 struct MissedRecord {
     frame: u64,
@@ -125,7 +177,7 @@ fn object_record<'a>(f: &RecordedFrame, o: &'a ObjectState, r: &ObjectReport) ->
         class: o.class.name(),
         verdict: r.verdict.name(),
         reason: match r.verdict {
-            Verdict::NotMonitored(reason) => Some(reason.name()),
+            Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => Some(reason.name()),
             _ => None,
         },
         conditions: match r.verdict {
@@ -217,75 +269,128 @@ fn write_text_frame(out: &mut dyn Write, f: &RecordedFrame, rep: &FrameReport<'_
     Ok(())
 }
 
-/// Frames from a recording or a dataset, and the dataset's ground height if it has one.
+/// Frames from a recording or a dataset, and the parameters the input itself needs.
 pub struct Input {
     /// The frames, in order.
     pub iter: Box<dyn Iterator<Item = Result<RecordedFrame>>>,
-    /// The dataset's ground height in its ego frame (`None` for pmon recordings).
-    pub ground_z_m: Option<f32>,
-    /// The dataset vehicle's footprint in its ego frame (`None` for pmon recordings).
-    pub ego_footprint_m: Option<[f32; 4]>,
+    /// The defaults with what this input needs on top: a dataset's ground height and ego footprint, or a
+    /// converted recording's `params.toml`. A `--params` file goes over these (see [`Input::params`]).
+    pub base_params: MonitorParams,
     /// Where a dataset's region of interest comes from (`None` for pmon recordings, whose frames carry theirs).
     pub roi_note: Option<String>,
 }
 
+impl Input {
+    /// The parameters to check this input with: `--params` (any subset of keys) over [`Input::base_params`].
+    pub fn params(&self, file: Option<&Path>) -> Result<MonitorParams> {
+        load_params_over(self.base_params, file)
+    }
+}
+
+/// Name of the parameter file a recording may carry (written by `pmon convert`): the settings its source needs.
+pub const RECORDING_PARAMS: &str = "params.toml";
+
+/// The `params.toml` `pmon convert` writes into a recording: what `check` applies for that dataset.
+pub fn recording_params_toml(ground_z_m: f32, ego_footprint_m: [f32; 4]) -> String {
+    let [a, b, c, d] = ego_footprint_m;
+    format!(
+        "# Written by pmon convert: the settings pmon check applies for this recording's source dataset.\n\
+         # pmon check and pmon view load this file; a --params file goes over it.\n\
+         ground_z_m = {ground_z_m:?}\nego_footprint_m = [{a:?}, {b:?}, {c:?}, {d:?}]\n"
+    )
+}
+
+/// Says on stderr what a dataset reader substituted (a nominal calibration, ...).
+pub fn print_warnings(ds: &pmon_datasets::Dataset) {
+    for n in ds.info.notes.iter().filter(|n| n.starts_with(pmon_datasets::WARNING_PREFIX)) {
+        eprintln!("pmon: {n}");
+    }
+}
+
 /// Opens a pmon recording (directory or `.jsonl`) or a dataset spec `scheme:path`.
-pub fn open_input(arg: &std::path::Path, opts: &ReadOptions) -> Result<(String, Input)> {
+pub fn open_input(arg: &Path, opts: &ReadOptions) -> Result<(String, Input)> {
     let text = arg.to_string_lossy();
     if let Some((scheme, _)) = text.split_once(':') {
         if pmon_datasets::SCHEMES.contains(&scheme) {
             let ds = pmon_datasets::open_with(&text, opts).map_err(|e| anyhow::anyhow!("{e}"))?;
             let roi_note = ds.roi_note().map(str::to_string);
-            let ground = ds.info.ground_z_m;
-            let ego = ds.info.format.ego_footprint_m();
+            print_warnings(&ds);
+            let base_params = MonitorParams {
+                ground_z_m: ds.info.ground_z_m,
+                ego_footprint_m: ds.info.format.ego_footprint_m(),
+                ..MonitorParams::default()
+            };
             let name = ds.info.name.clone();
             let iter = ds.frames.into_iter().map(|f| Ok(f.frame));
-            let input = Input { iter: Box::new(iter), ground_z_m: Some(ground), ego_footprint_m: Some(ego), roi_note };
-            return Ok((name, input));
+            return Ok((name, Input { iter: Box::new(iter), base_params, roi_note }));
         }
+        // `C:\...` on Windows and a plain path with a colon that exists are paths, not schemes.
+        if !arg.exists() && scheme.len() > 1 && scheme.chars().all(|c| c.is_ascii_alphanumeric() || c == '-') {
+            anyhow::bail!(
+                "{text}: unknown dataset prefix `{scheme}:` (known: {}), and no such file or folder",
+                pmon_datasets::SCHEMES.join(", ")
+            );
+        }
+    }
+    if arg == Path::new("-") {
+        let reader = RecordingReader::from_reader(Box::new(io::stdin().lock()), Path::new("<stdin>"))?;
+        let name = reader.meta.name.clone();
+        let iter = Box::new(reader.map(|f| f.map_err(anyhow::Error::from)));
+        return Ok((name, Input { iter, base_params: MonitorParams::default(), roi_note: None }));
     }
     let reader = RecordingReader::open(arg)?;
     let name = reader.meta.name.clone();
-    Ok((
-        name,
-        Input {
-            iter: Box::new(reader.map(|f| f.map_err(anyhow::Error::from))),
-            ground_z_m: None,
-            ego_footprint_m: None,
-            roi_note: None,
-        },
-    ))
+    let mut base_params = MonitorParams::default();
+    let sidecar = arg.join(RECORDING_PARAMS);
+    if arg.is_dir() && sidecar.is_file() {
+        base_params = load_params_over(base_params, Some(&sidecar))?;
+        eprintln!("pmon: using {} (the settings the recording's source needs)", sidecar.display());
+    }
+    Ok((name, Input { iter: Box::new(reader.map(|f| f.map_err(anyhow::Error::from))), base_params, roi_note: None }))
 }
 
 /// `pmon check`.
 pub fn run(args: &CheckArgs) -> Result<ExitCode> {
-    let mut params = load_params(args.params.as_deref())?;
-    let opts = read_options(args.roi, args.sidewalk_m, params.grid_size_m);
+    // The ROI of a dataset is clipped to the grid: its size comes from --params (any subset of keys).
+    let grid_size_m = crate::config::load_params_over(MonitorParams::default(), args.params.as_deref())?.grid_size_m;
+    let opts = read_options(args.roi, args.sidewalk_m, grid_size_m);
     let (name, frames) = open_input(&args.recording, &opts)?;
     if let (Some(note), Format::Jsonl) = (&frames.roi_note, args.format) {
         eprintln!("region of interest: {note}");
     }
-    // A dataset's own ground height and vehicle footprint, unless the user gave parameters.
-    if args.params.is_none() {
-        if let Some(ground) = frames.ground_z_m {
-            params.ground_z_m = ground;
-        }
-        if let Some(ego) = frames.ego_footprint_m {
-            params.ego_footprint_m = ego;
-        }
-    }
+    let params = frames.params(args.params.as_deref())?;
     let mut monitor = Monitor::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut out: Box<dyn Write> = match &args.out {
-        Some(p) => Box::new(BufWriter::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?)),
+    let out_file = match &args.out {
+        Some(p) => Some(OutputFile::prepare(p, "check", args.force)?),
+        None => None,
+    };
+    let mut out: Box<dyn Write> = match &out_file {
+        Some(f) => Box::new(BufWriter::new(
+            File::create(f.path()).with_context(|| format!("cannot create {}", f.path().display()))?,
+        )),
         None => Box::new(BufWriter::new(io::stdout().lock())),
     };
     let mut totals = Totals::default();
     let frames_roi_note = frames.roi_note;
+    let sensor_on = args.checks.contains(&CheckKind::Sensor);
+    let motion_on = args.checks.contains(&CheckKind::Motion);
+    let mut adjusted: Vec<ObjectReport> = Vec::new();
     for frame in frames.iter {
-        let frame = frame?;
+        let mut frame = frame?;
+        if !sensor_on {
+            frame.cloud = None;
+        }
         let mut polygons = Vec::new();
         let view = frame.as_frame(&mut polygons);
-        let rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;
+        let mut rep = monitor.check(&view).map_err(|e| anyhow::anyhow!("frame {}: {e}", frame.index))?;
+        if !(sensor_on && motion_on) {
+            adjusted.clear();
+            adjusted.extend(rep.objects.iter().map(|r| with_checks(*r, sensor_on, motion_on)));
+            rep.objects = &adjusted;
+            if !sensor_on {
+                rep.sensor_status = Some(NotMonitoredReason::CheckDisabled);
+            }
+        }
         totals.frames += 1;
         if rep.sensor_status.is_none() {
             totals.sensor_frames += 1;
@@ -321,6 +426,9 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             }
         }
     }
+    if totals.frames == 0 {
+        anyhow::bail!("{}: no frames: an empty input cannot be checked", args.recording.display());
+    }
     if args.format == Format::Text {
         writeln!(
             out,
@@ -343,6 +451,26 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             writeln!(out, "  {k:<45} {v:>8}  {share:>5.1} %")?;
         }
     }
+    if args.format == Format::Jsonl {
+        let rec = TotalsRecord {
+            record: "totals",
+            name: &name,
+            frames: totals.frames,
+            object_states: totals.objects,
+            frames_with_alarms: totals.frames_with_alarms,
+            missed_objects: totals.missed_objects,
+            verdicts: &totals.verdicts,
+            written_by: "pmon check (pmon-output)",
+        };
+        serde_json::to_writer(&mut *out, &rec)?;
+        writeln!(out)?;
+    } else if out_file.is_some() {
+        writeln!(out, "(written by pmon check; {})", crate::output::FILE_TAG)?;
+    }
     out.flush()?;
+    drop(out);
+    if let Some(f) = out_file {
+        f.commit()?;
+    }
     Ok(if totals.frames_with_alarms > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
 }

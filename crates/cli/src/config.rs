@@ -1,19 +1,55 @@
 //! Monitor parameters from TOML files.
+//!
+//! Parameters come in layers: the defaults (the paper's Table I), then what the input itself needs (a dataset's
+//! ground height and ego footprint, or a converted recording's `params.toml`), then the user's `--params` file.
+//! A file may give any subset of keys, also inside nested tables (`[motion_limits]` with only `accel_max_mps2`):
+//! every key it leaves out keeps the value of the layer below. Unknown keys are errors.
 
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use pmon_monitor::MonitorParams;
+use serde::Deserialize;
 
 /// Loads parameters: the defaults (Table I) with a TOML file's values on top. Unknown keys are errors.
 pub fn load_params(path: Option<&Path>) -> Result<MonitorParams> {
-    let Some(path) = path else { return Ok(MonitorParams::default()) };
+    load_params_over(MonitorParams::default(), path)
+}
+
+/// Loads a TOML file's values over `base` (keys left out keep `base`'s values, nested tables too), validated.
+pub fn load_params_over(base: MonitorParams, path: Option<&Path>) -> Result<MonitorParams> {
+    let Some(path) = path else {
+        base.validate().map_err(|e| anyhow::anyhow!("parameters: {e}"))?;
+        return Ok(base);
+    };
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read parameter file {}", path.display()))?;
-    let params: MonitorParams =
-        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().trim_end()))?;
+    let params = params_from_str_over(base, &text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     params.validate().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(params)
+}
+
+/// Parses TOML parameters over `base` (not validated).
+///
+/// # Errors
+/// TOML syntax, wrong types, unknown keys.
+pub fn params_from_str_over(base: MonitorParams, text: &str) -> Result<MonitorParams, String> {
+    let file: toml::Table = toml::from_str(text).map_err(|e| e.to_string().trim_end().to_string())?;
+    let mut merged = toml::Table::try_from(base).map_err(|e| format!("internal: cannot serialise parameters: {e}"))?;
+    merge(&mut merged, file);
+    MonitorParams::deserialize(toml::Value::Table(merged)).map_err(|e| e.to_string().trim_end().to_string())
+}
+
+/// Deep merge: tables merge key by key, every other value replaces.
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (k, v) in over {
+        match (base.get_mut(&k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, v) => {
+                base.insert(k, v);
+            }
+        }
+    }
 }
 
 /// `pmon params`.
@@ -24,4 +60,48 @@ pub fn print_params(path: Option<&Path>) -> Result<()> {
     println!("# Load with --params FILE; keys left out keep these values; unknown keys are rejected.");
     print!("{text}");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn issue_10_partial_file_keeps_the_other_defaults() {
+        let p = params_from_str_over(MonitorParams::default(), "tau_tp = 0.9\n").unwrap();
+        assert_eq!(p, MonitorParams { tau_tp: 0.9, ..MonitorParams::default() });
+    }
+
+    #[test]
+    fn issue_10_partial_nested_table_keeps_its_other_keys() {
+        let p = params_from_str_over(MonitorParams::default(), "[motion_limits]\naccel_max_mps2 = 5.0\n").unwrap();
+        let d = MonitorParams::default();
+        assert_eq!(p.motion_limits.accel_max_mps2, 5.0);
+        assert_eq!(p.motion_limits.brake_max_mps2, d.motion_limits.brake_max_mps2);
+        assert_eq!(p.motion_limits.turn_rate_max_radps, d.motion_limits.turn_rate_max_radps);
+        let p = params_from_str_over(d, "[default_uncertainty]\nx_m = 0.3\n").unwrap();
+        assert_eq!(p.default_uncertainty.x_m, 0.3);
+        assert_eq!(p.default_uncertainty.heading_rad, d.default_uncertainty.heading_rad);
+    }
+
+    #[test]
+    fn issue_10_partial_file_keeps_the_dataset_settings_below_it() {
+        let dataset =
+            MonitorParams { ground_z_m: -1.73, ego_footprint_m: [-1.0, -1.0, 3.0, 1.0], ..Default::default() };
+        let p = params_from_str_over(dataset, "tau_fn = 0.9\n").unwrap();
+        assert_eq!(p.ground_z_m, -1.73);
+        assert_eq!(p.ego_footprint_m, [-1.0, -1.0, 3.0, 1.0]);
+        assert_eq!(p.tau_fn, 0.9);
+        // A key the file gives wins over the dataset's.
+        let p = params_from_str_over(dataset, "ground_z_m = 0.0\n").unwrap();
+        assert_eq!(p.ground_z_m, 0.0);
+    }
+
+    #[test]
+    fn unknown_keys_are_still_errors_also_nested() {
+        let e = params_from_str_over(MonitorParams::default(), "tau_tpp = 0.9\n").unwrap_err();
+        assert!(e.contains("tau_tpp"), "{e}");
+        let e = params_from_str_over(MonitorParams::default(), "[motion_limits]\naccel = 5.0\n").unwrap_err();
+        assert!(e.contains("accel"), "{e}");
+    }
 }

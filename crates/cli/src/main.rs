@@ -2,6 +2,7 @@
 
 mod check;
 mod config;
+mod output;
 mod reproduce;
 mod simulate;
 mod view;
@@ -87,6 +88,9 @@ enum Command {
         /// The monitor's grid size the ROI is clipped to, metres (Table I: 100).
         #[arg(long, default_value_t = pmon_monitor::MonitorParams::PAPER.grid_size_m)]
         grid_size_m: f32,
+        /// Replace `--out` even when it holds files pmon convert did not write.
+        #[arg(long)]
+        force: bool,
     },
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
@@ -94,6 +98,40 @@ enum Command {
         #[arg(long)]
         params: Option<PathBuf>,
     },
+}
+
+/// `pmon convert`: the dataset as a recording, with the parameters `check` applies for it (ground height, ego
+/// footprint) in the recording's `params.toml`, so that checking the recording gives what checking the dataset
+/// gives.
+fn convert(spec: &str, out: &std::path::Path, force: bool, opts: &pmon_datasets::ReadOptions) -> anyhow::Result<ExitCode> {
+    use anyhow::Context;
+    let (scheme, _) = spec.split_once(':').unwrap_or((spec, ""));
+    if !pmon_datasets::SCHEMES.contains(&scheme) {
+        anyhow::bail!("{spec}: unknown dataset prefix `{scheme}:` (known: {})", pmon_datasets::SCHEMES.join(", "));
+    }
+    let ds = pmon_datasets::open_with(spec, opts).map_err(|e| anyhow::anyhow!("{e}"))?;
+    check::print_warnings(&ds);
+    if let Some(note) = ds.roi_note() {
+        eprintln!("region of interest: {note}");
+    }
+    if ds.frames.is_empty() {
+        anyhow::bail!("{spec}: no frames: nothing to convert");
+    }
+    let dir = output::OutputDir::prepare(out, "convert", force)?;
+    let meta = ds.write_recording(dir.path())?;
+    let needs = check::recording_params_toml(ds.info.ground_z_m, ds.info.format.ego_footprint_m());
+    let params_path = dir.path().join(check::RECORDING_PARAMS);
+    std::fs::write(&params_path, needs).with_context(|| format!("cannot write {}", params_path.display()))?;
+    dir.commit()?;
+    eprintln!(
+        "wrote {}: {} frames from {spec} (ground at z = {:.2} m and the ego footprint in {}/{}, applied by check and view)",
+        out.display(),
+        meta.frames,
+        ds.info.ground_z_m,
+        out.display(),
+        check::RECORDING_PARAMS
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn main() -> ExitCode {
@@ -125,36 +163,43 @@ fn main() -> ExitCode {
                 Ok(ExitCode::SUCCESS)
             })
         }
-        Command::Convert { spec, out, roi, sidewalk_m, grid_size_m } => {
-            let opts = check::read_options(roi, sidewalk_m, grid_size_m);
-            pmon_datasets::open_with(&spec, &opts).map_err(|e| anyhow::anyhow!("{e}")).and_then(|ds| {
-                if let Some(note) = ds.roi_note() {
-                    eprintln!("region of interest: {note}");
-                }
-                let meta = ds.write_recording(&out)?;
-                eprintln!(
-                    "wrote {}: {} frames from {spec}{}",
-                    out.display(),
-                    meta.frames,
-                    if ds.info.ground_z_m.abs() > 1e-3 {
-                        format!(
-                            " (ground at z = {:.2} m: check it with --params holding ground_z_m = {:.2})",
-                            ds.info.ground_z_m, ds.info.ground_z_m
-                        )
-                    } else {
-                        String::new()
-                    }
-                );
-                Ok(ExitCode::SUCCESS)
-            })
+        Command::Convert { spec, out, force, roi, sidewalk_m, grid_size_m } => {
+            convert(&spec, &out, force, &check::read_options(roi, sidewalk_m, grid_size_m))
         }
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,
+        Err(e) if is_broken_pipe(&e) => ExitCode::from(EXIT_BROKEN_PIPE),
         Err(e) => {
-            eprintln!("pmon: error: {e:#}");
+            eprintln!("pmon: error: {}", error_chain(&e));
             ExitCode::from(2)
         }
     }
+}
+
+/// Exit status when the reader of standard output went away (`pmon check | head`): quiet, as a program ended by
+/// SIGPIPE reports it in the shell.
+const EXIT_BROKEN_PIPE: u8 = 141;
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    let pipe = Some(std::io::ErrorKind::BrokenPipe);
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>().map(std::io::Error::kind) == pipe
+            || c.downcast_ref::<serde_json::Error>().and_then(serde_json::Error::io_error_kind) == pipe
+    })
+}
+
+/// The error and its causes, each said once: a cause whose text the message already holds (an OS error that a
+/// reader's error repeats) is not printed again.
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut msg = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !msg.contains(&c) {
+            msg.push_str(": ");
+            msg.push_str(&c);
+        }
+    }
+    msg
 }

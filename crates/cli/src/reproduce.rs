@@ -18,6 +18,7 @@ use pmon_scenario::{ScenarioConfig, Simulator};
 use serde::Serialize;
 
 use crate::config::load_params;
+use crate::output::OutputDir;
 use crate::view::{top_view, write_view, Checked};
 
 /// Arguments of `pmon reproduce`.
@@ -49,6 +50,9 @@ pub struct ReproduceArgs {
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Replace `--out` even when it holds files pmon reproduce did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Serialize)]
@@ -267,6 +271,21 @@ fn render_figure(dir: &Path, fig: &Figure) -> Result<()> {
     }
     chart.render_svg(dir.join(format!("{}.svg", s.id)))?;
     chart.render_png(dir.join(format!("{}.png", s.id)), 1600, 1000)?;
+    // Curves that lie flat on zero beside a large one (the sensor false alarms beside the white-noise
+    // plausibility ones) get a zoomed companion figure with only them, its y axis fitted to their data.
+    let top = |c: &experiments::Curve| c.points.iter().map(|p| p.rate.hi).fold(0.0f64, f64::max);
+    let highest = fig.curves.iter().map(top).fold(0.0f64, f64::max);
+    let small: Vec<usize> = (0..fig.curves.len()).filter(|&i| top(&fig.curves[i]) < 0.1 * highest).collect();
+    if !small.is_empty() && small.len() < fig.curves.len() {
+        let small_top = small.iter().map(|&i| top(&fig.curves[i])).fold(0.0f64, f64::max);
+        let mut zoom = LineChart::new(format!("{} — zoom on the curves near zero", s.title), &s.x_label, &s.y_label)
+            .with_y_range(0.0, (1.15 * small_top).max(1e-4));
+        for &i in &small {
+            zoom = zoom.with_series(series_of(&fig.curves[i], i));
+        }
+        zoom.render_svg(dir.join(format!("{}_zoom.svg", s.id)))?;
+        zoom.render_png(dir.join(format!("{}_zoom.png", s.id)), 1600, 1000)?;
+    }
     // The data behind the figure, with counts and intervals.
     let mut rows = Vec::new();
     for c in &fig.curves {
@@ -396,6 +415,22 @@ fn render_examples(
     Ok(())
 }
 
+/// The paper-vs-pmon table as Markdown, every claim a row (met, missed and informational alike), generated from
+/// the same claims as `results.json`: the README's results table is pasted from this file.
+pub fn claims_markdown(claims: &[Claim]) -> String {
+    let cell = |s: &str| s.replace('|', "\\|").replace('\n', " ");
+    let mut md = String::from("| the paper | pmon | |\n|---|---|---|\n");
+    for c in claims {
+        let verdict = match c.met {
+            Some(true) => "met",
+            Some(false) => "missed",
+            None => "informational",
+        };
+        let _ = writeln!(md, "| {} | {} | {verdict} |", cell(&c.paper), cell(&c.pmon));
+    }
+    md
+}
+
 fn claims_table(claims: &[Claim]) -> Vec<Vec<TableCell>> {
     claims
         .iter()
@@ -424,7 +459,8 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     } else {
         Scale::Full
     };
-    fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let out_dir = OutputDir::prepare(&args.out, "reproduce", args.force)?;
+    let out = out_dir.path().to_path_buf();
     eprintln!("pmon reproduce: simulating the built-in scenes (seed {})", args.seed);
     let duration = if args.smoke { Some(args.duration_s.unwrap_or(3.0)) } else { args.duration_s };
     let scenes = build_scenes(args.quick, args.seed, duration)?;
@@ -457,6 +493,22 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     .map_err(|e| anyhow::anyhow!("real data: {e}"))?;
     let mut claims = experiments::claims(&figures, Some(lat));
     claims.extend(real.claims.iter().cloned());
+    // Missing data is said every time: on stderr, in the claims table (results.json, index.html) and the notes.
+    for n in real.notes.iter().filter(|n| n.contains("skipped") || n.contains("not found")) {
+        eprintln!("pmon reproduce: warning: {n}");
+    }
+    if real.claims.is_empty() {
+        let missing = format!(
+            "NOT RUN: no real data at {} (give --data DIR or set PMON_DATA_DIR); the real-data rows are missing",
+            data_dir.display()
+        );
+        eprintln!("pmon reproduce: warning: {missing}");
+        claims.push(Claim {
+            paper: "real sensor data (nuScenes, KITTI, Argoverse 2) and real tracks (CommonRoad)".into(),
+            pmon: missing,
+            met: None,
+        });
+    }
     let agree = checks.iter().filter(|c| !c.flagged_below && c.flagged_above).count();
     claims.push(Claim {
         paper: "Fig. dv_theo: the analytic minimal detectable speed errors".into(),
@@ -469,12 +521,12 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
 
     eprintln!("pmon reproduce: writing the report to {}", args.out.display());
     for f in &figures {
-        render_figure(&args.out, f)?;
+        render_figure(&out, f)?;
     }
-    render_theory(&args.out, &params)?;
-    render_latency(&args.out, lat)?;
+    render_theory(&out, &params)?;
+    render_latency(&out, lat)?;
     for f in &real.figures {
-        render_figure(&args.out, f)?;
+        render_figure(&out, f)?;
     }
 
     let scene_summaries: Vec<SceneSummary> = scenes
@@ -529,6 +581,13 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
             &format!("{} — reproduces {}", f.spec.title, f.spec.paper_ref),
             &format!("{}.csv", f.spec.id),
         );
+        if out.join(format!("{}_zoom.png", f.spec.id)).exists() {
+            html.figure_with_data(
+                &format!("{}_zoom.png", f.spec.id),
+                &format!("{}: the curves near zero, zoomed (same data)", f.spec.title),
+                &format!("{}.csv", f.spec.id),
+            );
+        }
     }
     html.figure_with_data("dv_theory_permanent.png", "Theory: minimal detectable permanent speed error against speed and time step (Delta x = 0.1 m, Delta v = 1 m/s, Delta theta = 10 deg).", "dv_theory_permanent.csv");
     html.figure_with_data(
@@ -558,7 +617,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         html.paragraph(n);
     }
     html.heading("Example frames");
-    render_examples(&args.out, &scenes, ids, &params, args.seed, &mut html)?;
+    render_examples(&out, &scenes, ids, &params, args.seed, &mut html)?;
     html.heading("Parameters");
     html.preformatted(&toml::to_string_pretty(&params).unwrap_or_default());
 
@@ -582,9 +641,11 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         elapsed_s: elapsed,
     };
     let json = serde_json::to_string_pretty(&results_json).context("cannot serialise results")?;
-    fs::write(args.out.join("results.json"), json + "\n").context("cannot write results.json")?;
+    fs::write(out.join("results.json"), json + "\n").context("cannot write results.json")?;
+    fs::write(out.join("paper-vs-pmon.md"), claims_markdown(&claims)).context("cannot write paper-vs-pmon.md")?;
     html.paragraph(&format!("Generated by pmon {} in {elapsed:.0} s.", env!("CARGO_PKG_VERSION")));
-    html.write(args.out.join("index.html"))?;
+    html.write(out.join("index.html"))?;
+    out_dir.commit()?;
 
     println!("{:<100} {:<70} met", "the paper", "pmon");
     for c in &claims {

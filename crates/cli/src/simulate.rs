@@ -8,6 +8,8 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use pmon_scenario::{ScenarioConfig, BUILTIN_NAMES};
 
+use crate::output::OutputDir;
+
 /// Arguments of `pmon simulate`.
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
@@ -26,6 +28,9 @@ pub struct SimulateArgs {
     /// Print the scenario's TOML (to edit and pass back with --scenario FILE) and exit.
     #[arg(long)]
     pub print_config: bool,
+    /// Replace `--out` even when it holds files pmon simulate did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Loads a scenario by built-in name or file path.
@@ -58,13 +63,15 @@ pub fn run(args: &SimulateArgs) -> Result<ExitCode> {
         pb.set_style(style.progress_chars("=> "));
     }
     pb.set_prefix(cfg.name.clone());
-    let summary = pmon_scenario::simulate_to_dir(&cfg, &args.out, &mut |done, _total| pb.set_position(done))
+    let out = OutputDir::prepare(&args.out, "simulate", args.force)?;
+    let summary = pmon_scenario::simulate_to_dir(&cfg, out.path(), &mut |done, _total| pb.set_position(done))
         .map_err(|e| anyhow::anyhow!("{e}"))
         .with_context(|| format!("simulating `{}`", args.scenario))?;
+    out.commit()?;
     pb.finish_and_clear();
     eprintln!(
         "wrote {}: {} frames, {} object states ({} moving), {:.0} points per frame",
-        summary.out_dir.display(),
+        args.out.display(),
         summary.frames,
         summary.object_states,
         summary.moving_object_states,

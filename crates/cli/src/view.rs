@@ -6,18 +6,18 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use pmon_campaign::Injection;
-use pmon_monitor::{
-    CellState, ClusterReport, Monitor, MotionVerdict, ObjectReport, ObjectState, SensorVerdict, Verdict,
-};
-use pmon_recording::{RecordedFrame, RecordingReader};
+use pmon_monitor::{CellState, ClusterReport, Monitor, MonitorParams, ObjectReport, ObjectState, Verdict};
+use pmon_recording::RecordedFrame;
 use pmon_report::{BoxKind, TopView, ViewBox, ViewCell, ViewCluster};
 
-use crate::config::load_params;
+use crate::check::open_input;
+use crate::output::{tag_png, tag_svg, OutputFile};
 
 /// Arguments of `pmon view`.
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// A pmon recording directory.
+    /// A pmon recording directory, a `.jsonl` object list, or a dataset spec (`kitti:DIR`, `av2:LOG_DIR`, ...,
+    /// as for `pmon check`).
     pub recording: PathBuf,
     /// Frame number to draw (the monitor runs over the frames before it for the motion history).
     #[arg(long, default_value_t = 0)]
@@ -31,14 +31,19 @@ pub struct ViewArgs {
     /// Centre the picture on this object id instead of the ego vehicle.
     #[arg(long)]
     pub object: Option<u64>,
-    /// Monitor parameters (TOML); defaults to the paper's Table I.
+    /// Monitor parameters (TOML); defaults to the paper's Table I (with a dataset's ground height and ego
+    /// footprint under the file's keys).
     #[arg(long)]
     pub params: Option<PathBuf>,
+    /// Replace `--out` even when it is a file pmon did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 fn box_kind(r: &ObjectReport) -> BoxKind {
     match r.verdict {
         Verdict::Consistent => BoxKind::Consistent,
+        Verdict::MotionOnlyConsistent(_) => BoxKind::MotionOnly,
         Verdict::Ghost => BoxKind::Ghost,
         Verdict::PositionError => BoxKind::PositionError,
         Verdict::ImplausibleMotion(_) => BoxKind::Implausible,
@@ -47,13 +52,11 @@ fn box_kind(r: &ObjectReport) -> BoxKind {
 }
 
 fn short_verdict(r: &ObjectReport) -> String {
-    match (r.verdict, r.sensor.verdict, r.motion.verdict) {
-        (Verdict::NotMonitored(reason), _, _) => format!("not monitored: {reason}"),
-        (Verdict::ImplausibleMotion(c), _, _) => format!("implausible {c}"),
-        (Verdict::Consistent, SensorVerdict::NotMonitored(reason), MotionVerdict::Plausible) => {
-            format!("plausible (sensor: {reason})")
-        }
-        (v, _, _) => format!("{} (eta {:.2})", v.name(), r.sensor.eta),
+    match r.verdict {
+        Verdict::NotMonitored(reason) => format!("not monitored: {reason}"),
+        Verdict::ImplausibleMotion(c) => format!("implausible {c}"),
+        Verdict::MotionOnlyConsistent(reason) => format!("motion only: plausible (sensor: {reason})"),
+        v => format!("{} (eta {:.2})", v.name(), r.sensor.eta),
     }
 }
 
@@ -77,18 +80,31 @@ pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (
     let params = monitor.params();
     let grid = monitor.grid();
     let mut view = TopView::new(title, extent, grid.geometry.cell_size_m);
-    for &idx in grid.touched() {
-        let (x, y) = grid.geometry.cell_center(idx);
-        if !inside(x, y) {
-            continue;
+    // Every grid cell in the picture: occupied or conflict from the grid; otherwise free where the sensor saw
+    // through the cell (rays passed it), unknown where it did not (shadowed, beyond the reach, no sweep): this is
+    // what explains an `occluded` verdict.
+    let has_sweep = frame.cloud.is_some();
+    let visibility = monitor.visibility();
+    if let Some((i0, j0, i1, j1)) = grid.geometry.cell_range_clipped([extent.0, extent.1, extent.2, extent.3]) {
+        let n = grid.geometry.cells_per_side;
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                let idx = j * n + i;
+                let (x, y) = grid.geometry.cell_center(idx);
+                if !inside(x, y) {
+                    continue;
+                }
+                let state = match grid.state(idx, params.tau_fn) {
+                    CellState::Occupied => pmon_report::CellState::Occupied,
+                    CellState::Conflict => pmon_report::CellState::Conflict,
+                    CellState::Unknown | CellState::Weak if has_sweep && visibility.is_visible(x, y) => {
+                        pmon_report::CellState::Free
+                    }
+                    CellState::Unknown | CellState::Weak => pmon_report::CellState::Unknown,
+                };
+                view.cells.push(ViewCell { x_m: x, y_m: y, state });
+            }
         }
-        let state = match grid.state(idx, params.tau_fn) {
-            CellState::Unknown => continue,
-            CellState::Weak => pmon_report::CellState::Unknown,
-            CellState::Occupied => pmon_report::CellState::Occupied,
-            CellState::Conflict => pmon_report::CellState::Conflict,
-        };
-        view.cells.push(ViewCell { x_m: x, y_m: y, state });
     }
     if let Some(cloud) = &frame.cloud {
         let (lo, hi) = params.obstacle_band_m();
@@ -159,11 +175,20 @@ pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (
     view
 }
 
-/// Writes a view as PNG or SVG by the file's extension.
+/// Writes a view as PNG or SVG by the file's extension, tagged as pmon's output (see [`crate::output`]).
 pub fn write_view(view: &TopView, path: &std::path::Path) -> Result<()> {
+    let read = |p: &std::path::Path| std::fs::read(p).with_context(|| format!("cannot read back {}", p.display()));
     match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") => view.render_svg(path)?,
-        Some("png") | None => view.render_png(path, 1400, 1400)?,
+        Some("svg") => {
+            view.render_svg(path)?;
+            let text = String::from_utf8_lossy(&read(path)?).into_owned();
+            std::fs::write(path, tag_svg(&text)).with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        Some("png") | None => {
+            view.render_png(path, 1400, 1400)?;
+            let bytes = tag_png(&read(path)?);
+            std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
+        }
         Some(other) => bail!("{}: unknown image type `.{other}` (use .png or .svg)", path.display()),
     }
     Ok(())
@@ -171,10 +196,18 @@ pub fn write_view(view: &TopView, path: &std::path::Path) -> Result<()> {
 
 /// `pmon view`.
 pub fn run(args: &ViewArgs) -> Result<ExitCode> {
-    let params = load_params(args.params.as_deref())?;
+    // A dataset spec brings its map as for `pmon check` (the default region of interest).
+    let grid_size_m = crate::config::load_params_over(MonitorParams::default(), args.params.as_deref())?.grid_size_m;
+    let opts = crate::check::read_options(
+        pmon_datasets::roi::RoiMode::Auto,
+        pmon_datasets::av2_map::DEFAULT_SIDEWALK_WIDTH_M,
+        grid_size_m,
+    );
+    let (_, input) = open_input(&args.recording, &opts)?;
+    let params = input.params(args.params.as_deref())?;
     let mut monitor = Monitor::new(params).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let reader = RecordingReader::open(&args.recording)?;
-    for frame in reader {
+    let out = OutputFile::prepare(&args.out, "view", args.force)?;
+    for frame in input.iter {
         let frame = frame?;
         let mut roi = Vec::new();
         let view = frame.as_frame(&mut roi);
@@ -195,7 +228,8 @@ pub fn run(args: &ViewArgs) -> Result<ExitCode> {
         let title = format!("{} frame {} (t = {:.2} s)", args.recording.display(), frame.index, frame.timestamp_s);
         let checked = Checked { frame: &frame, objects: &objects, clusters: &clusters, injections: &[] };
         let picture = top_view(&title, &monitor, &checked, centre, args.radius_m);
-        write_view(&picture, &args.out)?;
+        write_view(&picture, out.path())?;
+        out.commit()?;
         eprintln!("wrote {}", args.out.display());
         return Ok(ExitCode::SUCCESS);
     }

@@ -32,6 +32,7 @@ use crate::av2_map::{find_vector_map, MapRoiOptions, VectorMap};
 use crate::geometry::{wrap_angle, Rigid3};
 use crate::roi::{RoiMode, ROI_NOTE_PREFIX};
 use crate::util::{f32_of, finite_difference_speeds, list_dir, read_bytes, read_text};
+use crate::WARNING_PREFIX;
 use crate::{Dataset, DatasetError, DatasetFormat, DatasetFrame, DatasetInfo, ObjectExtra, ReadOptions, SpeedSource};
 
 /// Category of the synthetic ego-vehicle track some AV2 files add (dropped by the reader).
@@ -40,6 +41,9 @@ pub const EGO_CATEGORY: &str = "EGO_VEHICLE";
 /// Ground height in AV2's ego frame used when the log has no ground raster, metres (typical value measured
 /// under the ego origin on the logs with a raster).
 pub const NOMINAL_GROUND_Z_M: f32 = -0.33;
+/// The up-LiDAR's origin in the AV2 ego frame used when a log has no `calibration/` folder, metres (the
+/// vehicles' typical mounting: about 1.35 m ahead of the rear axle, 1.64 m up).
+pub const NOMINAL_UP_LIDAR_ORIGIN_M: [f64; 3] = [1.35, 0.0, 1.64];
 
 /// Largest gap between two annotation frames of a track used for a finite difference, seconds.
 const MAX_GAP_S: f64 = 0.5;
@@ -122,7 +126,9 @@ impl FeatherTable {
     /// A missing column, nulls, a non-numeric type.
     #[allow(clippy::cast_precision_loss)] // integer columns converted to f64 on purpose
     pub fn f64_column(&self, name: &str) -> Result<Vec<f64>, DatasetError> {
-        let mut out = Vec::with_capacity(self.rows());
+        // No reservation by `self.rows()`: a batch may promise 2^31 rows of a type with no buffers (Null), and an
+        // allocation failure aborts (issue 15, found by fuzzing). `extend` reserves by the buffers really there.
+        let mut out = Vec::new();
         for a in self.columns(name)? {
             macro_rules! ext {
                 ($t:ty, $f:expr) => {
@@ -155,7 +161,7 @@ impl FeatherTable {
     /// # Errors
     /// A missing column, nulls, a non-float type.
     pub fn f32_column(&self, name: &str) -> Result<Vec<f32>, DatasetError> {
-        let mut out = Vec::with_capacity(self.rows());
+        let mut out = Vec::new();
         for a in self.columns(name)? {
             match a.data_type() {
                 DataType::Float16 => match a.as_primitive_opt::<Float16Type>() {
@@ -167,7 +173,15 @@ impl FeatherTable {
                     None => return Err(self.type_error(name, a.data_type(), "float")),
                 },
                 DataType::Float64 => match a.as_primitive_opt::<Float64Type>() {
-                    Some(p) => out.extend(p.values().iter().map(|v| f32_of(*v))),
+                    Some(p) => {
+                        if let Some(v) = p.values().iter().find(|v| v.abs() > f64::from(f32::MAX)) {
+                            return Err(DatasetError::malformed(
+                                &self.path,
+                                format!("column `{name}`: value {v} is beyond the f32 range"),
+                            ));
+                        }
+                        out.extend(p.values().iter().map(|v| f32_of(*v)));
+                    }
                     None => return Err(self.type_error(name, a.data_type(), "float")),
                 },
                 other => return Err(self.type_error(name, other, "float16/32/64")),
@@ -181,7 +195,7 @@ impl FeatherTable {
     /// # Errors
     /// A missing column, nulls, a non-integer type, an unsigned value above `i64::MAX`.
     pub fn i64_column(&self, name: &str) -> Result<Vec<i64>, DatasetError> {
-        let mut out = Vec::with_capacity(self.rows());
+        let mut out = Vec::new();
         for a in self.columns(name)? {
             macro_rules! ext {
                 ($t:ty) => {
@@ -220,7 +234,7 @@ impl FeatherTable {
     /// # Errors
     /// A missing column, nulls, a non-string type.
     pub fn string_column(&self, name: &str) -> Result<Vec<String>, DatasetError> {
-        let mut out = Vec::with_capacity(self.rows());
+        let mut out = Vec::new();
         for a in self.columns(name)? {
             self.extend_strings(name, a, &mut out)?;
         }
@@ -761,9 +775,22 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
         BTreeMap::new()
     };
     let extr_path = dir.join("calibration").join("egovehicle_SE3_sensor.feather");
+    let mut calibration_warning = None;
     let up_lidar: Option<Rigid3> = if opts.load_clouds && !sweep_files.is_empty() {
-        let extr = read_extrinsics(&extr_path)?;
-        Some(*extr.get("up_lidar").ok_or_else(|| DatasetError::malformed(&extr_path, "no `up_lidar` row"))?)
+        if extr_path.exists() {
+            let extr = read_extrinsics(&extr_path)?;
+            Some(*extr.get("up_lidar").ok_or_else(|| DatasetError::malformed(&extr_path, "no `up_lidar` row"))?)
+        } else {
+            calibration_warning = Some(format!(
+                "{WARNING_PREFIX}{} is missing: the up-LiDAR origin is the documented nominal one, \
+                 ({}, {}, {}) m in the ego frame (docs/datasets.md); occlusion reasoning may be off by a few cm",
+                extr_path.display(),
+                NOMINAL_UP_LIDAR_ORIGIN_M[0],
+                NOMINAL_UP_LIDAR_ORIGIN_M[1],
+                NOMINAL_UP_LIDAR_ORIGIN_M[2]
+            ));
+            Some(Rigid3 { translation_m: NOMINAL_UP_LIDAR_ORIGIN_M, ..Rigid3::IDENTITY })
+        }
     } else {
         None
     };
@@ -921,6 +948,7 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
     if ego_rows > 0 {
         notes.push(format!("{ego_rows} rows of the synthetic {EGO_CATEGORY} track dropped"));
     }
+    notes.extend(calibration_warning);
     if no_speed > 0 {
         notes.push(format!("{no_speed} cuboids of tracks seen once (or isolated) get speed 0"));
     }

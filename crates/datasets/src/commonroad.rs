@@ -285,8 +285,11 @@ pub fn parse_scenario(text: &str) -> Result<Scenario, String> {
     }
     let dt_text = root.attr("timeStepSize").ok_or("<commonRoad> has no timeStepSize")?;
     let time_step_s = parse_f64(dt_text, "timeStepSize")?;
-    if time_step_s <= 0.0 {
-        return Err(format!("timeStepSize {time_step_s} must be positive"));
+    if !(MIN_TIME_STEP_SIZE_S..=MAX_TIME_STEP_SIZE_S).contains(&time_step_s) {
+        // A subnormal step made the motion check's acceleration infinite (issue 15, found by fuzzing).
+        return Err(format!(
+            "timeStepSize {time_step_s} must be in [{MIN_TIME_STEP_SIZE_S}, {MAX_TIME_STEP_SIZE_S}] s"
+        ));
     }
     let mut obstacles = Vec::new();
     let mut static_obstacles = 0usize;
@@ -333,8 +336,16 @@ pub fn class_of(kind: &str) -> ObjectClass {
 /// Reads a CommonRoad XML scenario: one frame per time step from the first to the last state of any dynamic
 /// obstacle, timestamp `step * timeStepSize`, objects in the scenario frame, ego pose identity, no clouds.
 ///
+/// Smallest accepted `timeStepSize`, seconds.
+pub const MIN_TIME_STEP_SIZE_S: f64 = 1e-4;
+/// Largest accepted `timeStepSize`, seconds.
+pub const MAX_TIME_STEP_SIZE_S: f64 = 10.0;
+/// Most consecutive time steps without any obstacle state (each one becomes an empty frame).
+pub const MAX_EMPTY_STEPS: i64 = 1000;
+
 /// # Errors
-/// I/O errors and everything [`parse_scenario`] rejects, named by file.
+/// I/O errors, everything [`parse_scenario`] rejects, and gaps of more than [`MAX_EMPTY_STEPS`] time steps,
+/// named by file.
 pub fn open_scenario(path: &Path) -> Result<Dataset, DatasetError> {
     let text = read_text(path)?;
     let sc = parse_scenario(&text).map_err(|m| DatasetError::malformed(path, m))?;
@@ -347,6 +358,15 @@ pub fn open_scenario(path: &Path) -> Result<Dataset, DatasetError> {
     }
     let first = per_step.keys().next().copied().unwrap_or(0);
     let last = per_step.keys().next_back().copied().unwrap_or(-1);
+    // Every step between the first and the last becomes a frame: a gap of a million steps in a 515-byte file made
+    // a million empty frames (issue 15, found by fuzzing). Gaps are bounded instead.
+    let steps: Vec<i64> = per_step.keys().copied().collect();
+    if let Some(&[a, b]) = steps.windows(2).find(|w| matches!(w, [a, b] if b - a > MAX_EMPTY_STEPS)) {
+        return Err(DatasetError::malformed(
+            path,
+            format!("time steps jump from {a} to {b}: more than {MAX_EMPTY_STEPS} steps without any obstacle state"),
+        ));
+    }
     let mut frames = Vec::new();
     for step in first..=last {
         let index = u64::try_from(frames.len()).unwrap_or(u64::MAX);
@@ -438,6 +458,28 @@ mod tests {
         assert_eq!(o.states.len(), 2);
         assert!((o.states[1].orientation_rad - 0.5).abs() < 1e-12);
         assert_eq!(o.states[1].time_step, 2);
+    }
+
+    /// Issue 15 (found by fuzzing): time steps 0 and 1,000,000 in a 515-byte file became 1,000,001 frames.
+    #[test]
+    fn issue_15_time_step_gap_is_bounded() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("gap.xml");
+        std::fs::write(&p, MINI.replace("<exact>2</exact>", "<exact>1000000</exact>")).unwrap();
+        let e = open_scenario(&p).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains("gap.xml") && e.contains("jump from 0 to 1000000"), "{e}");
+        std::fs::write(&p, MINI.replace("<exact>2</exact>", "<exact>1000</exact>")).unwrap();
+        assert_eq!(open_scenario(&p).unwrap().frames.len(), 1001);
+    }
+
+    /// Issue 15 (found by fuzzing): a subnormal `timeStepSize` made the motion check's acceleration infinite.
+    #[test]
+    fn issue_15_subnormal_time_step_size_is_an_error() {
+        for dt in ["1e-310", "0", "-0.1", "1e6"] {
+            let e =
+                parse_scenario(&MINI.replace("timeStepSize=\"0.1\"", &format!("timeStepSize=\"{dt}\""))).unwrap_err();
+            assert!(e.contains("timeStepSize"), "{dt}: {e}");
+        }
     }
 
     #[test]

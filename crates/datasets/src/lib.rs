@@ -256,8 +256,40 @@ pub fn open_with(spec: &str, opts: &ReadOptions) -> Result<Dataset, DatasetError
         other => Err(spec_err(format!("unknown scheme `{other}`, expected one of: {}", SCHEMES.join(", ")))),
     }?;
     roi::finish(&mut ds, &opts.roi);
+    check_finite(&ds)?;
     Ok(ds)
 }
+
+/// Every reader's values end up as f32: one beyond f32's range (or NaN) would become an infinity the monitor
+/// calls `invalid_state` and `pmon convert` writes as `null`. An error naming the source instead (issue 15).
+fn check_finite(ds: &Dataset) -> Result<(), DatasetError> {
+    for f in &ds.frames {
+        let frame = &f.frame;
+        for o in &frame.objects {
+            let values = [o.x_m, o.y_m, o.heading_rad, o.speed_mps, o.length_m, o.width_m];
+            if !values.iter().all(|v| v.is_finite()) {
+                return Err(DatasetError::malformed(
+                    &ds.info.source,
+                    format!(
+                        "frame {}: object {}: a value is not finite or beyond the f32 range: {values:?}",
+                        frame.index, o.id
+                    ),
+                ));
+            }
+        }
+        if !frame.timestamp_s.is_finite() {
+            return Err(DatasetError::malformed(
+                &ds.info.source,
+                format!("frame {}: timestamp not finite", frame.index),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Notes in [`DatasetInfo::notes`] that start with this are warnings: something the reader substituted (a
+/// nominal calibration, ...) that a user should hear about; the CLI prints them on stderr.
+pub const WARNING_PREFIX: &str = "warning: ";
 
 /// The schemes [`open`] accepts.
 pub const SCHEMES: [&str; 6] = ["kitti", "kitti-tracking", "nuscenes", "nuscenes-v1", "av2", "commonroad"];

@@ -74,10 +74,13 @@ pub(crate) fn python_json_to_strict(text: &str) -> std::borrow::Cow<'_, str> {
 /// Parses a finite f64.
 pub(crate) fn parse_f64(token: &str, what: &str) -> Result<f64, String> {
     let v: f64 = token.trim().parse().map_err(|_| format!("{what}: `{token}` is not a number"))?;
-    if v.is_finite() {
-        Ok(v)
-    } else {
+    if !v.is_finite() {
         Err(format!("{what}: `{token}` is not finite"))
+    } else if v.abs() > f64::from(f32::MAX) {
+        // Every value ends up as f32 in the monitor: beyond its range it would silently become infinite.
+        Err(format!("{what}: `{token}` is beyond the f32 range the monitor works in"))
+    } else {
+        Ok(v)
     }
 }
 

@@ -189,6 +189,7 @@ fn write_tables(src: &Path, root: &Path) -> Value {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn v1_tables_around_the_real_sweep() {
     let Some(src) = data("nuscenes") else { return };
     let tmp = tempfile::tempdir().unwrap();
@@ -240,6 +241,7 @@ fn v1_tables_around_the_real_sweep() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn v1_tables_reject_dangling_tokens_and_bad_quaternions() {
     let Some(src) = data("nuscenes") else { return };
     let tmp = tempfile::tempdir().unwrap();

@@ -64,6 +64,7 @@ fn check_extras_parallel(ds: &Dataset) {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn kitti_object_boxes_and_point_counts() {
     let Some(dir) = data("kitti/object/training") else { return };
     let ds = open(&format!("kitti:{}", dir.display())).unwrap();
@@ -107,6 +108,7 @@ fn kitti_object_boxes_and_point_counts() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn kitti_tracking_sequences() {
     let Some(dir) = data("kitti/tracking/label_02") else { return };
     let mut frames = 0;
@@ -163,6 +165,7 @@ fn nuscenes_counts(ds: &Dataset) -> (usize, usize, u32, Vec<(String, u32, u32)>)
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn nuscenes_converted_keyframe() {
     let Some(dir) = data("nuscenes") else { return };
     let ds = open(&format!("nuscenes:{}", dir.display())).unwrap();
@@ -189,6 +192,7 @@ fn nuscenes_converted_keyframe() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn av2_log_with_sweeps() {
     let Some(dir) = data("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede") else { return };
     let ds = open(&format!("av2:{}", dir.display())).unwrap();
@@ -296,6 +300,7 @@ fn compare_av2_crosscheck(ds: &Dataset, log: &str) {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn av2_log_without_sweeps_drops_ego_track() {
     let Some(dir) = data("av2/sensor/val/3b3570b4-7b0b-3268-a571-b0889dbf40b6") else { return };
     let ds = open(&format!("av2:{}", dir.display())).unwrap();
@@ -318,6 +323,7 @@ fn av2_log_without_sweeps_drops_ego_track() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn av2_object_lists_only_option() {
     let Some(dir) = data("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede") else { return };
     let ds = pmon_datasets::open_with(
@@ -330,6 +336,7 @@ fn av2_object_lists_only_option() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn commonroad_scenarios_match_crosscheck() {
     let Some(dir) = data("commonroad") else { return };
     for (stem, vehicles, version) in [("USA_US101-4_1_T-1", 22, "2020a"), ("USA_Lanker-1_1_T-1", 24, "2018b")] {
@@ -376,6 +383,7 @@ fn commonroad_scenarios_match_crosscheck() {
 }
 
 #[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn recording_round_trip_of_a_dataset() {
     let Some(dir) = data("commonroad/USA_US101-4_1_T-1.xml") else { return };
     let ds = open(&format!("commonroad:{}", dir.display())).unwrap();

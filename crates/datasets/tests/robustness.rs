@@ -564,3 +564,46 @@ proptest! {
         let _ = kitti::parse_label_line(&line, true);
     }
 }
+
+/// Issue 15 (found by fuzzing): a small, well-formed Feather file with one Null-typed column and batches that
+/// promise 2^31 rows made every column reader reserve memory for all rows before it checked the column's type:
+/// a multi-GiB allocation that aborts the process (catch_unwind cannot help). Now a typed error, and the
+/// memory follows the buffers that are really in the file.
+#[test]
+fn issue_15_feather_null_column_with_huge_row_count_does_not_reserve_for_its_rows() {
+    use arrow_array::NullArray;
+    use arrow_schema::{DataType, Field, Schema};
+    let rows = (1usize << 31) - 1;
+    let schema = Arc::new(Schema::new(vec![Field::new("category", DataType::Null, true)]));
+    let batch = RecordBatch::try_new(schema.clone(), vec![Arc::new(NullArray::new(rows)) as ArrayRef]).unwrap();
+    let mut bytes = Vec::new();
+    {
+        let mut w = FileWriter::try_new(&mut bytes, &schema).unwrap();
+        w.write(&batch).unwrap();
+        w.write(&batch).unwrap();
+        w.finish().unwrap();
+    }
+    assert!(bytes.len() < 2048, "{} bytes", bytes.len());
+    // Well-formed: it decodes (without buffers, the rows cost nothing), and the column readers must refuse it.
+    let table = av2::FeatherTable::from_bytes(Path::new("annotations.feather"), bytes).unwrap();
+    assert_eq!(table.rows(), 2 * rows);
+    for e in [
+        table.string_column("category").map(|_| ()).unwrap_err(),
+        table.f64_column("category").map(|_| ()).unwrap_err(),
+        table.f32_column("category").map(|_| ()).unwrap_err(),
+        table.i64_column("category").map(|_| ()).unwrap_err(),
+    ] {
+        let e = e.to_string();
+        assert!(e.contains("annotations.feather") && e.contains("category"), "{e}");
+    }
+}
+
+/// Issue 15: values that fit f64 but not f32 became infinite in the KITTI and CommonRoad readers; `pmon
+/// convert` then wrote `null`. Now an error naming the file.
+#[test]
+fn issue_15_f32_overflow_in_text_readers_is_an_error() {
+    let line = "Car 0.00 0 -1.58 587.01 173.33 614.12 200.12 1.65 1.67 3.64 -0.65 1.71 1e39 -1.59";
+    let e = kitti::parse_label_line(line, false).map(|_| ()).unwrap_err();
+    assert!(e.contains("f32"), "{e}");
+    assert!(kitti::parse_label_line(&line.replace("1e39", "46.70"), false).is_ok());
+}

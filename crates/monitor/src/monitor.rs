@@ -218,6 +218,13 @@ impl Monitor {
         &self.grid
     }
 
+    /// The last frame's visibility map (empty when that frame had no usable sweep): which ego-frame positions
+    /// the sensor saw (for pictures of free and unknown space).
+    #[must_use]
+    pub fn visibility(&self) -> &VisibilityMap {
+        &self.visibility
+    }
+
     /// The region `A_o` the sensor checks use for an object, `None` for an invalid state.
     #[must_use]
     pub fn region_of(&self, o: &ObjectState) -> Option<Region> {

@@ -253,12 +253,38 @@ impl MonitorParams {
                 Err(ParamError { field, reason: "must be in [0, 1]" })
             }
         }
+        /// Physical upper bounds: a larger value would switch a check off without a word (issue 15: found by
+        /// fuzzing, e.g. `safety_margin_m = 1e30` made every object consistent).
+        fn at_most(field: &'static str, v: f32, max: f32, reason: &'static str) -> Result<(), ParamError> {
+            if v <= max {
+                Ok(())
+            } else {
+                Err(ParamError { field, reason })
+            }
+        }
+        fn threshold(field: &'static str, v: f32) -> Result<(), ParamError> {
+            // 0.5 is an unobserved cell's probability and no cell's probability exceeds 1: a threshold outside
+            // (0.5, 1) makes every cell pass or none.
+            if v > 0.5 && v < 1.0 {
+                Ok(())
+            } else {
+                Err(ParamError {
+                    field,
+                    reason:
+                        "must be in (0.5, 1): 0.5 is an unobserved cell, and no cell exceeds 1 (the check would be off)",
+                })
+            }
+        }
         fn limits(prefix: &'static str, l: &MotionLimits) -> Result<(), ParamError> {
             pos(prefix, l.accel_max_mps2)?;
             pos(prefix, l.turn_rate_max_radps)?;
             if !(l.brake_max_mps2.is_finite() && l.brake_max_mps2 < 0.0) {
                 return Err(ParamError { field: prefix, reason: "brake_max_mps2 must be finite and < 0" });
             }
+            let why = "accel_max_mps2 and -brake_max_mps2 must be <= 100 m/s^2, turn_rate_max_radps <= 100 rad/s";
+            at_most(prefix, l.accel_max_mps2, 100.0, why)?;
+            at_most(prefix, -l.brake_max_mps2, 100.0, why)?;
+            at_most(prefix, l.turn_rate_max_radps, 100.0, why)?;
             Ok(())
         }
         pos("grid_size_m", self.grid_size_m)?;
@@ -290,13 +316,16 @@ impl MonitorParams {
             return Err(ParamError { field: "hit_probability", reason: "must be in (0.5, 1)" });
         }
         non_neg("safety_margin_m", self.safety_margin_m)?;
-        unit("tau_tp", self.tau_tp)?;
-        unit("tau_fn", self.tau_fn)?;
+        at_most("safety_margin_m", self.safety_margin_m, 5.0, "must be <= 5 m")?;
+        threshold("tau_tp", self.tau_tp)?;
+        threshold("tau_fn", self.tau_fn)?;
         non_neg("gamma_sens", self.gamma_sens)?;
-        if self.min_cluster_cells == 0 {
-            return Err(ParamError { field: "min_cluster_cells", reason: "must be >= 1" });
+        at_most("gamma_sens", self.gamma_sens, 10.0, "must be <= 10")?;
+        if !(1..=10_000).contains(&self.min_cluster_cells) {
+            return Err(ParamError { field: "min_cluster_cells", reason: "must be in [1, 10000]" });
         }
         non_neg("conflict_association_m", self.conflict_association_m)?;
+        at_most("conflict_association_m", self.conflict_association_m, 20.0, "must be <= 20 m")?;
         unit("ghost_visible_fraction", self.ghost_visible_fraction)?;
         if !(8..=65_536).contains(&self.visibility_bins) {
             return Err(ParamError { field: "visibility_bins", reason: "must be in [8, 65536]" });
@@ -306,11 +335,19 @@ impl MonitorParams {
             limits(name, l)?;
         }
         non_neg("gamma_plaus", self.gamma_plaus)?;
+        at_most("gamma_plaus", self.gamma_plaus, 10.0, "must be <= 10")?;
         if !self.default_uncertainty.is_valid() {
             return Err(ParamError { field: "default_uncertainty", reason: "every value must be finite and >= 0" });
         }
-        if !(self.max_time_step_s.is_finite() && self.max_time_step_s > 0.0) {
-            return Err(ParamError { field: "max_time_step_s", reason: "must be finite and > 0" });
+        let u = self.default_uncertainty;
+        let why = "x_m, y_m, length_m, width_m must be <= 10 m, speed_mps <= 50 m/s, heading_rad <= pi";
+        for v in [u.x_m, u.y_m, u.length_m, u.width_m] {
+            at_most("default_uncertainty", v, 10.0, why)?;
+        }
+        at_most("default_uncertainty", u.speed_mps, 50.0, why)?;
+        at_most("default_uncertainty", u.heading_rad, core::f32::consts::PI, why)?;
+        if !(self.max_time_step_s >= 1e-3 && self.max_time_step_s <= 60.0) {
+            return Err(ParamError { field: "max_time_step_s", reason: "must be in [0.001, 60] s" });
         }
         if !(1..=MAX_POINTS).contains(&self.max_points) {
             return Err(ParamError { field: "max_points", reason: "must be in [1, 4194304]" });
@@ -356,6 +393,35 @@ impl core::error::Error for ParamError {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 15 (found by fuzzing): values that passed validation and turned a recording with alarms into 100 %
+    /// "not monitored" or "consistent" with exit 0.
+    #[test]
+    fn issue_15_parameters_that_switch_checks_off_are_rejected() {
+        let d = MonitorParams::default();
+        let cases = [
+            (MonitorParams { safety_margin_m: 1e30, ..d }, "safety_margin_m"),
+            (MonitorParams { tau_fn: 1.0, ..d }, "tau_fn"),
+            (MonitorParams { tau_tp: 0.5, ..d }, "tau_tp"),
+            (MonitorParams { max_time_step_s: 1e-300, ..d }, "max_time_step_s"),
+            (MonitorParams { gamma_plaus: 1e30, ..d }, "gamma_plaus"),
+            (MonitorParams { gamma_sens: 1e30, ..d }, "gamma_sens"),
+            (MonitorParams { min_cluster_cells: u32::MAX, ..d }, "min_cluster_cells"),
+            (
+                MonitorParams { motion_limits: MotionLimits { accel_max_mps2: 1e30, ..d.motion_limits }, ..d },
+                "motion_limits",
+            ),
+            (
+                MonitorParams { default_uncertainty: Uncertainty { x_m: 1e30, ..d.default_uncertainty }, ..d },
+                "default_uncertainty",
+            ),
+        ];
+        for (p, field) in cases {
+            let e = p.validate().unwrap_err();
+            assert_eq!(e.field, field, "{e}");
+        }
+        assert!(d.validate().is_ok());
+    }
 
     #[test]
     fn paper_defaults_are_table_one() {

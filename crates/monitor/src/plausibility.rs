@@ -180,7 +180,7 @@ impl TrackTable {
                                 self.next.push(new_track);
                             }
                             let m = check_motion(&tr.state, &s1, &p.limits_for(obj.class), f64::from(p.gamma_plaus));
-                            MotionOutcome {
+                            let outcome = MotionOutcome {
                                 verdict: if m.fired.is_empty() {
                                     MotionVerdict::Plausible
                                 } else {
@@ -195,6 +195,14 @@ impl TrackTable {
                                 predicted_margin_m: [m.predicted_margin[0] as f32, m.predicted_margin[1] as f32],
                                 position_residual_m: m.residual as f32,
                                 position_allowance_m: m.allowance as f32,
+                            };
+                            // No verdict from a NaN: every comparison with NaN is false, so no condition
+                            // would fire (issue 15: a tiny dt made the acceleration infinite and the residual
+                            // NaN, and a 573 m jump was called plausible).
+                            if outcome_is_finite(&outcome) {
+                                outcome
+                            } else {
+                                MotionOutcome::not_monitored(NotMonitoredReason::NonFiniteEstimate)
                             }
                         }
                     }
@@ -213,4 +221,22 @@ impl TrackTable {
         }
         core::mem::swap(&mut self.tracks, &mut self.next);
     }
+}
+
+/// True when every estimate and margin of a motion check is finite (also after narrowing to `f32`).
+fn outcome_is_finite(o: &MotionOutcome) -> bool {
+    let f32s = [
+        o.accel_mps2,
+        o.accel_margin_mps2,
+        o.turn_rate_radps,
+        o.turn_rate_margin_radps,
+        o.predicted_margin_m[0],
+        o.predicted_margin_m[1],
+        o.position_residual_m,
+        o.position_allowance_m,
+    ];
+    f32s.iter().all(|v| v.is_finite())
+        && o.dt_s.is_finite()
+        && o.predicted_world_m[0].is_finite()
+        && o.predicted_world_m[1].is_finite()
 }

@@ -32,6 +32,11 @@ pub enum NotMonitoredReason {
     TimeStepTooLong,
     /// Two or more objects of this frame share this id.
     DuplicateId,
+    /// An intermediate result of the motion check was not finite (NaN or infinite: for example a time step so
+    /// small that the estimated acceleration overflows); no verdict is computed from it.
+    NonFiniteEstimate,
+    /// The user switched this check off (`pmon check --checks`); the monitor itself never gives it.
+    CheckDisabled,
 }
 
 impl NotMonitoredReason {
@@ -51,6 +56,8 @@ impl NotMonitoredReason {
             Self::TimeStepNotPositive => "time_step_not_positive",
             Self::TimeStepTooLong => "time_step_too_long",
             Self::DuplicateId => "duplicate_id",
+            Self::NonFiniteEstimate => "non_finite_estimate",
+            Self::CheckDisabled => "check_disabled",
         }
     }
 }
@@ -238,8 +245,13 @@ impl MotionOutcome {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
 pub enum Verdict {
-    /// At least one check ran and none raised an alarm.
+    /// The LiDAR confirmed the object (the sensor checks found it consistent) and the plausibility checks raised
+    /// no alarm (they may not have run, e.g. on a track's first frame). Only the sensor checks can say this.
     Consistent,
+    /// Only the plausibility checks judged the object, and found its motion plausible; the sensor checks could
+    /// not judge it, for the reason given (occluded, no LiDAR data, outside the grid, ...). Not an alarm, and
+    /// not a confirmation that the object is there.
+    MotionOnlyConsistent(NotMonitoredReason),
     /// Sensor checks: no evidence in a visible region (false positive).
     Ghost,
     /// Sensor checks: the evidence lies outside the object's region.
@@ -258,15 +270,17 @@ impl Verdict {
         matches!(self, Self::Ghost | Self::PositionError | Self::ImplausibleMotion(_))
     }
 
-    /// Combines the two checks: sensor alarms first, then motion alarms, then consistent if either check
-    /// judged the object, else not monitored.
+    /// Combines the two checks: sensor alarms first, then motion alarms, then consistent if the sensor checks
+    /// confirmed the object, motion-only consistent if only the plausibility checks judged it, else not
+    /// monitored.
     #[must_use]
     pub fn combine(sensor: SensorVerdict, motion: MotionVerdict) -> Self {
         match (sensor, motion) {
             (SensorVerdict::Ghost, _) => Self::Ghost,
             (SensorVerdict::PositionError, _) => Self::PositionError,
             (_, MotionVerdict::Implausible(c)) => Self::ImplausibleMotion(c),
-            (SensorVerdict::Consistent, _) | (_, MotionVerdict::Plausible) => Self::Consistent,
+            (SensorVerdict::Consistent, _) => Self::Consistent,
+            (SensorVerdict::NotMonitored(s), MotionVerdict::Plausible) => Self::MotionOnlyConsistent(s),
             (SensorVerdict::NotMonitored(s), MotionVerdict::NotMonitored(m)) => {
                 if matches!(s, NotMonitoredReason::NoLidarData) {
                     Self::NotMonitored(m)
@@ -282,6 +296,7 @@ impl Verdict {
     pub const fn name(self) -> &'static str {
         match self {
             Self::Consistent => "consistent",
+            Self::MotionOnlyConsistent(_) => "motion_only_consistent",
             Self::Ghost => "ghost",
             Self::PositionError => "position_error",
             Self::ImplausibleMotion(_) => "implausible_motion",
@@ -295,6 +310,7 @@ impl fmt::Display for Verdict {
         match self {
             Self::ImplausibleMotion(c) => write!(f, "implausible_motion({c})"),
             Self::NotMonitored(r) => write!(f, "not_monitored({r})"),
+            Self::MotionOnlyConsistent(r) => write!(f, "motion_only_consistent({r})"),
             other => f.write_str(other.name()),
         }
     }
@@ -406,3 +422,30 @@ impl fmt::Display for FrameError {
 }
 
 impl core::error::Error for FrameError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 15: `consistent` means the LiDAR confirmed the object. An object the sensor could not judge
+    /// (occluded, no LiDAR, ...) whose motion is plausible is `motion_only_consistent(reason)`, never
+    /// `consistent`.
+    #[test]
+    fn issue_15_consistent_only_when_the_lidar_confirmed_the_object() {
+        use NotMonitoredReason as R;
+        for reason in [R::Occluded, R::NoLidarData, R::EmptyCloud, R::OutsideGrid, R::TooManyPoints, R::InvalidCloud] {
+            let v = Verdict::combine(SensorVerdict::NotMonitored(reason), MotionVerdict::Plausible);
+            assert_eq!(v, Verdict::MotionOnlyConsistent(reason));
+            assert!(!v.is_alarm());
+            assert_ne!(v.name(), "consistent");
+        }
+        for motion in [MotionVerdict::Plausible, MotionVerdict::NotMonitored(R::FirstFrameOfTrack)] {
+            assert_eq!(Verdict::combine(SensorVerdict::Consistent, motion), Verdict::Consistent);
+        }
+        let v = Verdict::combine(
+            SensorVerdict::NotMonitored(R::Occluded),
+            MotionVerdict::NotMonitored(R::FirstFrameOfTrack),
+        );
+        assert_eq!(v, Verdict::NotMonitored(R::Occluded));
+    }
+}

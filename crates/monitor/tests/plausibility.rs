@@ -159,3 +159,19 @@ proptest! {
         prop_assert_eq!(fired_a, rel > 1.0, "dv {} bound {} verdict {:?}", dv, bound, r);
     }
 }
+
+/// Issue 15 (found by fuzzing): two frames 1e-310 s apart made the acceleration infinite and the residual NaN;
+/// no comparison with NaN fires, so a 573 m jump was called plausible. Now: not monitored, with the reason.
+#[test]
+fn issue_15_nan_from_a_subnormal_time_step_is_not_a_plausible_verdict() {
+    for dt in [1e-310, 5e-324, 1e-300] {
+        let mut m = Monitor::new(MonitorParams::default()).unwrap();
+        let _ = motion_of(&mut m, 0.0, &[moving(1, 0.0, 10.0)]);
+        let r = m.check(&frame(dt, &[moving(1, 573.0, 10.0)])).unwrap().objects[0];
+        assert_ne!(r.motion.verdict, MotionVerdict::Plausible, "dt {dt}");
+        assert!(!matches!(r.verdict, Verdict::Consistent | Verdict::MotionOnlyConsistent(_)), "dt {dt}: {r:?}");
+        if !r.verdict.is_alarm() {
+            assert_eq!(r.motion.verdict, MotionVerdict::NotMonitored(NotMonitoredReason::NonFiniteEstimate));
+        }
+    }
+}

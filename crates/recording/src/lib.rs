@@ -19,6 +19,12 @@ use std::path::{Path, PathBuf};
 use pmon_monitor::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty};
 use serde::{Deserialize, Serialize};
 
+/// The README's Rust snippet, compiled and run as a doctest (`cargo test --doc -p pmon-recording`), so that it
+/// keeps compiling as the API changes.
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+pub struct ReadmeDoctests;
+
 /// Format name in `recording.json`.
 pub const FORMAT_NAME: &str = "pmon-recording";
 /// Version this crate writes and reads.
@@ -132,7 +138,7 @@ pub enum RecordingError {
         source: io::Error,
     },
     /// Malformed content.
-    #[error("{path}:{line}: {message}")]
+    #[error("{}: {message}", located(path, *line))]
     Malformed {
         /// The file.
         path: PathBuf,
@@ -141,6 +147,15 @@ pub enum RecordingError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// `file:line`, or just `file` for whole-file errors (line 0).
+fn located(path: &Path, line: u64) -> String {
+    if line == 0 {
+        path.display().to_string()
+    } else {
+        format!("{}:{line}", path.display())
+    }
 }
 
 impl RecordingError {
@@ -243,6 +258,21 @@ fn object_from_json(o: JsonObject) -> Result<ObjectState, String> {
         }
         (None, None) => None,
     };
+    let finite = [o.x_m, o.y_m, o.heading_rad, o.speed_mps, o.length_m, o.width_m].iter().all(|v| v.is_finite());
+    if !finite {
+        return Err(format!("object {}: a value is not finite (or too large for f32)", o.id));
+    }
+    if !(o.length_m > 0.0 && o.width_m > 0.0) {
+        return Err(format!("object {}: length_m {} and width_m {} must be > 0", o.id, o.length_m, o.width_m));
+    }
+    if o.speed_mps < 0.0 {
+        return Err(format!("object {}: speed_mps {} must be >= 0", o.id, o.speed_mps));
+    }
+    if let Some(s) = uncertainty {
+        if !s.is_valid() {
+            return Err(format!("object {}: every sigma must be finite and >= 0", o.id));
+        }
+    }
     Ok(ObjectState {
         id: o.id,
         class,
@@ -415,12 +445,14 @@ pub fn write_recording(
 pub struct RecordingReader {
     base: PathBuf,
     frames_path: PathBuf,
-    lines: io::Lines<BufReader<File>>,
+    lines: io::Lines<Box<dyn BufRead>>,
     line_no: u64,
     /// The metadata (synthesised for a bare `.jsonl` file).
     pub meta: RecordingMeta,
     expected_frames: Option<u64>,
     read_frames: u64,
+    /// Timestamp of the previous frame (they must increase strictly).
+    last_timestamp_s: Option<f64>,
 }
 
 impl RecordingReader {
@@ -459,11 +491,30 @@ impl RecordingReader {
         Ok(Self {
             base,
             frames_path,
-            lines: BufReader::new(file).lines(),
+            lines: (Box::new(BufReader::new(file)) as Box<dyn BufRead>).lines(),
             line_no: 0,
             meta,
             expected_frames: expected,
             read_frames: 0,
+            last_timestamp_s: None,
+        })
+    }
+
+    /// Reads frames (a `.jsonl` object list) from a stream, for example standard input; `name` stands for the
+    /// file in error messages. Cloud files are resolved against the current directory.
+    ///
+    /// # Errors
+    /// None today; a `Result` for symmetry with [`RecordingReader::open`].
+    pub fn from_reader(reader: Box<dyn BufRead>, name: &Path) -> Result<Self, RecordingError> {
+        Ok(Self {
+            base: PathBuf::from("."),
+            frames_path: name.to_path_buf(),
+            lines: reader.lines(),
+            line_no: 0,
+            meta: RecordingMeta::new(name.display().to_string(), "object list (stream)"),
+            expected_frames: None,
+            read_frames: 0,
+            last_timestamp_s: None,
         })
     }
 
@@ -473,22 +524,37 @@ impl RecordingReader {
         &self.frames_path
     }
 
-    fn parse_line(&self, line: &str) -> Result<RecordedFrame, RecordingError> {
+    fn parse_line(&mut self, line: &str) -> Result<RecordedFrame, RecordingError> {
         let here = |m: String| RecordingError::malformed(&self.frames_path, self.line_no, m);
         let json: JsonFrame = serde_json::from_str(line).map_err(|e| here(e.to_string()))?;
+        // Frames are numbered 0, 1, 2, ... in file order, and time increases strictly (docs/recording-format.md).
+        let expected_index = self.read_frames - 1;
+        if json.frame != expected_index {
+            return Err(here(format!(
+                "frame number {} where {expected_index} was expected: frames are numbered from 0 without gaps",
+                json.frame
+            )));
+        }
+        if !json.timestamp_s.is_finite() {
+            return Err(here(format!("timestamp_s is {}, must be finite", json.timestamp_s)));
+        }
+        if let Some(prev) = self.last_timestamp_s {
+            if json.timestamp_s <= prev {
+                return Err(here(format!(
+                    "timestamp_s {} is not after the previous frame's {prev}: time must increase strictly",
+                    json.timestamp_s
+                )));
+            }
+        }
+        self.last_timestamp_s = Some(json.timestamp_s);
         let objects = json.objects.into_iter().map(object_from_json).collect::<Result<Vec<_>, _>>().map_err(here)?;
         let cloud = match json.cloud {
             Some(c) => {
-                let path = self.base.join(&c.file);
-                let points = read_points_f32(&path, 3)?;
-                if points.len() as u64 != c.points {
-                    return Err(here(format!(
-                        "cloud `{}` has {} points, the frame says {}",
-                        c.file,
-                        points.len(),
-                        c.points
-                    )));
-                }
+                let path = confined_cloud_path(&self.base, &c.file).map_err(here)?;
+                let points = read_points_exact(&path, c.points).map_err(|e| match e {
+                    CloudReadError::Io(e) => here(format!("cloud `{}`: {e}", path.display())),
+                    CloudReadError::Size(m) => here(format!("cloud `{}`: {m}", c.file)),
+                })?;
                 Some(OwnedCloud { points_in_sensor: points, ego_from_sensor: c.ego_from_sensor })
             }
             None => None,
@@ -541,6 +607,43 @@ impl Iterator for RecordingReader {
             }
         }
     }
+}
+
+/// A cloud `file` entry resolved inside the recording: relative, no `..`, no root, no drive.
+fn confined_cloud_path(base: &Path, file: &str) -> Result<PathBuf, String> {
+    use std::path::Component;
+    let rel = Path::new(file);
+    if file.is_empty() || !rel.components().all(|c| matches!(c, Component::Normal(_) | Component::CurDir)) {
+        return Err(format!(
+            "cloud file `{file}` must be a relative path inside the recording (no `..`, no absolute path)"
+        ));
+    }
+    Ok(base.join(rel))
+}
+
+enum CloudReadError {
+    Io(io::Error),
+    Size(String),
+}
+
+/// Reads exactly `points` points from a regular file whose size must be `12 * points` bytes: devices, FIFOs
+/// and files of another size are refused before anything is read.
+fn read_points_exact(path: &Path, points: u64) -> Result<Vec<[f32; 3]>, CloudReadError> {
+    let meta = fs::metadata(path).map_err(CloudReadError::Io)?;
+    if !meta.is_file() {
+        return Err(CloudReadError::Size("not a regular file".into()));
+    }
+    let want = points.checked_mul(12).ok_or_else(|| CloudReadError::Size(format!("{points} points is too many")))?;
+    if meta.len() != want {
+        return Err(CloudReadError::Size(format!(
+            "has {} bytes, the frame says {points} points ({want} bytes): truncated or wrong `points`?",
+            meta.len()
+        )));
+    }
+    let len = usize::try_from(want).map_err(|_| CloudReadError::Size("too large for this machine".into()))?;
+    let mut bytes = vec![0u8; len];
+    File::open(path).and_then(|mut f| f.read_exact(&mut bytes)).map_err(CloudReadError::Io)?;
+    points_from_le_bytes(&bytes, 3).map_err(CloudReadError::Size)
 }
 
 /// Reads a whole recording into memory.

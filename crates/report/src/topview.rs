@@ -75,6 +75,8 @@ pub enum BoxKind {
     PositionError,
     /// An object whose motion history is implausible.
     Implausible,
+    /// An object only the plausibility checks judged (plausible motion, the sensor could not say).
+    MotionOnly,
     /// An object the monitor did not judge (out of range, occluded, ...).
     NotMonitored,
     /// Where an object really was before a fault was injected (drawn as a thin black dashed outline).
@@ -82,8 +84,9 @@ pub enum BoxKind {
 }
 
 impl BoxKind {
-    const ALL: [Self; 6] = [
+    const ALL: [Self; 7] = [
         Self::Consistent,
+        Self::MotionOnly,
         Self::Ghost,
         Self::PositionError,
         Self::Implausible,
@@ -97,6 +100,7 @@ impl BoxKind {
             Self::Ghost => RGBColor(150, 50, 180),
             Self::PositionError => RGBColor(215, 25, 28),
             Self::Implausible => RGBColor(235, 125, 0),
+            Self::MotionOnly => RGBColor(60, 120, 200),
             Self::NotMonitored => RGBColor(125, 125, 125),
             Self::InjectedTruth => RGBColor(25, 25, 25),
         }
@@ -108,6 +112,7 @@ impl BoxKind {
             Self::Ghost => "ghost",
             Self::PositionError => "position error",
             Self::Implausible => "implausible",
+            Self::MotionOnly => "motion only (plausible, not seen)",
             Self::NotMonitored => "not monitored",
             Self::InjectedTruth => "injected truth",
         }

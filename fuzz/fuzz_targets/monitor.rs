@@ -1,0 +1,89 @@
+//! `Monitor::check` on arbitrary frames: the bytes become timestamps, poses, objects (any f32 bit pattern:
+//! NaN, infinities, subnormals) and points, over three frames so that the plausibility checks run. Asserts the
+//! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use pmon_monitor::{
+    Frame, Isometry3, Monitor, MonitorParams, MotionVerdict, ObjectClass, ObjectState, PointCloud, Pose2,
+};
+
+struct Bytes<'a>(&'a [u8]);
+
+impl Bytes<'_> {
+    fn u8(&mut self) -> u8 {
+        let (b, rest) = self.0.split_first().map_or((0, &[][..]), |(b, r)| (*b, r));
+        self.0 = rest;
+        b
+    }
+    fn f32(&mut self) -> f32 {
+        f32::from_le_bytes([self.u8(), self.u8(), self.u8(), self.u8()])
+    }
+    /// Mostly ordinary values, sometimes raw bit patterns.
+    fn value(&mut self, scale: f32) -> f32 {
+        match self.u8() % 8 {
+            0 => self.f32(),
+            k => f32::from(k) * scale + f32::from(self.u8()) * scale / 64.0,
+        }
+    }
+    fn f64(&mut self) -> f64 {
+        let bits = u64::from_le_bytes([
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+            self.u8(),
+        ]);
+        f64::from_bits(bits)
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let mut b = Bytes(data);
+    let params = MonitorParams { max_points: 4096, max_objects: 64, grid_size_m: 40.0, ..MonitorParams::default() };
+    let Ok(mut monitor) = Monitor::new(params) else { return };
+    let mut t = 0.0f64;
+    for _ in 0..3 {
+        t += if b.u8() % 4 == 0 { b.f64() } else { 0.1 };
+        let n = usize::from(b.u8() % 8);
+        let objects: Vec<ObjectState> = (0..n)
+            .map(|_| ObjectState {
+                id: u64::from(b.u8() % 4),
+                class: ObjectClass::ALL[usize::from(b.u8()) % ObjectClass::ALL.len()],
+                x_m: b.value(2.0) - 8.0,
+                y_m: b.value(2.0) - 8.0,
+                heading_rad: b.value(0.5),
+                speed_mps: b.value(1.0),
+                length_m: b.value(0.5),
+                width_m: b.value(0.5),
+                uncertainty: None,
+            })
+            .collect();
+        let points: Vec<[f32; 3]> = (0..usize::from(b.u8()) * 4)
+            .map(|_| [b.value(2.0) - 8.0, b.value(2.0) - 8.0, b.value(0.3) - 1.5])
+            .collect();
+        let with_cloud = b.u8() % 4 != 0;
+        let cloud = with_cloud.then(|| PointCloud {
+            points_in_sensor: &points,
+            ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
+        });
+        let pose = Pose2 { x_m: f64::from(b.value(1.0)), y_m: 0.0, yaw_rad: f64::from(b.value(0.1)) };
+        let frame = Frame {
+            timestamp_s: t,
+            world_from_ego: pose,
+            objects: &objects,
+            cloud,
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        let Ok(report) = monitor.check(&frame) else { continue };
+        assert_eq!(report.objects.len(), objects.len());
+        for r in report.objects {
+            if r.motion.verdict == MotionVerdict::Plausible {
+                assert!(r.motion.position_residual_m.is_finite() && r.motion.accel_mps2.is_finite(), "{r:?}");
+            }
+        }
+    }
+});
