@@ -42,6 +42,9 @@ pub struct CheckArgs {
     /// In text format, also list frames without alarms.
     #[arg(long)]
     pub all_frames: bool,
+    /// Options for a rosbag2 `.mcap` input (docs/ros2.md).
+    #[command(flatten)]
+    pub bag: crate::bag::BagArgs,
 }
 
 #[derive(Serialize)]
@@ -218,6 +221,9 @@ pub fn open_input(arg: &std::path::Path) -> Result<(String, Input)> {
 
 /// `pmon check`.
 pub fn run(args: &CheckArgs) -> Result<ExitCode> {
+    if crate::bag::is_mcap(&args.recording) {
+        return crate::bag::run_check(args);
+    }
     let mut params = load_params(args.params.as_deref())?;
     let (name, frames) = open_input(&args.recording)?;
     // A dataset's own ground height and vehicle footprint, unless the user gave parameters.

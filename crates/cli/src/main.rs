@@ -1,5 +1,6 @@
 //! `pmon`: the command line tool of the pmon perception monitor.
 
+mod bag;
 mod check;
 mod config;
 mod reproduce;

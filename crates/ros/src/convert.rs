@@ -226,7 +226,8 @@ mod tests {
         ];
         o.shape.dimensions = Vector3 { x: 10.0, y: 2.5, z: 3.0 };
         let k = &mut o.kinematics;
-        k.pose_with_covariance.pose = Pose { position: Vector3 { x: 110.0, y: 200.0, z: 0.0 }, orientation: q_yaw(0.5) };
+        k.pose_with_covariance.pose =
+            Pose { position: Vector3 { x: 110.0, y: 200.0, z: 0.0 }, orientation: q_yaw(0.5) };
         k.pose_with_covariance.covariance[0] = 0.04; // sigma_x 0.2 m in map
         k.pose_with_covariance.covariance[7] = 0.01; // sigma_y 0.1 m in map
         k.pose_with_covariance.covariance[35] = 0.0025;
@@ -272,7 +273,8 @@ mod tests {
 
     #[test]
     fn quaternion_to_rotation_matches_yaw() {
-        let t = Transform { translation: Vector3 { x: 1.0, y: 2.0, z: 3.0 }, rotation: q_yaw(std::f64::consts::FRAC_PI_2) };
+        let t =
+            Transform { translation: Vector3 { x: 1.0, y: 2.0, z: 3.0 }, rotation: q_yaw(std::f64::consts::FRAC_PI_2) };
         let m = isometry(&t);
         let p = m.transform([1.0, 0.0, 0.0]);
         assert!((p[0] - 1.0).abs() < 1e-6 && (p[1] - 3.0).abs() < 1e-6 && (p[2] - 3.0).abs() < 1e-6);

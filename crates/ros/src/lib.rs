@@ -2,7 +2,12 @@
 //!
 //! Around the core: the monitor never learns about ROS. See `docs/ros2.md`.
 
+pub mod bag;
 pub mod cdr;
 pub mod convert;
 pub mod msg;
+pub mod output;
 pub mod pointcloud;
+pub mod scene;
+pub mod tf;
+pub mod verdicts;

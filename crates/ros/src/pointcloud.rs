@@ -133,7 +133,11 @@ pub fn to_points(cloud: &PointCloud2) -> Result<Points, CloudError> {
     let (fx, fy, fz) = (field(cloud, "x")?, field(cloud, "y")?, field(cloud, "z")?);
     let row_bytes = u64::from(cloud.width) * u64::from(cloud.point_step);
     if u64::from(cloud.row_step) < row_bytes {
-        return Err(CloudError::BadRowStep { row_step: cloud.row_step, width: cloud.width, point_step: cloud.point_step });
+        return Err(CloudError::BadRowStep {
+            row_step: cloud.row_step,
+            width: cloud.width,
+            point_step: cloud.point_step,
+        });
     }
     let need = u64::from(cloud.row_step) * u64::from(cloud.height);
     if (cloud.data.len() as u64) < need {
