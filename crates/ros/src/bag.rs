@@ -160,6 +160,9 @@ impl ObjectList {
     }
 }
 
+/// A cloud read in pass 2: its points (sensor frame) and header, or why it could not be used.
+type ReadCloud = Result<(Vec<[f32; 3]>, Header), String>;
+
 struct Planned {
     list: ObjectList,
     log_time_ns: u64,
@@ -303,7 +306,7 @@ pub fn check_bag(
     }
     let mut monitor =
         Monitor::new(*params).map_err(|e| BagError::Frame { path: path.into(), message: e.to_string() })?;
-    let mut ready: BTreeMap<usize, Result<(Vec<[f32; 3]>, Header), String>> = BTreeMap::new();
+    let mut ready: BTreeMap<usize, ReadCloud> = BTreeMap::new();
     let mut queue: VecDeque<Planned> = lists.into();
     let mut frame_index = 0u64;
     let mut run = Runner { cfg, params, tf: &tf, odometry: &odometry, path };
@@ -323,6 +326,7 @@ pub fn check_bag(
                 Ok((pts.points, c.header))
             });
             if let Err(e) = &cloud {
+                summary.undecodable += 1;
                 summary.problems.push(Problem {
                     topic: msg.channel.topic.clone(),
                     log_time_ns: msg.log_time,
@@ -374,7 +378,7 @@ impl Runner<'_> {
         &mut self,
         monitor: &mut Monitor,
         p: &Planned,
-        ready: &mut BTreeMap<usize, Result<(Vec<[f32; 3]>, Header), String>>,
+        ready: &mut BTreeMap<usize, ReadCloud>,
         uses: &mut BTreeMap<usize, usize>,
         index: u64,
         summary: &mut BagSummary,
