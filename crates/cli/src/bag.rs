@@ -182,3 +182,23 @@ pub fn run_check(args: &CheckArgs) -> Result<ExitCode> {
         ExitCode::SUCCESS
     })
 }
+
+/// `pmon convert --format`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ConvertFormat {
+    /// A pmon recording directory.
+    Recording,
+    /// A rosbag2-style MCAP with Autoware's topics (CDR).
+    Mcap,
+}
+
+/// `pmon convert SPEC --out x.mcap --format mcap`: any dataset or recording as MCAP.
+pub fn convert_mcap(spec: &str, out: &Path) -> Result<ExitCode> {
+    let (name, input) = crate::check::open_input(Path::new(spec))?;
+    let default = pmon_monitor::MonitorParams::default().default_uncertainty;
+    let frames = input.iter.map(|f| f.map_err(|e| format!("{e:#}")));
+    let n =
+        pmon_ros::write_dataset::write_frames(out, frames, &default).with_context(|| format!("converting {spec}"))?;
+    eprintln!("wrote {}: {n} frames from {name} ({spec})", out.display());
+    Ok(ExitCode::SUCCESS)
+}

@@ -75,9 +75,12 @@ enum Command {
     Convert {
         /// The dataset spec (see docs/datasets.md).
         spec: String,
-        /// Output recording directory.
+        /// Output recording directory (or `.mcap` file with `--format mcap`).
         #[arg(long, short)]
         out: std::path::PathBuf,
+        /// `recording` (a pmon recording directory) or `mcap` (Autoware topics, CDR; docs/ros2.md).
+        #[arg(long, value_enum, default_value_t = bag::ConvertFormat::Recording)]
+        format: bag::ConvertFormat,
     },
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
@@ -116,7 +119,8 @@ fn main() -> ExitCode {
                 Ok(ExitCode::SUCCESS)
             })
         }
-        Command::Convert { spec, out } => {
+        Command::Convert { spec, out, format: bag::ConvertFormat::Mcap } => bag::convert_mcap(&spec, &out),
+        Command::Convert { spec, out, .. } => {
             pmon_datasets::open(&spec).map_err(|e| anyhow::anyhow!("{e}")).and_then(|ds| {
                 let meta = ds.write_recording(&out)?;
                 eprintln!(

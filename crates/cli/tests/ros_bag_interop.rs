@@ -146,3 +146,39 @@ fn time_jump_backwards_is_not_monitored_not_an_alarm() {
         assert_eq!((v.1.as_str(), v.2.as_str()), ("not_monitored", "time_step_not_positive"), "{v:?}");
     }
 }
+
+#[test]
+fn converted_recording_decodes_in_python_with_the_same_objects_and_points() {
+    let Some(py) = python() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("sim");
+    let pmon = env!("CARGO_BIN_EXE_pmon");
+    let s = Command::new(pmon).args(["simulate", "--duration-s", "0.3", "--out"]).arg(&rec).output().unwrap();
+    assert!(s.status.success());
+    let out = dir.path().join("sim.mcap");
+    let c = Command::new(pmon).arg("convert").arg(&rec).args(["--format", "mcap", "--out"]).arg(&out).output().unwrap();
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+    let r = Command::new(&py).arg(interop_dir().join("read_converted.py")).arg(&out).output().unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: Value = serde_json::from_slice(&r.stdout).unwrap();
+    let frames: Vec<_> = pmon_recording::RecordingReader::open(&rec).unwrap().map(Result::unwrap).collect();
+    assert_eq!(v["counts"]["/perception/object_recognition/tracking/objects"], frames.len());
+    assert_eq!(v["counts"]["/sensing/lidar/concatenated/pointcloud"], frames.len());
+    let decoded = v["frames"].as_array().unwrap();
+    let (clouds, lists): (Vec<&Value>, Vec<&Value>) = decoded.iter().partition(|f| f.get("points").is_some());
+    for ((f, cloud), list) in frames.iter().zip(clouds).zip(lists) {
+        let c = f.cloud.as_ref().unwrap();
+        assert_eq!(cloud["points"], c.points_in_sensor.len());
+        // Python prints the float32 values widened to float64; compared as float32 they are the same bits.
+        #[allow(clippy::cast_possible_truncation)]
+        let first: Vec<f32> =
+            cloud["first_point"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap() as f32).collect();
+        assert_eq!(first, c.points_in_sensor[0].to_vec());
+        let ids: Vec<u64> = list["ids"].as_array().unwrap().iter().map(|x| x.as_u64().unwrap()).collect();
+        assert_eq!(ids, f.objects.iter().map(|o| o.id).collect::<Vec<_>>());
+        #[allow(clippy::cast_possible_truncation)]
+        let xs: Vec<f32> = list["xs"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap() as f32).collect();
+        assert_eq!(xs, f.objects.iter().map(|o| o.x_m).collect::<Vec<_>>());
+        assert!((list["stamp"].as_f64().unwrap() - f.timestamp_s).abs() < 1e-9);
+    }
+}

@@ -11,3 +11,4 @@ pub mod pointcloud;
 pub mod scene;
 pub mod tf;
 pub mod verdicts;
+pub mod write_dataset;

@@ -25,7 +25,7 @@ from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 HERE = Path(__file__).parent
 ts = get_typestore(Stores.ROS2_HUMBLE)
 types = {}
-for f in sorted((HERE / "autoware_perception_msgs").glob("*.msg")):
+for f in sorted((HERE.parent.parent / "msg" / "autoware_perception_msgs").glob("*.msg")):
     types.update(get_types_from_msg(f.read_text(), f"autoware_perception_msgs/msg/{f.stem}"))
 ts.register(types)
 T = ts.types
