@@ -34,6 +34,12 @@ pub struct BagArgs {
     /// Bag input: largest |object stamp - cloud stamp| for a pairing, seconds.
     #[arg(long, default_value_t = 0.05)]
     pub pairing_tolerance_s: f64,
+    /// Bag input: also draw a top view of this frame (object list number, from 0) into `--view-out`.
+    #[arg(long, requires = "view_out")]
+    pub view_frame: Option<u64>,
+    /// Bag input: the top view image (`.png` or `.svg`).
+    #[arg(long)]
+    pub view_out: Option<std::path::PathBuf>,
 }
 
 impl BagArgs {
@@ -112,7 +118,21 @@ pub fn run_check(args: &CheckArgs) -> Result<ExitCode> {
     };
     let format = args.format;
     let all = args.all_frames;
+    let view = args.bag.view_frame.zip(args.bag.view_out.clone());
     let mut sink = |f: &pmon_ros::bag::CheckedFrame<'_>| -> std::result::Result<(), String> {
+        if let Some((n, img)) = &view {
+            if f.frame.index == *n {
+                let checked = crate::view::Checked {
+                    frame: f.frame,
+                    objects: f.report.objects,
+                    clusters: f.report.clusters,
+                    injections: &[],
+                };
+                let title = format!("{} object list {n} (t = {:.2} s)", path.display(), f.frame.timestamp_s);
+                let picture = crate::view::top_view(&title, f.monitor, &checked, (0.0, 0.0), 30.0);
+                crate::view::write_view(&picture, img).map_err(|e| format!("{e:#}"))?;
+            }
+        }
         if let Some(w) = mcap_out.as_mut() {
             w.frame(f).map_err(|e| e.to_string())?;
         }

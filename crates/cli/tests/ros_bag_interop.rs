@@ -85,6 +85,17 @@ fn rosbags_bag_gives_the_expected_verdicts_and_python_mcap_reads_the_results() {
         String::from_utf8_lossy(&check.stdout),
         String::from_utf8_lossy(&check.stderr)
     );
+    // The top view of a bag frame (the docs' picture) is drawn.
+    let png = dir.path().join("view.png");
+    let v = Command::new(env!("CARGO_BIN_EXE_pmon"))
+        .arg("check")
+        .arg(&bag)
+        .args(["--view-frame", "0", "--view-out"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert_eq!(v.status.code(), Some(1));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
     // The results file is never overwritten.
     let (again, _) = pmon_check(&bag, Some(&results));
     assert_eq!(again.status.code(), Some(2));

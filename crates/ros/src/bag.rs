@@ -143,7 +143,7 @@ pub struct CheckedFrame<'a> {
     /// The verdict message (with the diagnostics built from it by [`crate::verdicts::diagnostics`]).
     pub verdicts: &'a FrameVerdicts,
     /// The monitor (its grid holds this frame's occupancy).
-    pub grid: &'a pmon_monitor::OccupancyGrid,
+    pub monitor: &'a Monitor,
 }
 
 enum ObjectList {
@@ -491,8 +491,7 @@ impl Runner<'_> {
         let (objects, clusters) = (rep.objects.to_vec(), rep.clusters.to_vec());
         let report =
             FrameReport { objects: &objects, clusters: &clusters, grid: rep.grid, sensor_status: rep.sensor_status };
-        let grid = monitor.grid();
-        sink(&CheckedFrame { frame: &frame, report: &report, verdicts: &verdicts, grid })
+        sink(&CheckedFrame { frame: &frame, report: &report, verdicts: &verdicts, monitor })
             .map_err(|message| BagError::Frame { path: self.path.into(), message })
     }
 }

@@ -135,7 +135,7 @@ impl ResultWriter {
         let verdicts = encode(v).map_err(enc)?;
         let diag = encode(&diagnostics(v)).map_err(enc)?;
         let scene = scene::scene_update(v, &f.frame.objects, &self.ego_frame).to_string();
-        let grid = scene::grid(v.header.stamp, f.grid, self.tau_fn, &self.ego_frame).to_string();
+        let grid = scene::grid(v.header.stamp, f.monitor.grid(), self.tau_fn, &self.ego_frame).to_string();
         let c = (self.channels.verdicts, self.channels.diagnostics, self.channels.scene, self.channels.grid);
         self.put(c.0, t, &verdicts)?;
         self.put(c.1, t, &diag)?;
