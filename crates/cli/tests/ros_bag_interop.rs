@@ -193,3 +193,34 @@ fn converted_recording_decodes_in_python_with_the_same_objects_and_points() {
         assert!((list["stamp"].as_f64().unwrap() - f.timestamp_s).abs() < 1e-9);
     }
 }
+
+#[test]
+fn detected_objects_with_polygon_footprints_are_checked_as_new_tracks() {
+    let Some(py) = python() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let bag = make_bag(&py, dir.path(), Some("--detected"));
+    let o = Command::new(env!("CARGO_BIN_EXE_pmon"))
+        .arg("check")
+        .arg(&bag)
+        .args(["--format", "jsonl", "--objects-topic", "/perception/object_recognition/detection/objects"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
+    let frames: Vec<Value> =
+        String::from_utf8_lossy(&o.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(frames.len(), 3);
+    for f in &frames[..2] {
+        let v = verdicts(f);
+        assert_eq!((v[0].1.as_str(), v[1].1.as_str()), ("consistent", "ghost"), "{v:?}");
+        assert!(f["objects"][0]["object_id"]["uuid"].as_array().unwrap().iter().all(|b| b == 0));
+    }
+    // Detections get fresh ids each frame: without a cloud they are a first frame, never a motion alarm.
+    for v in verdicts(&frames[2]) {
+        assert_eq!((v.1.as_str(), v.2.as_str()), ("not_monitored", "first_frame_of_track"), "{v:?}");
+    }
+    let ids: Vec<u64> = frames.iter().flat_map(verdicts).map(|v| v.0).collect();
+    let mut unique = ids.clone();
+    unique.sort_unstable();
+    unique.dedup();
+    assert_eq!(unique.len(), ids.len(), "{ids:?}");
+}

@@ -12,6 +12,7 @@ Usage: make_bag.py OUT_DIR [MODE] where MODE changes one thing (docs/ros2.md, "b
   --empty-cloud the first cloud has no points
   --no-tf       no /tf_static: the transform base_link <- lidar is missing
   --time-jump   the third object list is stamped 0.5 s (time goes backwards)
+  --detected    DetectedObjects (no UUIDs, no covariance) on /perception/object_recognition/detection/objects
 """
 import math
 import struct
@@ -111,6 +112,29 @@ def tracked(uuid_byte, ex, ey, label, speed):
         classification=[T[A + "ObjectClassification"](label=label, probability=0.9)], kinematics=kin, shape=shape)
 
 
+def detected(ex, ey, label):
+    A = "autoware_perception_msgs/msg/"
+    pose = T[G + "Pose"](position=T[G + "Point"](x=EGO[0] + ex, y=EGO[1] + ey, z=0.75), orientation=quat(0.0))
+    twist = T[G + "Twist"](linear=vec(0.0, 0.0, 0.0), angular=vec(0.0, 0.0, 0.0))
+    kin = T[A + "DetectedObjectKinematics"](
+        pose_with_covariance=T[G + "PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+        has_position_covariance=False, orientation_availability=1,
+        twist_with_covariance=T[G + "TwistWithCovariance"](twist=twist, covariance=np.zeros(36)),
+        has_twist=False, has_twist_covariance=False)
+    # A polygon footprint (object frame) instead of a box: 4 x 2 m.
+    P32 = T[G + "Point32"]
+    foot = [P32(x=-2.0, y=-1.0, z=0.0), P32(x=2.0, y=-1.0, z=0.0), P32(x=2.0, y=1.0, z=0.0), P32(x=-2.0, y=1.0, z=0.0)]
+    shape = T[A + "Shape"](type=2, footprint=T[G + "Polygon"](points=foot), dimensions=vec(0.0, 0.0, 1.5))
+    return T[A + "DetectedObject"](
+        existence_probability=0.9, classification=[T[A + "ObjectClassification"](label=label, probability=0.9)],
+        kinematics=kin, shape=shape)
+
+
+def detected_objects(t):
+    return T["autoware_perception_msgs/msg/DetectedObjects"](
+        header=Header(stamp=stamp(t), frame_id="map"), objects=[detected(10.0, 0.0, 1), detected(20.0, 6.0, 1)])
+
+
 def objects(t):
     return T["autoware_perception_msgs/msg/TrackedObjects"](
         header=Header(stamp=stamp(t), frame_id="map"),
@@ -143,8 +167,10 @@ def main():
         c_tf = w.add_connection("/tf_static", "tf2_msgs/msg/TFMessage", typestore=ts)
         c_odo = w.add_connection("/localization/kinematic_state", "nav_msgs/msg/Odometry", typestore=ts)
         c_pc = w.add_connection("/sensing/lidar/concatenated/pointcloud", "sensor_msgs/msg/PointCloud2", typestore=ts)
-        c_obj = w.add_connection("/perception/object_recognition/tracking/objects",
-                                 "autoware_perception_msgs/msg/TrackedObjects", typestore=ts)
+        is_det = "--detected" in sys.argv
+        obj_type = "autoware_perception_msgs/msg/" + ("DetectedObjects" if is_det else "TrackedObjects")
+        obj_topic = "/perception/object_recognition/" + ("detection" if is_det else "tracking") + "/objects"
+        c_obj = w.add_connection(obj_topic, obj_type, typestore=ts)
         ns = lambda t: int(round(t * 1e9))
         if not no_tf:
             w.write(c_tf, ns(0.9), ts.serialize_cdr(tf_static(), "tf2_msgs/msg/TFMessage"))
@@ -157,7 +183,8 @@ def main():
                 raw = raw[: len(raw) // 2]
             w.write(c_pc, ns(t) + 1000, raw)
         for t in list_times:
-            w.write(c_obj, ns(t) + 2000, ts.serialize_cdr(objects(t), "autoware_perception_msgs/msg/TrackedObjects"))
+            msg = detected_objects(t) if is_det else objects(t)
+            w.write(c_obj, ns(t) + 2000, ts.serialize_cdr(msg, obj_type))
     print(next(out.glob("*.mcap")))
 
 
