@@ -90,6 +90,9 @@ pub struct CheckArgs {
     /// Width of the sidewalk band added along a map's drivable areas, metres.
     #[arg(long, default_value_t = pmon_datasets::av2_map::DEFAULT_SIDEWALK_WIDTH_M, value_parser = parse_width)]
     pub sidewalk_m: f64,
+    /// Options for a rosbag2 `.mcap` input (docs/ros2.md).
+    #[command(flatten)]
+    pub bag: crate::bag::BagArgs,
 }
 
 /// `--roi` values.
@@ -351,6 +354,9 @@ pub fn open_input(arg: &Path, opts: &ReadOptions) -> Result<(String, Input)> {
 
 /// `pmon check`.
 pub fn run(args: &CheckArgs) -> Result<ExitCode> {
+    if crate::bag::is_mcap(&args.recording) {
+        return crate::bag::run_check(args);
+    }
     // The ROI of a dataset is clipped to the grid: its size comes from --params (any subset of keys).
     let grid_size_m = crate::config::load_params_over(MonitorParams::default(), args.params.as_deref())?.grid_size_m;
     let opts = read_options(args.roi, args.sidewalk_m, grid_size_m);

@@ -1,5 +1,6 @@
 //! `pmon`: the command line tool of the pmon perception monitor.
 
+mod bag;
 mod check;
 mod config;
 mod output;
@@ -75,7 +76,7 @@ enum Command {
     Convert {
         /// The dataset spec (see docs/datasets.md).
         spec: String,
-        /// Output recording directory.
+        /// Output recording directory (or `.mcap` file with `--format mcap`).
         #[arg(long, short)]
         out: std::path::PathBuf,
         /// Region of interest the recording carries: `auto` (the dataset's map, where it has one), `none` or
@@ -91,6 +92,9 @@ enum Command {
         /// Replace `--out` even when it holds files pmon convert did not write.
         #[arg(long)]
         force: bool,
+        /// `recording` (a pmon recording directory) or `mcap` (Autoware topics, CDR; docs/ros2.md).
+        #[arg(long, value_enum, default_value_t = bag::ConvertFormat::Recording)]
+        format: bag::ConvertFormat,
     },
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
@@ -103,7 +107,12 @@ enum Command {
 /// `pmon convert`: the dataset as a recording, with the parameters `check` applies for it (ground height, ego
 /// footprint) in the recording's `params.toml`, so that checking the recording gives what checking the dataset
 /// gives.
-fn convert(spec: &str, out: &std::path::Path, force: bool, opts: &pmon_datasets::ReadOptions) -> anyhow::Result<ExitCode> {
+fn convert(
+    spec: &str,
+    out: &std::path::Path,
+    force: bool,
+    opts: &pmon_datasets::ReadOptions,
+) -> anyhow::Result<ExitCode> {
     use anyhow::Context;
     let (scheme, _) = spec.split_once(':').unwrap_or((spec, ""));
     if !pmon_datasets::SCHEMES.contains(&scheme) {
@@ -163,7 +172,8 @@ fn main() -> ExitCode {
                 Ok(ExitCode::SUCCESS)
             })
         }
-        Command::Convert { spec, out, force, roi, sidewalk_m, grid_size_m } => {
+        Command::Convert { spec, out, format: bag::ConvertFormat::Mcap, .. } => bag::convert_mcap(&spec, &out),
+        Command::Convert { spec, out, force, roi, sidewalk_m, grid_size_m, .. } => {
             convert(&spec, &out, force, &check::read_options(roi, sidewalk_m, grid_size_m))
         }
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),

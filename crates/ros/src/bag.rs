@@ -1,0 +1,497 @@
+//! `pmon check bag.mcap`: read a rosbag2 MCAP, pair point clouds with object lists, run the monitor.
+//!
+//! Two passes over the file: the first decodes everything but the clouds' points (object lists, odometry,
+//! transforms, cloud headers) and plans the frames; the second decodes each paired cloud once and checks the
+//! frames in the object lists' file order as soon as their cloud has been read. Only clouds read ahead of
+//! their object list are held in memory.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use pmon_monitor::{FrameReport, Monitor, MonitorParams, ObjectState, Pose2};
+use pmon_recording::{OwnedCloud, RecordedFrame};
+
+use crate::cdr::decode;
+use crate::convert::{detected, inverse, pose2, tracked};
+use crate::msg::{
+    DetectedObjects, FrameVerdicts, Header, HeaderOnly, Odometry, PointCloud2, TfMessage, Time, TrackedObjects, Uuid,
+};
+use crate::pointcloud::to_points;
+use crate::tf::TfBuffer;
+use crate::verdicts::{frame_verdicts, FrameContext};
+
+/// Topics, frames and tolerances. `Default` is Autoware's (Universe) naming.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BagConfig {
+    /// `sensor_msgs/PointCloud2` topic.
+    pub cloud_topic: String,
+    /// `autoware_perception_msgs/TrackedObjects` or `DetectedObjects` topic (the type is read from the bag).
+    pub objects_topic: String,
+    /// `nav_msgs/Odometry` of the ego vehicle (`map` -> `base_link`); `/tf` is used when it is absent.
+    pub odometry_topic: String,
+    /// `tf2_msgs/TFMessage` topic.
+    pub tf_topic: String,
+    /// `tf2_msgs/TFMessage` static topic.
+    pub tf_static_topic: String,
+    /// The ego frame the monitor works in.
+    pub ego_frame: String,
+    /// The world frame of the ego pose.
+    pub world_frame: String,
+    /// Largest |object stamp - cloud stamp| for a pairing, seconds. Autoware stamps objects with the stamp of
+    /// the cloud they came from, so pairs match exactly; the default, 0.05 s, is half a 10 Hz period.
+    pub pairing_tolerance_s: f64,
+    /// Largest |object stamp - pose stamp| for an ego pose (odometry or `/tf`), seconds.
+    pub pose_tolerance_s: f64,
+}
+
+impl Default for BagConfig {
+    fn default() -> Self {
+        Self {
+            cloud_topic: "/sensing/lidar/concatenated/pointcloud".into(),
+            objects_topic: "/perception/object_recognition/tracking/objects".into(),
+            odometry_topic: "/localization/kinematic_state".into(),
+            tf_topic: "/tf".into(),
+            tf_static_topic: "/tf_static".into(),
+            ego_frame: "base_link".into(),
+            world_frame: "map".into(),
+            pairing_tolerance_s: 0.05,
+            pose_tolerance_s: 0.05,
+        }
+    }
+}
+
+/// A bag that cannot be read at all.
+#[derive(Debug, thiserror::Error)]
+pub enum BagError {
+    /// I/O.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// Not a readable MCAP file (bad magic, truncated, bad chunk).
+    #[error("{path}: not a readable MCAP file: {message}")]
+    Mcap {
+        /// The file.
+        path: PathBuf,
+        /// What the reader said.
+        message: String,
+    },
+    /// The object topic is missing or of an unsupported type.
+    #[error("{path}: {message}")]
+    Topics {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The monitor refused a frame or the sink failed.
+    #[error("{path}: {message}")]
+    Frame {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Something about one message or frame that the user must know (listed, counted, never skipped silently).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Problem {
+    /// Topic.
+    pub topic: String,
+    /// Log time of the message, nanoseconds.
+    pub log_time_ns: u64,
+    /// What happened and what pmon did about it.
+    pub message: String,
+}
+
+/// What a run over a bag found, beyond the verdicts.
+#[derive(Clone, Debug, Default)]
+pub struct BagSummary {
+    /// Object lists checked (frames).
+    pub frames: u64,
+    /// Object states checked.
+    pub objects: u64,
+    /// Verdict counts (`Display` of the verdict).
+    pub verdicts: BTreeMap<String, u64>,
+    /// Frames with at least one alarm.
+    pub frames_with_alarms: u64,
+    /// Missed-object alarms.
+    pub missed_objects: u64,
+    /// Clouds read.
+    pub clouds: u64,
+    /// Object lists with no cloud within the tolerance (checked with the plausibility checks only), by stamp.
+    pub unpaired_object_lists: Vec<Time>,
+    /// Clouds no object list was paired with, by stamp.
+    pub unpaired_clouds: Vec<Time>,
+    /// Messages that did not decode, clouds that could not be used, missing transforms and poses.
+    pub problems: Vec<Problem>,
+    /// Messages on the object or cloud topic that did not decode (also in `problems`).
+    pub undecodable: u64,
+}
+
+/// One checked frame, handed to the sink.
+pub struct CheckedFrame<'a> {
+    /// The frame as the monitor saw it (ego frame; the cloud in the sensor frame).
+    pub frame: &'a RecordedFrame,
+    /// The monitor's report.
+    pub report: &'a FrameReport<'a>,
+    /// The verdict message (with the diagnostics built from it by [`crate::verdicts::diagnostics`]).
+    pub verdicts: &'a FrameVerdicts,
+    /// The monitor (its grid holds this frame's occupancy).
+    pub monitor: &'a Monitor,
+}
+
+enum ObjectList {
+    Tracked(TrackedObjects),
+    Detected(DetectedObjects),
+}
+
+impl ObjectList {
+    fn header(&self) -> &Header {
+        match self {
+            Self::Tracked(m) => &m.header,
+            Self::Detected(m) => &m.header,
+        }
+    }
+}
+
+/// A cloud read in pass 2: its points (sensor frame) and header, or why it could not be used.
+type ReadCloud = Result<(Vec<[f32; 3]>, Header), String>;
+
+struct Planned {
+    list: ObjectList,
+    log_time_ns: u64,
+    /// Stream index of the paired cloud.
+    cloud: Option<usize>,
+    /// Its stamp.
+    cloud_stamp: Time,
+}
+
+/// Reads a whole file (MCAP readers work on a byte slice).
+///
+/// # Errors
+/// [`BagError::Io`].
+pub fn read_file(path: &Path) -> Result<Vec<u8>, BagError> {
+    std::fs::read(path).map_err(|source| BagError::Io { path: path.to_path_buf(), source })
+}
+
+fn mcap_err(path: &Path, e: &mcap::McapError) -> BagError {
+    BagError::Mcap { path: path.to_path_buf(), message: e.to_string() }
+}
+
+/// Runs the monitor over a bag, calling `sink` for each checked frame in the object lists' order.
+///
+/// # Errors
+/// [`BagError`] when the file cannot be read as MCAP, has no object topic, or the sink fails. Bad messages
+/// inside a readable bag are not errors: they are listed in [`BagSummary::problems`].
+#[allow(clippy::too_many_lines)]
+pub fn check_bag(
+    path: &Path,
+    bytes: &[u8],
+    cfg: &BagConfig,
+    params: &MonitorParams,
+    sink: &mut dyn FnMut(&CheckedFrame<'_>) -> Result<(), String>,
+) -> Result<BagSummary, BagError> {
+    let mut summary = BagSummary::default();
+    let mut lists: Vec<Planned> = Vec::new();
+    let mut clouds: Vec<(usize, Time)> = Vec::new();
+    let mut odometry: Vec<(f64, Pose2)> = Vec::new();
+    let mut tf = TfBuffer::default();
+    let mut object_topic_seen = false;
+    let problem = |s: &mut BagSummary, topic: &str, t: u64, m: String| {
+        s.problems.push(Problem { topic: topic.into(), log_time_ns: t, message: m });
+    };
+
+    // Pass 1: everything but the points.
+    let stream = mcap::MessageStream::new(bytes).map_err(|e| mcap_err(path, &e))?;
+    for (index, msg) in stream.enumerate() {
+        let msg = msg.map_err(|e| mcap_err(path, &e))?;
+        let topic = msg.channel.topic.as_str();
+        let schema = msg.channel.schema.as_ref().map_or("", |s| s.name.as_str());
+        if topic == cfg.objects_topic {
+            object_topic_seen = true;
+            let list = match schema {
+                "autoware_perception_msgs/msg/TrackedObjects" => decode(&msg.data).map(ObjectList::Tracked),
+                "autoware_perception_msgs/msg/DetectedObjects" => decode(&msg.data).map(ObjectList::Detected),
+                other => {
+                    return Err(BagError::Topics {
+                        path: path.into(),
+                        message: format!(
+                            "topic {topic} has type {other:?}; expected autoware_perception_msgs/msg/TrackedObjects or DetectedObjects"
+                        ),
+                    })
+                }
+            };
+            match list {
+                Ok(list) => {
+                    lists.push(Planned { list, log_time_ns: msg.log_time, cloud: None, cloud_stamp: Time::default() })
+                }
+                Err(e) => {
+                    summary.undecodable += 1;
+                    problem(&mut summary, topic, msg.log_time, format!("object list not checked: {e}"));
+                }
+            }
+        } else if topic == cfg.cloud_topic {
+            match decode::<HeaderOnly>(&msg.data) {
+                Ok(h) => clouds.push((index, h.header.stamp)),
+                Err(e) => {
+                    summary.undecodable += 1;
+                    problem(&mut summary, topic, msg.log_time, format!("cloud not used: {e}"));
+                }
+            }
+        } else if topic == cfg.odometry_topic {
+            match decode::<Odometry>(&msg.data) {
+                Ok(o) => {
+                    let p = &o.pose.pose;
+                    odometry.push((o.header.stamp.as_secs_f64(), pose2(p.position.x, p.position.y, &p.orientation)));
+                }
+                Err(e) => problem(&mut summary, topic, msg.log_time, format!("odometry not used: {e}")),
+            }
+        } else if topic == cfg.tf_topic || topic == cfg.tf_static_topic {
+            match decode::<TfMessage>(&msg.data) {
+                Ok(m) => tf.add(&m, topic == cfg.tf_static_topic),
+                Err(e) => problem(&mut summary, topic, msg.log_time, format!("transforms not used: {e}")),
+            }
+        }
+    }
+    if !object_topic_seen {
+        return Err(BagError::Topics {
+            path: path.into(),
+            message: format!("no messages on the object topic {}", cfg.objects_topic),
+        });
+    }
+    tf.finish();
+    odometry.sort_by(|a, b| a.0.total_cmp(&b.0));
+    summary.clouds = clouds.len() as u64;
+
+    // Pairing: the cloud nearest in stamp, within the tolerance.
+    let mut by_stamp: Vec<(f64, usize)> = clouds.iter().map(|(i, t)| (t.as_secs_f64(), *i)).collect();
+    by_stamp.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut used = vec![false; by_stamp.len()];
+    let stamp_of: BTreeMap<usize, Time> = clouds.iter().copied().collect();
+    for p in &mut lists {
+        let t = p.list.header().stamp.as_secs_f64();
+        let k = by_stamp.partition_point(|c| c.0 < t);
+        let best = [k.checked_sub(1), Some(k)]
+            .into_iter()
+            .flatten()
+            .filter(|&j| j < by_stamp.len())
+            .min_by(|&a, &b| (by_stamp[a].0 - t).abs().total_cmp(&(by_stamp[b].0 - t).abs()));
+        match best.filter(|&j| (by_stamp[j].0 - t).abs() <= cfg.pairing_tolerance_s) {
+            Some(j) => {
+                used[j] = true;
+                p.cloud = Some(by_stamp[j].1);
+                p.cloud_stamp = stamp_of.get(&by_stamp[j].1).copied().unwrap_or_default();
+            }
+            None => summary.unpaired_object_lists.push(p.list.header().stamp),
+        }
+    }
+    for (j, (_, index)) in by_stamp.iter().enumerate() {
+        if !used[j] {
+            summary.unpaired_clouds.push(stamp_of.get(index).copied().unwrap_or_default());
+        }
+    }
+
+    // Pass 2: decode the paired clouds and check frames in order.
+    let mut uses: BTreeMap<usize, usize> = BTreeMap::new();
+    for p in &lists {
+        if let Some(c) = p.cloud {
+            *uses.entry(c).or_default() += 1;
+        }
+    }
+    let mut monitor =
+        Monitor::new(*params).map_err(|e| BagError::Frame { path: path.into(), message: e.to_string() })?;
+    let mut ready: BTreeMap<usize, ReadCloud> = BTreeMap::new();
+    let mut queue: VecDeque<Planned> = lists.into();
+    let mut frame_index = 0u64;
+    let mut run = Runner { cfg, params, tf: &tf, odometry: &odometry, path };
+    let stream = mcap::MessageStream::new(bytes).map_err(|e| mcap_err(path, &e))?;
+    for (index, msg) in stream.enumerate() {
+        let msg = msg.map_err(|e| mcap_err(path, &e))?;
+        if uses.contains_key(&index) {
+            let cloud = decode::<PointCloud2>(&msg.data).map_err(|e| e.to_string()).and_then(|c| {
+                let pts = to_points(&c).map_err(|e| e.to_string())?;
+                if pts.non_finite > 0 {
+                    summary.problems.push(Problem {
+                        topic: msg.channel.topic.clone(),
+                        log_time_ns: msg.log_time,
+                        message: format!("{} non-finite points left out", pts.non_finite),
+                    });
+                }
+                Ok((pts.points, c.header))
+            });
+            if let Err(e) = &cloud {
+                summary.undecodable += 1;
+                summary.problems.push(Problem {
+                    topic: msg.channel.topic.clone(),
+                    log_time_ns: msg.log_time,
+                    message: format!("cloud not used (sensor checks not run): {e}"),
+                });
+            }
+            ready.insert(index, cloud);
+        }
+        while queue.front().is_some_and(|p| p.cloud.is_none_or(|c| ready.contains_key(&c))) {
+            let Some(p) = queue.pop_front() else { break };
+            run.frame(&mut monitor, &p, &mut ready, &mut uses, frame_index, &mut summary, sink)?;
+            frame_index += 1;
+        }
+    }
+    // Clouds that never arrived cannot happen (they were indexed in pass 1); check whatever is left anyway.
+    while let Some(p) = queue.pop_front() {
+        run.frame(&mut monitor, &p, &mut ready, &mut uses, frame_index, &mut summary, sink)?;
+        frame_index += 1;
+    }
+    Ok(summary)
+}
+
+struct Runner<'a> {
+    cfg: &'a BagConfig,
+    params: &'a MonitorParams,
+    tf: &'a TfBuffer,
+    odometry: &'a [(f64, Pose2)],
+    path: &'a Path,
+}
+
+impl Runner<'_> {
+    fn ego_pose(&self, t_s: f64) -> Option<Pose2> {
+        let k = self.odometry.partition_point(|o| o.0 < t_s);
+        let best = [k.checked_sub(1), Some(k)]
+            .into_iter()
+            .flatten()
+            .filter_map(|j| self.odometry.get(j))
+            .min_by(|a, b| (a.0 - t_s).abs().total_cmp(&(b.0 - t_s).abs()));
+        if let Some((t, p)) = best {
+            if (t - t_s).abs() <= self.cfg.pose_tolerance_s {
+                return Some(*p);
+            }
+        }
+        self.tf.lookup2(&self.cfg.world_frame, &self.cfg.ego_frame, t_s, self.cfg.pose_tolerance_s)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn frame(
+        &mut self,
+        monitor: &mut Monitor,
+        p: &Planned,
+        ready: &mut BTreeMap<usize, ReadCloud>,
+        uses: &mut BTreeMap<usize, usize>,
+        index: u64,
+        summary: &mut BagSummary,
+        sink: &mut dyn FnMut(&CheckedFrame<'_>) -> Result<(), String>,
+    ) -> Result<(), BagError> {
+        let cfg = self.cfg;
+        let header = p.list.header();
+        let t_s = header.stamp.as_secs_f64();
+        let objects_topic = cfg.objects_topic.as_str();
+        let mut note = |m: String| {
+            summary.problems.push(Problem { topic: objects_topic.into(), log_time_ns: p.log_time_ns, message: m });
+        };
+        let world_from_ego = self.ego_pose(t_s);
+        if world_from_ego.is_none() {
+            note(format!("no ego pose within {} s: plausibility runs in the ego frame", cfg.pose_tolerance_s));
+        }
+        // Where the objects are: the ego frame, the world frame, or a frame with a transform to the ego.
+        let ego_from_msg = if header.frame_id == cfg.ego_frame {
+            Some(Pose2::default())
+        } else if header.frame_id == cfg.world_frame {
+            world_from_ego.as_ref().map(inverse)
+        } else {
+            self.tf.lookup2(&cfg.ego_frame, &header.frame_id, t_s, cfg.pose_tolerance_s)
+        };
+        let mut objects_problem = None;
+        let ego_from_msg = ego_from_msg.unwrap_or_else(|| {
+            objects_problem = Some(format!("missing transform {} <- {}", cfg.ego_frame, header.frame_id));
+            Pose2::default()
+        });
+        let default = self.params.default_uncertainty;
+        let (mut objects, uuids): (Vec<ObjectState>, Vec<Uuid>) = match &p.list {
+            ObjectList::Tracked(m) => {
+                m.objects.iter().map(|o| (tracked(o, &ego_from_msg, &default), o.object_id)).unzip()
+            }
+            ObjectList::Detected(m) => m
+                .objects
+                .iter()
+                .enumerate()
+                // Detections have no track id: a fresh id each frame (frame << 20 | index), new tracks.
+                .map(|(i, o)| (detected(o, (index << 20) | i as u64, &ego_from_msg, &default), Uuid::default()))
+                .unzip(),
+        };
+        if let Some(m) = &objects_problem {
+            note(format!("objects not placed ({m}): every object is not monitored (invalid state)"));
+            // NaN positions make the monitor say "not monitored: invalid state" for each object.
+            for o in &mut objects {
+                o.x_m = f32::NAN;
+            }
+        }
+        // The cloud, moved into the ego frame through the sensor's extrinsic.
+        let mut cloud_problem = None;
+        let mut cloud = None;
+        if let Some(ci) = p.cloud {
+            let remaining = uses.get_mut(&ci).map(|u| {
+                *u -= 1;
+                *u
+            });
+            let entry = if remaining == Some(0) { ready.remove(&ci) } else { ready.get(&ci).cloned() };
+            match entry {
+                Some(Ok((points, h))) => {
+                    match self.tf.lookup3(&cfg.ego_frame, &h.frame_id, h.stamp.as_secs_f64(), cfg.pose_tolerance_s) {
+                        Some(ego_from_sensor) => cloud = Some(OwnedCloud { points_in_sensor: points, ego_from_sensor }),
+                        None => {
+                            let m = format!("missing transform {} <- {}", cfg.ego_frame, h.frame_id);
+                            note(format!("{m}: sensor checks not run"));
+                            cloud_problem = Some(m);
+                        }
+                    }
+                }
+                Some(Err(e)) => cloud_problem = Some(format!("malformed cloud: {e}")),
+                None => cloud_problem = Some("cloud not found".into()),
+            }
+        }
+        let frame = RecordedFrame {
+            index,
+            timestamp_s: t_s,
+            world_from_ego: world_from_ego.unwrap_or_default(),
+            objects,
+            cloud,
+            roi_in_ego: Vec::new(),
+            static_in_ego: Vec::new(),
+        };
+        let mut polygons = Vec::new();
+        let view = frame.as_frame(&mut polygons);
+        let started = Instant::now();
+        let rep = monitor.check(&view).map_err(|e| BagError::Frame {
+            path: self.path.into(),
+            message: format!("object list at {t_s:.3} s: {e}"),
+        })?;
+        let processing_time_s = started.elapsed().as_secs_f64();
+        let ctx = FrameContext {
+            header,
+            cloud_stamp: p.cloud.map(|_| p.cloud_stamp),
+            cloud_problem,
+            uuids: &uuids,
+            processing_time_s,
+        };
+        let verdicts = frame_verdicts(&ctx, &frame.objects, &rep);
+        summary.frames += 1;
+        summary.objects += rep.objects.len() as u64;
+        let missed = rep.missed_objects() as u64;
+        summary.missed_objects += missed;
+        if rep.object_alarms() > 0 || missed > 0 {
+            summary.frames_with_alarms += 1;
+        }
+        for r in rep.objects {
+            *summary.verdicts.entry(r.verdict.to_string()).or_default() += 1;
+        }
+        // The report borrows the monitor; an owned copy lets the sink see the grid as well.
+        let (objects, clusters) = (rep.objects.to_vec(), rep.clusters.to_vec());
+        let report =
+            FrameReport { objects: &objects, clusters: &clusters, grid: rep.grid, sensor_status: rep.sensor_status };
+        sink(&CheckedFrame { frame: &frame, report: &report, verdicts: &verdicts, monitor })
+            .map_err(|message| BagError::Frame { path: self.path.into(), message })
+    }
+}

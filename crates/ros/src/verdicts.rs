@@ -1,0 +1,144 @@
+//! The monitor's report -> `pmon_msgs/FrameVerdicts` and `diagnostic_msgs/DiagnosticArray`.
+
+use pmon_monitor::{FrameReport, ObjectState, Verdict};
+
+use crate::msg::{
+    DiagnosticArray, DiagnosticStatus, FrameVerdicts, Header, KeyValue, MissedObject, ObjectVerdict, Time, Uuid,
+};
+
+/// `diagnostic_msgs/DiagnosticStatus` levels.
+pub mod level {
+    /// OK.
+    pub const OK: u8 = 0;
+    /// WARN.
+    pub const WARN: u8 = 1;
+    /// ERROR.
+    pub const ERROR: u8 = 2;
+}
+
+/// Name of pmon's diagnostic status.
+pub const DIAGNOSTIC_NAME: &str = "pmon: perception monitor";
+
+/// `pmon_msgs/ObjectVerdict` constant of a verdict.
+#[must_use]
+pub const fn verdict_code(v: Verdict) -> u8 {
+    match v {
+        Verdict::Consistent => 0,
+        Verdict::Ghost => 1,
+        Verdict::PositionError => 2,
+        Verdict::ImplausibleMotion(_) => 3,
+        Verdict::NotMonitored(_) => 4,
+        Verdict::MotionOnlyConsistent(_) => 5,
+    }
+}
+
+/// Everything about a frame that is not in the monitor's report.
+pub struct FrameContext<'a> {
+    /// The object list's header.
+    pub header: &'a Header,
+    /// The paired cloud's stamp, if one was paired.
+    pub cloud_stamp: Option<Time>,
+    /// Why the sensor checks could not use the cloud (malformed, missing transform), overriding the
+    /// monitor's own status.
+    pub cloud_problem: Option<String>,
+    /// Track UUIDs, one per object (zero for detections).
+    pub uuids: &'a [Uuid],
+    /// Wall time of the check, seconds.
+    pub processing_time_s: f64,
+}
+
+/// Builds the verdict message of one checked frame.
+#[must_use]
+pub fn frame_verdicts(ctx: &FrameContext<'_>, objects: &[ObjectState], rep: &FrameReport<'_>) -> FrameVerdicts {
+    let sensor_status = match (&ctx.cloud_problem, rep.sensor_status) {
+        (Some(p), _) => p.clone(),
+        (None, Some(r)) => r.name().to_string(),
+        (None, None) => String::new(),
+    };
+    FrameVerdicts {
+        header: ctx.header.clone(),
+        cloud_stamp: ctx.cloud_stamp.unwrap_or_default(),
+        cloud_paired: ctx.cloud_stamp.is_some(),
+        sensor_status,
+        points_total: rep.grid.points_total,
+        points_in_band: rep.grid.points_in_band,
+        processing_time_s: ctx.processing_time_s,
+        objects: objects
+            .iter()
+            .zip(rep.objects)
+            .enumerate()
+            .map(|(i, (o, r))| ObjectVerdict {
+                object_id: ctx.uuids.get(i).copied().unwrap_or_default(),
+                id: r.id,
+                verdict: verdict_code(r.verdict),
+                verdict_name: r.verdict.name().into(),
+                reason: match r.verdict {
+                    Verdict::NotMonitored(reason) => reason.name().into(),
+                    Verdict::ImplausibleMotion(c) => c.to_string(),
+                    _ => String::new(),
+                },
+                x_m: o.x_m,
+                y_m: o.y_m,
+                eta: r.sensor.eta,
+                visible_fraction: r.sensor.visible_fraction,
+                offset_m: r.sensor.offset_m,
+            })
+            .collect(),
+        missed: rep
+            .clusters
+            .iter()
+            .filter(|c| c.is_missed_object())
+            .map(|c| MissedObject { centroid_m: c.centroid_m, bounds_m: c.bounds_m, cells: c.cells })
+            .collect(),
+    }
+}
+
+/// Builds `/diagnostics` from a verdict message: ERROR with one key-value per alarm when any alarm was raised,
+/// WARN when the sensor checks did not run (no cloud paired, empty or malformed cloud, missing transform),
+/// OK otherwise. Counts are always given.
+#[must_use]
+pub fn diagnostics(v: &FrameVerdicts) -> DiagnosticArray {
+    let alarms: Vec<&ObjectVerdict> = v.objects.iter().filter(|o| matches!(o.verdict, 1..=3)).collect();
+    let not_monitored = v.objects.iter().filter(|o| o.verdict == 4).count();
+    let kv = |k: &str, val: String| KeyValue { key: k.into(), value: val };
+    let mut values = vec![
+        kv("objects", v.objects.len().to_string()),
+        kv("alarms", alarms.len().to_string()),
+        kv("missed_objects", v.missed.len().to_string()),
+        kv("not_monitored", not_monitored.to_string()),
+        kv("cloud_paired", v.cloud_paired.to_string()),
+        kv("sensor_status", if v.sensor_status.is_empty() { "ran".into() } else { v.sensor_status.clone() }),
+        kv("processing_time_ms", format!("{:.3}", v.processing_time_s * 1e3)),
+    ];
+    for o in &alarms {
+        let what =
+            if o.reason.is_empty() { o.verdict_name.clone() } else { format!("{} ({})", o.verdict_name, o.reason) };
+        values.push(kv(
+            &format!("object {}", o.id),
+            format!("{what} at ({:.1}, {:.1}) m, eta {:.2}", o.x_m, o.y_m, o.eta),
+        ));
+    }
+    for m in &v.missed {
+        values.push(kv(
+            "missed object",
+            format!("{} cells around ({:.1}, {:.1}) m", m.cells, m.centroid_m[0], m.centroid_m[1]),
+        ));
+    }
+    let (lvl, message) = if !alarms.is_empty() || !v.missed.is_empty() {
+        (level::ERROR, format!("{} object alarms, {} missed objects", alarms.len(), v.missed.len()))
+    } else if !v.sensor_status.is_empty() {
+        (level::WARN, format!("sensor checks not run: {}", v.sensor_status))
+    } else {
+        (level::OK, "no alarm".into())
+    };
+    DiagnosticArray {
+        header: Header { stamp: v.header.stamp, frame_id: String::new() },
+        status: vec![DiagnosticStatus {
+            level: lvl,
+            name: DIAGNOSTIC_NAME.into(),
+            message,
+            hardware_id: "pmon".into(),
+            values,
+        }],
+    }
+}
