@@ -1,0 +1,78 @@
+//! The C API, called as C would call it, gives the core's answers on a simulated recording, frame by frame.
+#![allow(unsafe_code, clippy::unwrap_used, clippy::indexing_slicing, clippy::expect_used)]
+
+use std::ffi::CString;
+
+use pmon_capi::ffi::*;
+use pmon_monitor::{Monitor, MonitorParams};
+use pmon_recording::RecordingReader;
+
+fn text(b: &[u8]) -> String {
+    let end = b.iter().position(|c| *c == 0).unwrap_or(b.len());
+    String::from_utf8(b[..end].to_vec()).unwrap()
+}
+
+#[test]
+fn c_api_matches_the_core_on_a_simulated_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = pmon_scenario::ScenarioConfig::builtin("pedestrians").unwrap();
+    cfg.seed = 7;
+    cfg.duration_s = 1.0;
+    pmon_scenario::simulate_to_dir(&cfg, dir.path(), &mut |_, _| {}).unwrap();
+    let dir_path = std::env::var_os("PMON_CAPI_RECORDING").map_or_else(|| dir.path().to_path_buf(), Into::into);
+    let path = CString::new(dir_path.to_str().unwrap()).unwrap();
+    let mut rec = std::ptr::null_mut();
+    let mut mon = std::ptr::null_mut();
+    unsafe {
+        assert_eq!(pmon_recording_open(path.as_ptr(), &mut rec), PMON_OK);
+        assert_eq!(pmon_monitor_new(std::ptr::null(), &mut mon), PMON_OK);
+    }
+    let mut core = Monitor::new(MonitorParams::default()).unwrap();
+    let mut results = vec![unsafe { std::mem::zeroed::<PmonObjectResult>() }; 1024];
+    let mut clusters = vec![PmonCluster::default(); 512];
+    let (mut frames, mut objects, mut alarms) = (0, 0, 0);
+    for expected in RecordingReader::open(&dir_path).unwrap() {
+        let expected = expected.unwrap();
+        let mut frame = unsafe { std::mem::zeroed::<PmonFrame>() };
+        let mut index = u64::MAX;
+        let mut summary = PmonFrameSummary::default();
+        unsafe {
+            assert_eq!(pmon_recording_next(rec, &mut frame, &mut index), PMON_OK);
+            let rc = pmon_monitor_check(
+                mon,
+                &frame,
+                results.as_mut_ptr(),
+                results.len(),
+                clusters.as_mut_ptr(),
+                clusters.len(),
+                &mut summary,
+            );
+            assert_eq!(rc, PMON_OK);
+        }
+        assert_eq!(index, expected.index);
+        let mut polygons = Vec::new();
+        let report = core.check(&expected.as_frame(&mut polygons)).unwrap();
+        assert_eq!(summary.object_count, report.objects.len());
+        for (r, want) in results.iter().zip(report.objects) {
+            assert_eq!(r.id, want.id);
+            assert_eq!(text(&r.verdict_name), want.verdict.name(), "frame {index} object {}", want.id);
+            assert_eq!(text(&r.sensor_text), want.sensor.verdict.to_string(), "frame {index} object {}", want.id);
+            assert_eq!(text(&r.motion_text), want.motion.verdict.to_string());
+            assert_eq!(r.eta.to_bits(), want.sensor.eta.to_bits());
+            assert_eq!(r.position_residual_m.to_bits(), want.motion.position_residual_m.to_bits());
+            alarms += usize::from(want.verdict.is_alarm());
+        }
+        assert_eq!(summary.clusters_available, report.clusters.len());
+        assert_eq!(summary.missed_objects, report.missed_objects());
+        frames += 1;
+        objects += report.objects.len();
+    }
+    let mut frame = unsafe { std::mem::zeroed::<PmonFrame>() };
+    unsafe {
+        assert_eq!(pmon_recording_next(rec, &mut frame, std::ptr::null_mut()), PMON_END);
+        pmon_recording_free(rec);
+        pmon_monitor_free(mon);
+    }
+    assert!(frames >= 10 && objects > 100, "{frames} frames, {objects} objects");
+    assert!(alarms < objects, "every object raised an alarm: the comparison would prove little");
+}
