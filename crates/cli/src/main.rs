@@ -4,6 +4,7 @@ mod check;
 mod config;
 mod reproduce;
 mod simulate;
+mod tracker_bed;
 mod view;
 
 use std::path::PathBuf;
@@ -78,6 +79,9 @@ enum Command {
         #[arg(long, short)]
         out: std::path::PathBuf,
     },
+    /// Score the plausibility checks on simulated tracker-like output (warm-up, re-fits, jitter, flips, jumps,
+    /// drop-outs): false alarms on benign states, recall on safety-critical errors, kind correctness.
+    TrackerBed(tracker_bed::TrackerBedArgs),
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
         /// A TOML file of parameters to validate and print merged over the defaults.
@@ -134,6 +138,7 @@ fn main() -> ExitCode {
                 Ok(ExitCode::SUCCESS)
             })
         }
+        Command::TrackerBed(args) => tracker_bed::run(&args),
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
     };
     match result {

@@ -34,7 +34,7 @@ pub mod verdict;
 pub use frame::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty};
 pub use params::{ClassMotionLimits, MonitorParams, MotionLimits, ParamError};
 pub use verdict::{
-    ClusterReport, Conditions, FrameError, FrameReport, GridStats, MotionOutcome, MotionVerdict, NotMonitoredReason,
+    ClusterReport, Conditions, FrameError, FrameReport, GridStats, ImplausibilityKind, MotionOutcome, MotionVerdict, NotMonitoredReason,
     ObjectReport, SensorOutcome, SensorVerdict, Verdict,
 };
 

@@ -195,6 +195,9 @@ impl TrackTable {
                                 predicted_margin_m: [m.predicted_margin[0] as f32, m.predicted_margin[1] as f32],
                                 position_residual_m: m.residual as f32,
                                 position_allowance_m: m.allowance as f32,
+                                kind: None,
+                                error_size: 0.0,
+                                severity: 0.0,
                             }
                         }
                     }
