@@ -32,7 +32,9 @@ pub mod params;
 pub mod verdict;
 
 pub use frame::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty};
-pub use params::{ClassMotionLimits, MonitorParams, MotionLimits, ParamError};
+pub use params::{
+    ClassMotionLimits, ClassTrackerNoise, MonitorParams, MotionLimits, ParamError, PlausibilityMode, TrackerNoise,
+};
 pub use verdict::{
     ClusterReport, Conditions, FrameError, FrameReport, GridStats, ImplausibilityKind, MotionOutcome, MotionVerdict, NotMonitoredReason,
     ObjectReport, SensorOutcome, SensorVerdict, Verdict,
@@ -41,6 +43,7 @@ pub use verdict::{
 pub mod geometry;
 pub mod grid;
 pub mod monitor;
+pub mod calibrated;
 pub mod motion;
 pub mod plausibility;
 mod rasterize;
