@@ -201,7 +201,8 @@ impl TrackerModel {
             let mut t = match self.tracks.get(&truth_id) {
                 Some(t) => *t,
                 None => {
-                    let w = if c.warmup_frames_max == 0 { 0 } else { 1 + self.rng.random_range(0..c.warmup_frames_max) };
+                    let w =
+                        if c.warmup_frames_max == 0 { 0 } else { 1 + self.rng.random_range(0..c.warmup_frames_max) };
                     TrackState { out_id: truth_id, warmup: w, ..TrackState::default() }
                 }
             };
@@ -227,7 +228,11 @@ impl TrackerModel {
             let mut speed = (v + c.speed_noise_mps * t.speed_noise).max(0.0);
             let gh = self.normal();
             let mut heading = f64::from(o.heading_rad)
-                + if v < c.heading_defined_speed_mps { c.heading_standstill_rad * gh } else { c.heading_noise_rad * gh };
+                + if v < c.heading_defined_speed_mps {
+                    c.heading_standstill_rad * gh
+                } else {
+                    c.heading_noise_rad * gh
+                };
             // Box re-fit: the length changes by dl, one end stays, the centre moves by dl / 2.
             if t.refit_frames == 0 && self.rng.random_bool(c.refit_rate) {
                 t.refit_frames = 1 + (self.rng.random::<f64>().ln() / 0.8f64.ln()) as u32;

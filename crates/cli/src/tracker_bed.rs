@@ -31,9 +31,11 @@ pub struct TrackerBedArgs {
 /// The built-in scenes without LiDAR (object lists and ground truth only), at 10 Hz and the street at 20 Hz.
 pub fn object_scenes(seed: u64, duration_s: f64) -> Result<Vec<Scene>> {
     let mut scenes = Vec::new();
-    for (name, builtin, dt) in
-        [("pedestrians", "pedestrians", 0.1), ("intersection", "intersection", 0.1), ("pedestrians_20hz", "pedestrians", 0.05)]
-    {
+    for (name, builtin, dt) in [
+        ("pedestrians", "pedestrians", 0.1),
+        ("intersection", "intersection", 0.1),
+        ("pedestrians_20hz", "pedestrians", 0.05),
+    ] {
         let mut cfg = ScenarioConfig::builtin(builtin).with_context(|| format!("no built-in scenario `{builtin}`"))?;
         cfg.seed = seed;
         cfg.name = name.into();

@@ -154,7 +154,9 @@ impl Gates {
         let p = p.clamp(1e-300, 0.5);
         let q = 0.5 * p;
         let t = libm::sqrt(-2.0 * libm::log(q));
-        let z = t - (2.515_517 + 0.802_853 * t + 0.010_328 * t * t) / (1.0 + 1.432_788 * t + 0.189_269 * t * t + 0.001_308 * t * t * t);
+        let z = t
+            - (2.515_517 + 0.802_853 * t + 0.010_328 * t * t)
+                / (1.0 + 1.432_788 * t + 0.189_269 * t * t + 0.001_308 * t * t * t);
         Self { chi2_2: -2.0 * libm::log(p), z }
     }
 }
@@ -291,7 +293,13 @@ pub fn check_calibrated(
     for j in 0..count {
         let e = if b + j < n { h.get(b + j).copied().unwrap_or(*s1) } else { *s1 };
         let t_prev = if j == 0 { e.t_s } else { h.get(b + j - 1).map_or(e.t_s, |p| p.t_s) };
-        let t_next = if b + j + 1 < n { h.get(b + j + 1).map_or(e.t_s, |p| p.t_s) } else if b + j < n { s1.t_s } else { e.t_s };
+        let t_next = if b + j + 1 < n {
+            h.get(b + j + 1).map_or(e.t_s, |p| p.t_s)
+        } else if b + j < n {
+            s1.t_s
+        } else {
+            e.t_s
+        };
         let w = 0.5 * ((e.t_s - t_prev) + (t_next - e.t_s));
         let th = f64::from(e.heading_rad);
         let v = f64::from(e.v_mps);

@@ -36,14 +36,14 @@ pub use params::{
     ClassMotionLimits, ClassTrackerNoise, MonitorParams, MotionLimits, ParamError, PlausibilityMode, TrackerNoise,
 };
 pub use verdict::{
-    ClusterReport, Conditions, FrameError, FrameReport, GridStats, ImplausibilityKind, MotionOutcome, MotionVerdict, NotMonitoredReason,
-    ObjectReport, SensorOutcome, SensorVerdict, Verdict,
+    ClusterReport, Conditions, FrameError, FrameReport, GridStats, ImplausibilityKind, MotionOutcome, MotionVerdict,
+    NotMonitoredReason, ObjectReport, SensorOutcome, SensorVerdict, Verdict,
 };
 
+pub mod calibrated;
 pub mod geometry;
 pub mod grid;
 pub mod monitor;
-pub mod calibrated;
 pub mod motion;
 pub mod plausibility;
 mod rasterize;

@@ -7,8 +7,8 @@
 
 use alloc::vec::Vec;
 
-use crate::calibrated::{check_calibrated, CalibratedCheck, Entry, Gates, History};
 pub use crate::calibrated::HISTORY;
+use crate::calibrated::{check_calibrated, CalibratedCheck, Entry, Gates, History};
 use crate::frame::{ObjectState, Pose2, Uncertainty};
 use crate::geometry::wrap_angle;
 use crate::motion::{check_motion, MeasuredState};
@@ -264,7 +264,10 @@ impl TrackTable {
                                         turn_rate_radps: m.turn_rate as f32,
                                         turn_rate_margin_radps: m.turn_rate_margin as f32,
                                         predicted_world_m: m.predicted,
-                                        predicted_margin_m: [m.predicted_margin[0] as f32, m.predicted_margin[1] as f32],
+                                        predicted_margin_m: [
+                                            m.predicted_margin[0] as f32,
+                                            m.predicted_margin[1] as f32,
+                                        ],
                                         position_residual_m: m.residual as f32,
                                         position_allowance_m: m.allowance as f32,
                                         kind,
@@ -284,7 +287,10 @@ impl TrackTable {
                                     turn_rate_radps: cal.turn_rate.0 as f32,
                                     turn_rate_margin_radps: cal.turn_rate.1 as f32,
                                     predicted_world_m: cal.predicted,
-                                    predicted_margin_m: [cal.predicted_margin[0] as f32, cal.predicted_margin[1] as f32],
+                                    predicted_margin_m: [
+                                        cal.predicted_margin[0] as f32,
+                                        cal.predicted_margin[1] as f32,
+                                    ],
                                     position_residual_m: cal.residual as f32,
                                     position_allowance_m: cal.allowance as f32,
                                     kind: cal.kind,
