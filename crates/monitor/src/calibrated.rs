@@ -10,7 +10,7 @@
 //! 2. **Acceleration** `(v1 - v0) / dt` against `a_acc`, `a_br` with margin `z hypot(sigma_v0, sigma_v1) / dt`
 //!    (skipped when either speed is in its warm-up).
 //! 3. **Motion** over a baseline: the start `b` is the oldest state within `baseline_s` that raised no alarm
-//!    and whose speed is initialised (else the previous state). The displacement predicted by the reported
+//!    and whose speed is initialised (else the oldest initialised one in the window, else the previous state). The displacement predicted by the reported
 //!    velocities, `sum_i dt_i / 2 (v_i u_i + v_(i+1) u_(i+1))` (trapezoid, `u` the heading's unit vector), is
 //!    compared with the observed `p1 - p_b`. Box re-fits: the residual shrinks by half the length change along
 //!    the box and half the width change across it (the reference point moved, the object did not). The
@@ -20,7 +20,8 @@
 //!    freedom).
 //!
 //! Kinds: a flip first; then for the motion, a *position jump* if the box also leaves the straight-line
-//! extrapolation of its own last two alarm-free positions (positions only, `a_acc dt^2` allowed), else a
+//! extrapolation of its own last two alarm-free positions (positions only, `a_acc dt^2` allowed; or that
+//! distance is at least 0.7 of the motion residual), else a
 //! *speed inconsistent with motion*; an acceleration alarm alone is a *speed* error when the new speed is far
 //! from the speed observed over the baseline, else *acceleration*.
 //!
@@ -207,7 +208,7 @@ fn refit_allowance(r: [f64; 2], th: f64, dl: f64, dw: f64) -> [f64; 2] {
 /// Mahalanobis distance squared of `r` under the symmetric `[sxx, sxy, syy]`.
 fn mahalanobis2(r: [f64; 2], s: [f64; 3]) -> f64 {
     let det = s[0] * s[2] - s[1] * s[1];
-    if !(det > 0.0) {
+    if det.is_nan() || det <= 0.0 {
         return f64::INFINITY;
     }
     (s[2] * r[0] * r[0] - 2.0 * s[1] * r[0] * r[1] + s[0] * r[1] * r[1]) / det
@@ -272,15 +273,12 @@ pub fn check_calibrated(
             || accel + accel_margin < f64::from(limits.brake_max_mps2));
 
     // 3. Motion over the baseline: the oldest alarm-free, initialised state within baseline_s, else s0.
-    let mut b = n.saturating_sub(1);
-    for i in 0..n {
-        if let Some(e) = h.get(i) {
-            if s1.t_s - e.t_s <= baseline_s + 1e-9 && !e.suspect && !e.warmup {
-                b = i;
-                break;
-            }
-        }
-    }
+    // When every state in the window raised an alarm (a permanent error), the oldest in the window: the error
+    // keeps showing over the whole baseline.
+    let within = |e: &Entry| s1.t_s - e.t_s <= baseline_s + 1e-9;
+    let oldest_clean = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect && !e.warmup));
+    let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup));
+    let b = oldest_clean.or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     let mut pred = [0.0f64; 2];
     let mut cov = [
@@ -361,7 +359,9 @@ pub fn check_calibrated(
                         + k * k * 0.5 * (sq(c2.sx_m) + sq(c2.sy_m))
                         + acc * acc;
                     let dj = libm::hypot(rj[0], rj[1]);
-                    Some((dj, dj * dj / var > gates.chi2_2))
+                    // A jump if the positions alone are off, or if they explain most of the residual (a speed
+                    // error leaves the positions on their straight line).
+                    Some((dj, dj * dj / var > gates.chi2_2 || dj >= 0.7 * residual))
                 }
                 _ => None,
             };
