@@ -233,21 +233,23 @@ impl TrackTable {
                         } else {
                             let mut e1 = entry_of(obj, &s1, p, tr.age);
                             let limits = p.limits_for(obj.class);
-                            let cal: CalibratedCheck = check_calibrated(
-                                &tr.hist,
-                                &e1,
-                                &limits,
-                                &gates,
-                                f64::from(p.heading_min_speed_mps),
-                                p.baseline_s,
-                            );
+                            let cal = || -> CalibratedCheck {
+                                check_calibrated(
+                                    &tr.hist,
+                                    &e1,
+                                    &limits,
+                                    &gates,
+                                    f64::from(p.heading_min_speed_mps),
+                                    p.baseline_s,
+                                )
+                            };
                             let outcome = match p.plausibility_mode {
                                 PlausibilityMode::Paper => {
                                     let m = check_motion(&tr.state, &s1, &limits, f64::from(p.gamma_plaus));
                                     let (kind, size, severity) = if m.fired.is_empty() {
                                         (None, 0.0, 0.0)
-                                    } else if let Some(k) = cal.kind {
-                                        (Some(k), cal.error_size, cal.severity)
+                                    } else if let Some(c) = Some(cal()).filter(|c| c.kind.is_some()) {
+                                        (c.kind, c.error_size, c.severity)
                                     } else {
                                         let (k, e, s) = kind_from_conditions(m.fired, &m);
                                         (Some(k), e, s)
@@ -275,28 +277,31 @@ impl TrackTable {
                                         severity: severity as f32,
                                     }
                                 }
-                                PlausibilityMode::Calibrated => MotionOutcome {
-                                    verdict: if cal.fired.is_empty() {
-                                        MotionVerdict::Plausible
-                                    } else {
-                                        MotionVerdict::Implausible(cal.fired)
-                                    },
-                                    dt_s: dt,
-                                    accel_mps2: cal.accel.0 as f32,
-                                    accel_margin_mps2: cal.accel.1 as f32,
-                                    turn_rate_radps: cal.turn_rate.0 as f32,
-                                    turn_rate_margin_radps: cal.turn_rate.1 as f32,
-                                    predicted_world_m: cal.predicted,
-                                    predicted_margin_m: [
-                                        cal.predicted_margin[0] as f32,
-                                        cal.predicted_margin[1] as f32,
-                                    ],
-                                    position_residual_m: cal.residual as f32,
-                                    position_allowance_m: cal.allowance as f32,
-                                    kind: cal.kind,
-                                    error_size: cal.error_size as f32,
-                                    severity: cal.severity as f32,
-                                },
+                                PlausibilityMode::Calibrated => {
+                                    let cal = cal();
+                                    MotionOutcome {
+                                        verdict: if cal.fired.is_empty() {
+                                            MotionVerdict::Plausible
+                                        } else {
+                                            MotionVerdict::Implausible(cal.fired)
+                                        },
+                                        dt_s: dt,
+                                        accel_mps2: cal.accel.0 as f32,
+                                        accel_margin_mps2: cal.accel.1 as f32,
+                                        turn_rate_radps: cal.turn_rate.0 as f32,
+                                        turn_rate_margin_radps: cal.turn_rate.1 as f32,
+                                        predicted_world_m: cal.predicted,
+                                        predicted_margin_m: [
+                                            cal.predicted_margin[0] as f32,
+                                            cal.predicted_margin[1] as f32,
+                                        ],
+                                        position_residual_m: cal.residual as f32,
+                                        position_allowance_m: cal.allowance as f32,
+                                        kind: cal.kind,
+                                        error_size: cal.error_size as f32,
+                                        severity: cal.severity as f32,
+                                    }
+                                }
                             };
                             e1.suspect = matches!(outcome.verdict, MotionVerdict::Implausible(_));
                             let mut hist = tr.hist;
