@@ -286,27 +286,33 @@ pub fn check_calibrated(
         0.0,
         f64::from(sb.sy_m) * f64::from(sb.sy_m) + f64::from(s1.sy_m) * f64::from(s1.sy_m),
     ];
-    // Entries b..n-1 then s1; weights: half of each adjacent interval.
-    let count = n - b + 1;
-    for j in 0..count {
-        let e = if b + j < n { h.get(b + j).copied().unwrap_or(*s1) } else { *s1 };
-        let t_prev = if j == 0 { e.t_s } else { h.get(b + j - 1).map_or(e.t_s, |p| p.t_s) };
-        let t_next = if b + j + 1 < n {
-            h.get(b + j + 1).map_or(e.t_s, |p| p.t_s)
-        } else if b + j < n {
-            s1.t_s
-        } else {
-            e.t_s
-        };
-        let w = 0.5 * ((e.t_s - t_prev) + (t_next - e.t_s));
+    // Trapezoid over b, the alarm-free states after it, and s1 (a state that raised an alarm, such as a flipped
+    // heading, lends no velocity); each velocity weighs half of its two adjacent intervals.
+    let mut prev: Option<Entry> = None;
+    let mut prev_w = 0.0f64;
+    let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
         let th = f64::from(e.heading_rad);
         let v = f64::from(e.v_mps);
         let (s, c) = libm::sincos(th);
         pred[0] += w * v * c;
         pred[1] += w * v * s;
-        let sv = if e.warmup { f64::from(e.sv_mps).max(0.0) } else { f64::from(e.sv_mps) };
-        let across = v * f64::from(e.sh_rad) + sv;
-        add_velocity_cov(&mut cov, w, th, sv, across);
+        let sv = f64::from(e.sv_mps);
+        add_velocity_cov(cov, w, th, sv, v * f64::from(e.sh_rad) + sv);
+    };
+    for j in b..=n {
+        let e = if j < n { h.get(j).copied().unwrap_or(*s1) } else { *s1 };
+        if j != b && j < n && e.suspect {
+            continue;
+        }
+        if let Some(p) = prev {
+            let half = 0.5 * (e.t_s - p.t_s);
+            add(&p, prev_w + half, &mut pred, &mut cov);
+            prev_w = half;
+        }
+        prev = Some(e);
+    }
+    if let Some(p) = prev {
+        add(&p, prev_w, &mut pred, &mut cov);
     }
     let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
     let r = refit_allowance(
