@@ -287,7 +287,8 @@ pub fn check_calibrated(
         f64::from(sb.sy_m) * f64::from(sb.sy_m) + f64::from(s1.sy_m) * f64::from(s1.sy_m),
     ];
     // Trapezoid over b, the alarm-free states after it, and s1 (a state that raised an alarm, such as a flipped
-    // heading, lends no velocity); each velocity weighs half of its two adjacent intervals.
+    // heading, lends no velocity while alarm-free states remain); each velocity weighs half of its two adjacent
+    // intervals.
     let mut prev: Option<Entry> = None;
     let mut prev_w = 0.0f64;
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
@@ -301,7 +302,8 @@ pub fn check_calibrated(
     };
     for j in b..=n {
         let e = if j < n { h.get(j).copied().unwrap_or(*s1) } else { *s1 };
-        if j != b && j < n && e.suspect {
+        // Under a permanent error (no alarm-free state in the window) every velocity counts.
+        if j != b && j < n && e.suspect && oldest_clean.is_some() {
             continue;
         }
         if let Some(p) = prev {
