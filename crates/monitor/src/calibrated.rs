@@ -69,6 +69,8 @@ pub struct Entry {
     pub warmup: bool,
     /// This state raised an alarm (not used as a reference while alarm-free states remain).
     pub suspect: bool,
+    /// This state's heading was called flipped (its velocity is left out of the baseline).
+    pub flipped: bool,
 }
 
 impl Entry {
@@ -286,9 +288,8 @@ pub fn check_calibrated(
         0.0,
         f64::from(sb.sy_m) * f64::from(sb.sy_m) + f64::from(s1.sy_m) * f64::from(s1.sy_m),
     ];
-    // Trapezoid over b, the alarm-free states after it, and s1 (a state that raised an alarm, such as a flipped
-    // heading, lends no velocity while alarm-free states remain); each velocity weighs half of its two adjacent
-    // intervals.
+    // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no
+    // velocity); each velocity weighs half of its two adjacent intervals.
     let mut prev: Option<Entry> = None;
     let mut prev_w = 0.0f64;
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
@@ -302,8 +303,7 @@ pub fn check_calibrated(
     };
     for j in b..=n {
         let e = if j < n { h.get(j).copied().unwrap_or(*s1) } else { *s1 };
-        // Under a permanent error (no alarm-free state in the window) every velocity counts.
-        if j != b && j < n && e.suspect && oldest_clean.is_some() {
+        if j != b && j < n && e.flipped {
             continue;
         }
         if let Some(p) = prev {
@@ -448,6 +448,7 @@ mod tests {
             width_m: 1.8,
             warmup: false,
             suspect: false,
+            flipped: false,
         }
     }
 

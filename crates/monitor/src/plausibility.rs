@@ -52,6 +52,7 @@ fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> 
         width_m: o.width_m,
         warmup,
         suspect: false,
+        flipped: false,
     }
 }
 
@@ -304,6 +305,7 @@ impl TrackTable {
                                 }
                             };
                             e1.suspect = matches!(outcome.verdict, MotionVerdict::Implausible(_));
+                            e1.flipped = e1.suspect && outcome.kind == Some(ImplausibilityKind::HeadingFlip);
                             let mut hist = tr.hist;
                             hist.push(e1);
                             if self.next.len() < cap {
