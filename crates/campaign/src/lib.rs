@@ -10,6 +10,8 @@ pub mod inject;
 pub mod metrics;
 pub mod real_data;
 pub mod run;
+pub mod tracker;
+pub mod tracker_eval;
 
 pub use inject::{Direction, Fault, Injection, InjectionConfig, Injector};
 pub use metrics::{score, Metrics, Outcome, Rate, Score};

@@ -146,6 +146,18 @@ struct ObjectRecord<'a> {
     predicted_margin_m: [f32; 2],
     position_residual_m: f32,
     position_allowance_m: f32,
+    /// What is wrong (implausible motion only): speed_inconsistent, heading_flip, position_jump, acceleration,
+    /// turn_rate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kind: Option<&'static str>,
+    /// Estimated error size in the kind's unit (`error_unit`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error_size: Option<f32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error_unit: Option<&'static str>,
+    /// Error size over the safety-critical size (1 m, 3 m/s): >= 1 is safety-critical.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    severity: Option<f32>,
 }
 
 /// The last JSONL record: the run's totals (`"record": "totals"`; object and missed-object records have no
@@ -203,6 +215,10 @@ fn object_record<'a>(f: &RecordedFrame, o: &'a ObjectState, r: &ObjectReport) ->
         predicted_margin_m: r.motion.predicted_margin_m,
         position_residual_m: r.motion.position_residual_m,
         position_allowance_m: r.motion.position_allowance_m,
+        kind: r.motion.kind.map(|k| k.name()),
+        error_size: r.motion.kind.map(|_| r.motion.error_size),
+        error_unit: r.motion.kind.map(|k| k.unit()),
+        severity: r.motion.kind.map(|_| r.motion.severity),
     }
 }
 
@@ -212,6 +228,8 @@ struct Totals {
     frames: u64,
     objects: u64,
     verdicts: BTreeMap<String, u64>,
+    /// Implausible motion by kind: (alarms, of those safety-critical).
+    kinds: BTreeMap<&'static str, (u64, u64)>,
     missed_objects: u64,
     frames_with_alarms: u64,
     /// Frames whose sensor checks ran (with a cloud).
@@ -226,6 +244,19 @@ fn describe_alarm(o: &ObjectState, r: &ObjectReport) -> String {
             r.sensor.eta,
             r.sensor.offset_m[0].hypot(r.sensor.offset_m[1])
         ),
+        Verdict::ImplausibleMotion(_) if r.motion.kind.is_some() => {
+            let k = r.motion.kind.map_or("", |k| k.name());
+            let unit = r.motion.kind.map_or("", |k| k.unit());
+            format!(
+                "implausible motion: {k} {:+.2} {unit} ({}, {:.1}x the safety-critical size); position off by {:.2} m (allowed {:.2}), a {:+.1} m/s²",
+                r.motion.error_size,
+                if r.motion.severity >= 1.0 { "critical" } else { "below critical" },
+                r.motion.severity,
+                r.motion.position_residual_m,
+                r.motion.position_allowance_m,
+                r.motion.accel_mps2,
+            )
+        }
         Verdict::ImplausibleMotion(c) => format!(
             "implausible motion [{c}]: a {:+.1}±{:.1} m/s², ω {:+.2}±{:.2} rad/s, position off by {:.2} m (allowed {:.2})",
             r.motion.accel_mps2,
@@ -270,6 +301,21 @@ fn write_text_frame(out: &mut dyn Write, f: &RecordedFrame, rep: &FrameReport<'_
         )?;
     }
     Ok(())
+}
+
+/// The verdict counted in the text summary. Without LiDAR the sensor checks judge nothing, so an object outside
+/// their grid is not monitored for the plausibility checks' reason (issue #11: a track's first frame without
+/// LiDAR read `outside_grid`, which says nothing about a frame that has no sensor data at all).
+fn summary_verdict(sensor_status: Option<pmon_monitor::NotMonitoredReason>, r: &ObjectReport) -> Verdict {
+    use pmon_monitor::{MotionVerdict, NotMonitoredReason};
+    match (sensor_status, r.verdict, r.motion.verdict) {
+        (
+            Some(NotMonitoredReason::NoLidarData),
+            Verdict::NotMonitored(NotMonitoredReason::OutsideGrid),
+            MotionVerdict::NotMonitored(m),
+        ) => Verdict::NotMonitored(m),
+        (_, v, _) => v,
+    }
 }
 
 /// Frames from a recording or a dataset, and the parameters the input itself needs.
@@ -408,7 +454,12 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             totals.frames_with_alarms += 1;
         }
         for r in rep.objects {
-            *totals.verdicts.entry(r.verdict.to_string()).or_default() += 1;
+            *totals.verdicts.entry(summary_verdict(rep.sensor_status, r).to_string()).or_default() += 1;
+            if let (Verdict::ImplausibleMotion(_), Some(k)) = (r.verdict, r.motion.kind) {
+                let e = totals.kinds.entry(k.name()).or_default();
+                e.0 += 1;
+                e.1 += u64::from(r.motion.severity >= 1.0);
+            }
         }
         match args.format {
             Format::Text => write_text_frame(&mut *out, &frame, &rep, args.all_frames)?,
@@ -456,6 +507,12 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             let share = 100.0 * *v as f64 / totals.objects.max(1) as f64;
             writeln!(out, "  {k:<45} {v:>8}  {share:>5.1} %")?;
         }
+        if !totals.kinds.is_empty() {
+            writeln!(out, "implausible motion by kind (alarms, of those safety-critical):")?;
+            for (k, (n, crit)) in &totals.kinds {
+                writeln!(out, "  {k:<45} {n:>8}  {crit:>8}")?;
+            }
+        }
     }
     if args.format == Format::Jsonl {
         let rec = TotalsRecord {
@@ -479,4 +536,39 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
         f.commit()?;
     }
     Ok(if totals.frames_with_alarms > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+#[cfg(test)]
+mod tests {
+    use pmon_monitor::{Frame, Monitor, MonitorParams, NotMonitoredReason, ObjectClass, ObjectState, Pose2, Verdict};
+
+    #[test]
+    fn issue_11_first_frame_without_lidar_is_summarised_as_first_frame_of_track() {
+        // A world-frame object list without LiDAR: the object lies far outside the grid around the origin.
+        let mut m = Monitor::new(MonitorParams::default()).unwrap();
+        let o = ObjectState {
+            id: 1,
+            class: ObjectClass::Car,
+            x_m: 500.0,
+            y_m: 300.0,
+            heading_rad: 0.0,
+            speed_mps: 0.0,
+            length_m: 4.5,
+            width_m: 1.8,
+            uncertainty: None,
+        };
+        let objects = [o];
+        let f = Frame {
+            timestamp_s: 0.0,
+            world_from_ego: Pose2::default(),
+            objects: &objects,
+            cloud: None,
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        let rep = m.check(&f).unwrap();
+        let v = super::summary_verdict(rep.sensor_status, &rep.objects[0]);
+        assert_eq!(v, Verdict::NotMonitored(NotMonitoredReason::FirstFrameOfTrack));
+        assert_eq!(v.to_string(), "not_monitored(first_frame_of_track)");
+    }
 }

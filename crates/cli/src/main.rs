@@ -6,6 +6,7 @@ mod config;
 mod output;
 mod reproduce;
 mod simulate;
+mod tracker_bed;
 mod view;
 
 use std::path::PathBuf;
@@ -96,6 +97,9 @@ enum Command {
         #[arg(long, value_enum, default_value_t = bag::ConvertFormat::Recording)]
         format: bag::ConvertFormat,
     },
+    /// Score the plausibility checks on simulated tracker-like output (warm-up, re-fits, jitter, flips, jumps,
+    /// drop-outs): false alarms on benign states, recall on safety-critical errors, kind correctness.
+    TrackerBed(tracker_bed::TrackerBedArgs),
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
         /// A TOML file of parameters to validate and print merged over the defaults.
@@ -176,6 +180,7 @@ fn main() -> ExitCode {
         Command::Convert { spec, out, force, roi, sidewalk_m, grid_size_m, .. } => {
             convert(&spec, &out, force, &check::read_options(roi, sidewalk_m, grid_size_m))
         }
+        Command::TrackerBed(args) => tracker_bed::run(&args),
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
     };
     match result {

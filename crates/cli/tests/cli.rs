@@ -141,7 +141,9 @@ fn object_list_without_clouds_runs_plausibility_only() {
     std::fs::write(&p, s).unwrap();
     let o = pmon(&["check", p.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(text(&o).contains("implausible motion [position]"), "{}", text(&o));
+    // The alarm names its kind and size (issue #11), and the summary counts alarms by kind.
+    assert!(text(&o).contains("implausible motion: position_jump +"), "{}", text(&o));
+    assert!(text(&o).contains("implausible motion by kind"), "{}", text(&o));
     assert!(text(&o).contains("consistent"), "{}", text(&o));
 }
 

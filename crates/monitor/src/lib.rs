@@ -32,12 +32,15 @@ pub mod params;
 pub mod verdict;
 
 pub use frame::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty};
-pub use params::{ClassMotionLimits, MonitorParams, MotionLimits, ParamError};
+pub use params::{
+    ClassMotionLimits, ClassTrackerNoise, MonitorParams, MotionLimits, ParamError, PlausibilityMode, TrackerNoise,
+};
 pub use verdict::{
-    ClusterReport, Conditions, FrameError, FrameReport, GridStats, MotionOutcome, MotionVerdict, NotMonitoredReason,
-    ObjectReport, SensorOutcome, SensorVerdict, Verdict,
+    ClusterReport, Conditions, FrameError, FrameReport, GridStats, ImplausibilityKind, MotionOutcome, MotionVerdict,
+    NotMonitoredReason, ObjectReport, SensorOutcome, SensorVerdict, Verdict,
 };
 
+pub mod calibrated;
 mod evidence_memory;
 pub mod geometry;
 pub mod grid;

@@ -74,6 +74,110 @@ impl ClassMotionLimits {
     }
 }
 
+/// Which rule the plausibility checks apply (docs/plausibility.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
+pub enum PlausibilityMode {
+    /// The paper's rule: two frames, eqs. (condition_w), (condition_a), (condition_xy) with `gamma_plaus` and
+    /// the sum of the margins' norms. The default, and the rule of the paper's rows in `pmon reproduce`.
+    #[default]
+    Paper,
+    /// The tracker-aware, calibrated rule: Mahalanobis / chi-square gates at `false_alarm_probability` on the
+    /// propagated covariance, the position checked over a baseline of up to `baseline_s` (a ring buffer per
+    /// track), heading and turn rate judged only where the heading is defined, box re-fits allowed for, the
+    /// speed warm-up of new tracks tolerated up to the safety-critical size, per-class noise for objects
+    /// without uncertainty.
+    Calibrated,
+}
+
+/// A tracker's noise (one sigma) for objects that report no uncertainty, in the calibrated mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(deny_unknown_fields))]
+pub struct TrackerNoise {
+    /// Position noise of a moving object, each axis, metres.
+    pub position_m: f32,
+    /// Position noise of a standing object (centre jitter), each axis, metres; blended with `position_m` as
+    /// `exp(-v / 1 m/s)` of the reported speed.
+    pub standstill_position_m: f32,
+    /// Speed noise, m/s.
+    pub speed_mps: f32,
+    /// Heading noise of a moving object, radians (it grows as `speed_mps / v` towards standstill).
+    pub heading_rad: f32,
+}
+
+impl TrackerNoise {
+    /// The common default: a typical tracker without covariances (docs/plausibility.md).
+    pub const DEFAULT: Self = Self { position_m: 0.15, standstill_position_m: 0.3, speed_mps: 0.5, heading_rad: 0.1 };
+
+    fn is_valid(&self) -> bool {
+        [self.position_m, self.standstill_position_m, self.speed_mps, self.heading_rad]
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.0)
+    }
+
+    /// Position sigma at reported speed `v_mps`, metres.
+    #[must_use]
+    pub fn position_at(&self, v_mps: f64) -> f64 {
+        let w = libm::exp(-v_mps.max(0.0));
+        f64::from(self.position_m) + (f64::from(self.standstill_position_m) - f64::from(self.position_m)) * w
+    }
+}
+
+impl Default for TrackerNoise {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Per-class overrides of [`MonitorParams::tracker_noise`]; `None` uses the common values.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
+pub struct ClassTrackerNoise {
+    /// Cars.
+    pub car: Option<TrackerNoise>,
+    /// Trucks, vans, buses.
+    pub truck: Option<TrackerNoise>,
+    /// Pedestrians.
+    pub pedestrian: Option<TrackerNoise>,
+    /// Cyclists.
+    pub cyclist: Option<TrackerNoise>,
+    /// Motorcyclists.
+    pub motorcyclist: Option<TrackerNoise>,
+    /// Other objects.
+    pub other: Option<TrackerNoise>,
+    /// Objects of unknown class.
+    pub unknown: Option<TrackerNoise>,
+}
+
+impl ClassTrackerNoise {
+    /// The entry of a class.
+    #[must_use]
+    pub fn get(&self, class: ObjectClass) -> Option<TrackerNoise> {
+        match class {
+            ObjectClass::Car => self.car,
+            ObjectClass::Truck => self.truck,
+            ObjectClass::Pedestrian => self.pedestrian,
+            ObjectClass::Cyclist => self.cyclist,
+            ObjectClass::Motorcyclist => self.motorcyclist,
+            ObjectClass::Other => self.other,
+            ObjectClass::Unknown => self.unknown,
+        }
+    }
+
+    /// The entry of a class, to set it.
+    pub fn get_mut(&mut self, class: ObjectClass) -> &mut Option<TrackerNoise> {
+        match class {
+            ObjectClass::Car => &mut self.car,
+            ObjectClass::Truck => &mut self.truck,
+            ObjectClass::Pedestrian => &mut self.pedestrian,
+            ObjectClass::Cyclist => &mut self.cyclist,
+            ObjectClass::Motorcyclist => &mut self.motorcyclist,
+            ObjectClass::Other => &mut self.other,
+            ObjectClass::Unknown => &mut self.unknown,
+        }
+    }
+}
+
 /// All parameters of the monitor. `Default` is the paper's Table I plus documented choices for what the paper
 /// leaves open (height band, inverse sensor model, clustering, capacities).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -137,6 +241,27 @@ pub struct MonitorParams {
     /// Longest time step the small-dt motion model is trusted for, seconds; a longer gap restarts the track.
     pub max_time_step_s: f64,
 
+    // ---- calibrated plausibility (beyond the paper; docs/plausibility.md) ----
+    /// Which rule the plausibility checks apply. Default: the paper's.
+    pub plausibility_mode: PlausibilityMode,
+    /// Calibrated mode: the false-alarm probability of each gate per object state (chi-square with 2 degrees
+    /// of freedom for the position, two-sided normal for speed change and heading), in (0, 0.5).
+    pub false_alarm_probability: f64,
+    /// Calibrated mode: the longest position baseline, seconds (at most [`crate::plausibility::HISTORY`] - 1
+    /// frames back): a permanent speed error shows as a displacement growing with the baseline.
+    pub baseline_s: f64,
+    /// Calibrated mode: frames at a track's start in which a reported speed of exactly 0 counts as not yet
+    /// initialised (judged against the motion with `warmup_speed_sigma_mps`, no acceleration check).
+    pub warmup_frames: u32,
+    /// Calibrated mode: the speed sigma of a not yet initialised speed, m/s.
+    pub warmup_speed_sigma_mps: f32,
+    /// Calibrated mode: the heading (flips, turn rate) is judged only when both reported speeds reach this, m/s.
+    pub heading_min_speed_mps: f32,
+    /// Calibrated mode: noise of objects without uncertainty.
+    pub tracker_noise: TrackerNoise,
+    /// Calibrated mode: per-class overrides of `tracker_noise`.
+    pub per_class_noise: ClassTrackerNoise,
+
     // ---- capacities (fixed at construction: no allocation per frame) ----
     /// Most LiDAR points accepted per frame; a larger cloud leaves the sensor checks *not monitored*.
     pub max_points: u32,
@@ -196,6 +321,22 @@ impl MonitorParams {
             width_m: 0.0,
         },
         max_time_step_s: 0.5,
+        plausibility_mode: PlausibilityMode::Paper,
+        false_alarm_probability: 1.0e-4,
+        baseline_s: 0.5,
+        warmup_frames: 2,
+        warmup_speed_sigma_mps: 0.7,
+        heading_min_speed_mps: 1.0,
+        tracker_noise: TrackerNoise::DEFAULT,
+        per_class_noise: ClassTrackerNoise {
+            car: None,
+            truck: None,
+            pedestrian: None,
+            cyclist: None,
+            motorcyclist: None,
+            other: None,
+            unknown: None,
+        },
         max_points: 400_000,
         max_objects: 1024,
         max_clusters: 512,
@@ -206,6 +347,12 @@ impl MonitorParams {
     #[must_use]
     pub fn limits_for(&self, class: ObjectClass) -> MotionLimits {
         self.per_class_limits.get(class).unwrap_or(self.motion_limits)
+    }
+
+    /// Tracker noise for a class: the per-class override if set, else the common values.
+    #[must_use]
+    pub fn noise_for(&self, class: ObjectClass) -> TrackerNoise {
+        self.per_class_noise.get(class).unwrap_or(self.tracker_noise)
     }
 
     /// The obstacle height band in the ego frame, `(lowest, highest)` z, metres: points between them (inclusive)
@@ -348,6 +495,25 @@ impl MonitorParams {
         at_most("default_uncertainty", u.heading_rad, core::f32::consts::PI, why)?;
         if !(self.max_time_step_s >= 1e-3 && self.max_time_step_s <= 60.0) {
             return Err(ParamError { field: "max_time_step_s", reason: "must be in [0.001, 60] s" });
+        }
+        if !(self.false_alarm_probability > 0.0 && self.false_alarm_probability < 0.5) {
+            return Err(ParamError { field: "false_alarm_probability", reason: "must be in (0, 0.5)" });
+        }
+        if !(self.baseline_s.is_finite() && self.baseline_s >= 0.0) {
+            return Err(ParamError { field: "baseline_s", reason: "must be finite and >= 0" });
+        }
+        if self.warmup_frames > 100 {
+            return Err(ParamError { field: "warmup_frames", reason: "must be <= 100" });
+        }
+        pos("warmup_speed_sigma_mps", self.warmup_speed_sigma_mps)?;
+        non_neg("heading_min_speed_mps", self.heading_min_speed_mps)?;
+        if !self.tracker_noise.is_valid() {
+            return Err(ParamError { field: "tracker_noise", reason: "every value must be finite and > 0" });
+        }
+        for c in ObjectClass::ALL {
+            if self.per_class_noise.get(c).is_some_and(|n| !n.is_valid()) {
+                return Err(ParamError { field: "per_class_noise", reason: "every value must be finite and > 0" });
+            }
         }
         if !(1..=MAX_POINTS).contains(&self.max_points) {
             return Err(ParamError { field: "max_points", reason: "must be in [1, 4194304]" });

@@ -7,16 +7,71 @@
 
 use alloc::vec::Vec;
 
+pub use crate::calibrated::HISTORY;
+use crate::calibrated::{check_calibrated, CalibratedCheck, Entry, Gates, History};
 use crate::frame::{ObjectState, Pose2, Uncertainty};
 use crate::geometry::wrap_angle;
 use crate::motion::{check_motion, MeasuredState};
-use crate::params::MonitorParams;
-use crate::verdict::{MotionOutcome, MotionVerdict, NotMonitoredReason};
+use crate::params::{MonitorParams, PlausibilityMode};
+use crate::verdict::{Conditions, ImplausibilityKind, MotionOutcome, MotionVerdict, NotMonitoredReason};
 
 #[derive(Clone, Copy, Debug)]
 struct Track {
     id: u64,
+    /// The last state with the paper's margins (the paper's rule).
     state: MeasuredState,
+    /// The last [`HISTORY`] states with the calibrated rule's sigmas.
+    hist: History,
+    /// States seen since the track started.
+    age: u32,
+}
+
+/// The calibrated rule's view of an object: its own uncertainty when given, else the class's tracker noise.
+fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> Entry {
+    let v = f64::from(o.speed_mps);
+    let warmup = age < p.warmup_frames && o.speed_mps <= 0.0;
+    let (sx, sy, sv, sh) = match o.uncertainty {
+        Some(_) => (s.dx_m as f32, s.dy_m as f32, s.dv_mps as f32, s.dheading_rad as f32),
+        None => {
+            let n = p.noise_for(o.class);
+            let sp = n.position_at(v) as f32;
+            (sp, sp, n.speed_mps, n.heading_rad)
+        }
+    };
+    Entry {
+        t_s: s.t_s,
+        x_m: s.x_m,
+        y_m: s.y_m,
+        v_mps: o.speed_mps,
+        heading_rad: s.heading_rad as f32,
+        sx_m: sx,
+        sy_m: sy,
+        sv_mps: if warmup { sv.max(p.warmup_speed_sigma_mps) } else { sv },
+        sh_rad: sh,
+        length_m: o.length_m,
+        width_m: o.width_m,
+        warmup,
+        suspect: false,
+        flipped: false,
+    }
+}
+
+/// Kind and size of a paper-mode alarm the calibrated rule did not name: read off the conditions.
+fn kind_from_conditions(c: Conditions, m: &crate::motion::MotionCheck) -> (ImplausibilityKind, f64, f64) {
+    use crate::calibrated::{CRITICAL_POSITION_M, CRITICAL_SPEED_MPS};
+    if c.contains(Conditions::TURN_RATE) && libm::fabs(m.turn_rate * m.dt_s) > core::f64::consts::FRAC_PI_2 {
+        let d = libm::fabs(m.turn_rate * m.dt_s);
+        (ImplausibilityKind::HeadingFlip, d, 0.0)
+    } else if c.contains(Conditions::POSITION) {
+        let e = m.residual - m.allowance;
+        (ImplausibilityKind::PositionJump, e, e / CRITICAL_POSITION_M)
+    } else if c.contains(Conditions::ACCELERATION) {
+        let e = libm::fabs(m.accel) - m.accel_margin;
+        (ImplausibilityKind::Acceleration, e, e * m.dt_s / CRITICAL_SPEED_MPS)
+    } else {
+        let e = libm::fabs(m.turn_rate) - m.turn_rate_margin;
+        (ImplausibilityKind::TurnRate, e, 0.0)
+    }
 }
 
 /// The tracks' last states.
@@ -98,6 +153,7 @@ impl TrackTable {
             }
             return;
         }
+        let gates = Gates::new(p.false_alarm_probability);
         self.order.clear();
         self.order.extend(0..n as u32);
         self.order.sort_unstable_by_key(|&i| (objects.get(i as usize).map_or(u64::MAX, |o| o.id), i));
@@ -157,11 +213,11 @@ impl TrackTable {
             } else {
                 let u = obj.uncertainty.unwrap_or(p.default_uncertainty);
                 let s1 = to_world(obj, &u, pose, t_s);
-                let new_track = Track { id, state: s1 };
+                let fresh = |age: u32| Track { id, state: s1, hist: History::with(entry_of(obj, &s1, p, age)), age: 1 };
                 match prev {
                     None => {
                         if self.next.len() < cap {
-                            self.next.push(new_track);
+                            self.next.push(fresh(0));
                         }
                         MotionOutcome::not_monitored(NotMonitoredReason::FirstFrameOfTrack)
                     }
@@ -172,33 +228,91 @@ impl TrackTable {
                             MotionOutcome::not_monitored(NotMonitoredReason::TimeStepNotPositive)
                         } else if dt > p.max_time_step_s {
                             if self.next.len() < cap {
-                                self.next.push(new_track);
+                                self.next.push(fresh(0));
                             }
                             MotionOutcome::not_monitored(NotMonitoredReason::TimeStepTooLong)
                         } else {
-                            if self.next.len() < cap {
-                                self.next.push(new_track);
-                            }
-                            let m = check_motion(&tr.state, &s1, &p.limits_for(obj.class), f64::from(p.gamma_plaus));
-                            let outcome = MotionOutcome {
-                                verdict: if m.fired.is_empty() {
-                                    MotionVerdict::Plausible
-                                } else {
-                                    MotionVerdict::Implausible(m.fired)
-                                },
-                                dt_s: m.dt_s,
-                                accel_mps2: m.accel as f32,
-                                accel_margin_mps2: m.accel_margin as f32,
-                                turn_rate_radps: m.turn_rate as f32,
-                                turn_rate_margin_radps: m.turn_rate_margin as f32,
-                                predicted_world_m: m.predicted,
-                                predicted_margin_m: [m.predicted_margin[0] as f32, m.predicted_margin[1] as f32],
-                                position_residual_m: m.residual as f32,
-                                position_allowance_m: m.allowance as f32,
+                            let mut e1 = entry_of(obj, &s1, p, tr.age);
+                            let limits = p.limits_for(obj.class);
+                            let cal = || -> CalibratedCheck {
+                                check_calibrated(
+                                    &tr.hist,
+                                    &e1,
+                                    &limits,
+                                    &gates,
+                                    f64::from(p.heading_min_speed_mps),
+                                    p.baseline_s,
+                                )
                             };
-                            // No verdict from a NaN: every comparison with NaN is false, so no condition
-                            // would fire (issue 15: a tiny dt made the acceleration infinite and the residual
-                            // NaN, and a 573 m jump was called plausible).
+                            let outcome = match p.plausibility_mode {
+                                PlausibilityMode::Paper => {
+                                    let m = check_motion(&tr.state, &s1, &limits, f64::from(p.gamma_plaus));
+                                    let (kind, size, severity) = if m.fired.is_empty() {
+                                        (None, 0.0, 0.0)
+                                    } else if let Some(c) = Some(cal()).filter(|c| c.kind.is_some()) {
+                                        (c.kind, c.error_size, c.severity)
+                                    } else {
+                                        let (k, e, s) = kind_from_conditions(m.fired, &m);
+                                        (Some(k), e, s)
+                                    };
+                                    MotionOutcome {
+                                        verdict: if m.fired.is_empty() {
+                                            MotionVerdict::Plausible
+                                        } else {
+                                            MotionVerdict::Implausible(m.fired)
+                                        },
+                                        dt_s: m.dt_s,
+                                        accel_mps2: m.accel as f32,
+                                        accel_margin_mps2: m.accel_margin as f32,
+                                        turn_rate_radps: m.turn_rate as f32,
+                                        turn_rate_margin_radps: m.turn_rate_margin as f32,
+                                        predicted_world_m: m.predicted,
+                                        predicted_margin_m: [
+                                            m.predicted_margin[0] as f32,
+                                            m.predicted_margin[1] as f32,
+                                        ],
+                                        position_residual_m: m.residual as f32,
+                                        position_allowance_m: m.allowance as f32,
+                                        kind,
+                                        error_size: size as f32,
+                                        severity: severity as f32,
+                                    }
+                                }
+                                PlausibilityMode::Calibrated => {
+                                    let cal = cal();
+                                    MotionOutcome {
+                                        verdict: if cal.fired.is_empty() {
+                                            MotionVerdict::Plausible
+                                        } else {
+                                            MotionVerdict::Implausible(cal.fired)
+                                        },
+                                        dt_s: dt,
+                                        accel_mps2: cal.accel.0 as f32,
+                                        accel_margin_mps2: cal.accel.1 as f32,
+                                        turn_rate_radps: cal.turn_rate.0 as f32,
+                                        turn_rate_margin_radps: cal.turn_rate.1 as f32,
+                                        predicted_world_m: cal.predicted,
+                                        predicted_margin_m: [
+                                            cal.predicted_margin[0] as f32,
+                                            cal.predicted_margin[1] as f32,
+                                        ],
+                                        position_residual_m: cal.residual as f32,
+                                        position_allowance_m: cal.allowance as f32,
+                                        kind: cal.kind,
+                                        error_size: cal.error_size as f32,
+                                        severity: cal.severity as f32,
+                                    }
+                                }
+                            };
+                            e1.suspect = matches!(outcome.verdict, MotionVerdict::Implausible(_));
+                            e1.flipped = e1.suspect && outcome.kind == Some(ImplausibilityKind::HeadingFlip);
+                            let mut hist = tr.hist;
+                            hist.push(e1);
+                            if self.next.len() < cap {
+                                self.next.push(Track { id, state: s1, hist, age: tr.age.saturating_add(1) });
+                            }
+                            // No verdict from a NaN: every comparison with NaN is false, so no condition would fire (issue 15: a
+                            // tiny dt made the acceleration infinite and the residual NaN, and a 573 m jump was called plausible).
                             if outcome_is_finite(&outcome) {
                                 outcome
                             } else {

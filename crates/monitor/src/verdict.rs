@@ -196,6 +196,56 @@ impl fmt::Display for MotionVerdict {
     }
 }
 
+/// What an implausible motion verdict says is wrong (the tracker-aware modes name it; the paper's mode does
+/// not). The error size is in [`MotionOutcome::error_size`], in the kind's unit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
+pub enum ImplausibilityKind {
+    /// The reported speed disagrees with the observed motion of the box (m/s: reported minus observed).
+    SpeedInconsistent,
+    /// The heading turned by more than 90 degrees in one step while the object moves (rad).
+    HeadingFlip,
+    /// The box moved where neither its reported motion nor its own position history puts it (m).
+    PositionJump,
+    /// The reported speeds change faster than the class can accelerate or brake, consistently with the
+    /// observed motion (m/s^2 beyond the limit).
+    Acceleration,
+    /// The heading turns faster than the class can turn (rad/s beyond the limit).
+    TurnRate,
+}
+
+impl ImplausibilityKind {
+    /// Short snake_case name, as in JSON output.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::SpeedInconsistent => "speed_inconsistent",
+            Self::HeadingFlip => "heading_flip",
+            Self::PositionJump => "position_jump",
+            Self::Acceleration => "acceleration",
+            Self::TurnRate => "turn_rate",
+        }
+    }
+
+    /// Unit of [`MotionOutcome::error_size`] for this kind.
+    #[must_use]
+    pub const fn unit(self) -> &'static str {
+        match self {
+            Self::SpeedInconsistent => "m/s",
+            Self::HeadingFlip => "rad",
+            Self::PositionJump => "m",
+            Self::Acceleration => "m/s^2",
+            Self::TurnRate => "rad/s",
+        }
+    }
+}
+
+impl fmt::Display for ImplausibilityKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// Details of the plausibility checks for one object: the estimates and margins of eqs. (pred1)-(condition_xy).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -218,8 +268,16 @@ pub struct MotionOutcome {
     pub predicted_margin_m: [f32; 2],
     /// Distance between prediction and measurement `||x_hat - x_tilde||`, metres.
     pub position_residual_m: f32,
-    /// Allowed distance `gamma_plaus (||Delta x_hat|| + ||Delta x_tilde||)`, metres.
+    /// Allowed distance `gamma_plaus (||Delta x_hat|| + ||Delta x_tilde||)`, metres (tracker mode: the gate's
+    /// distance along the residual).
     pub position_allowance_m: f32,
+    /// What is wrong, for an implausible verdict in the tracker-aware mode (`None` otherwise).
+    pub kind: Option<ImplausibilityKind>,
+    /// Estimated size of the error in the kind's unit ([`ImplausibilityKind::unit`]); 0 without a kind.
+    pub error_size: f32,
+    /// `|error_size|` over the safety-critical size of its kind (1 m, 3 m/s; a flip: the velocity error `2 v`
+    /// over 3 m/s; limits: the excess over the limit relative to the limit): `>= 1` is safety-critical.
+    pub severity: f32,
 }
 
 impl MotionOutcome {
@@ -237,6 +295,9 @@ impl MotionOutcome {
             predicted_margin_m: [0.0, 0.0],
             position_residual_m: 0.0,
             position_allowance_m: 0.0,
+            kind: None,
+            error_size: 0.0,
+            severity: 0.0,
         }
     }
 }

@@ -1,0 +1,322 @@
+//! The tracker test bed (issue #11): the monitor's plausibility checks on simulated ground truth passed through
+//! the [`crate::tracker::TrackerModel`], scored as false alarms on benign states, recall on safety-critical
+//! errors, and whether each alarm names the right kind.
+//!
+//! Scoring (window of two frames, as the paper's plausibility rule):
+//! - A state is **judged** when its motion verdict is plausible or implausible.
+//! - **False alarm**: an implausible verdict on a benign state whose track (reported id) carried no
+//!   non-benign error in this frame or the one before.
+//! - **Recall**: a critical error at frame `k` is detected by an implausible verdict on the same reported id at
+//!   `k` or `k + 1`; errors where neither state was judged (a track's first frame) are counted apart.
+//! - **Kind correct**: the first alarm of the window names the injected kind.
+
+use std::collections::{BTreeMap, HashMap};
+
+use pmon_monitor::{Monitor, MonitorParams, MotionOutcome, MotionVerdict, ObjectClass};
+use serde::{Deserialize, Serialize};
+
+use crate::metrics::Rate;
+use crate::run::Scene;
+use crate::tracker::{ErrorKind, Severity, TrackerLabel, TrackerModel, TrackerModelConfig};
+
+/// The kind an alarm names: the monitor's own estimate when it gives one, else read off the paper's conditions
+/// (turn rate with a heading change above 90 degrees: a flip; acceleration: speed; position only: a jump).
+#[must_use]
+pub fn alarm_kind(m: &MotionOutcome) -> Option<ErrorKind> {
+    let MotionVerdict::Implausible(c) = m.verdict else { return None };
+    if let Some(k) = m.kind {
+        return Some(match k {
+            pmon_monitor::ImplausibilityKind::HeadingFlip => ErrorKind::HeadingFlip,
+            pmon_monitor::ImplausibilityKind::PositionJump => ErrorKind::PositionJump,
+            pmon_monitor::ImplausibilityKind::SpeedInconsistent | pmon_monitor::ImplausibilityKind::Acceleration => {
+                ErrorKind::Speed
+            }
+            pmon_monitor::ImplausibilityKind::TurnRate => ErrorKind::HeadingFlip,
+        });
+    }
+    use pmon_monitor::Conditions as C;
+    if c.contains(C::TURN_RATE) && f64::from(m.turn_rate_radps.abs()) * m.dt_s > std::f64::consts::FRAC_PI_2 {
+        Some(ErrorKind::HeadingFlip)
+    } else if c.contains(C::ACCELERATION) {
+        Some(ErrorKind::Speed)
+    } else if c.contains(C::POSITION) {
+        Some(ErrorKind::PositionJump)
+    } else {
+        Some(ErrorKind::HeadingFlip)
+    }
+}
+
+/// Counts of one class or of everything.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BedCounts {
+    /// Benign states judged by the plausibility checks.
+    pub benign_judged: u64,
+    /// Of those, alarms not explained by an error in the window (false alarms).
+    pub benign_alarms: u64,
+    /// Critical errors with a judged state in their window.
+    pub critical: u64,
+    /// Of those, detected.
+    pub critical_detected: u64,
+    /// Of the detected, the first alarm named the injected kind.
+    pub kind_correct: u64,
+    /// Critical errors on a track's first frame(s): neither state of the window was judged.
+    pub critical_not_judged: u64,
+    /// Intermediate errors, and of those detected.
+    pub intermediate: u64,
+    /// Intermediate errors detected.
+    pub intermediate_detected: u64,
+}
+
+impl BedCounts {
+    fn add(&mut self, o: &Self) {
+        self.benign_judged += o.benign_judged;
+        self.benign_alarms += o.benign_alarms;
+        self.critical += o.critical;
+        self.critical_detected += o.critical_detected;
+        self.kind_correct += o.kind_correct;
+        self.critical_not_judged += o.critical_not_judged;
+        self.intermediate += o.intermediate;
+        self.intermediate_detected += o.intermediate_detected;
+    }
+
+    /// False alarms per benign judged state.
+    #[must_use]
+    pub fn false_alarm_rate(&self) -> Rate {
+        Rate::wilson(self.benign_alarms, self.benign_judged)
+    }
+
+    /// Recall on critical errors.
+    #[must_use]
+    pub fn recall(&self) -> Rate {
+        Rate::wilson(self.critical_detected, self.critical)
+    }
+
+    /// Share of detected critical errors whose alarm named the right kind.
+    #[must_use]
+    pub fn kind_accuracy(&self) -> Rate {
+        Rate::wilson(self.kind_correct, self.critical_detected)
+    }
+}
+
+/// The test bed's result on one scene.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct BedResult {
+    /// Scene name.
+    pub scene: String,
+    /// Everything.
+    pub all: BedCounts,
+    /// Per class.
+    pub per_class: BTreeMap<String, BedCounts>,
+    /// Per injected kind (critical errors only: critical, detected, kind correct).
+    pub per_kind: BTreeMap<String, BedCounts>,
+    /// Alarms on all judged states (benign or not) per mille of judged states.
+    pub alarms_per_mille_all: f64,
+}
+
+struct StateRec {
+    frame: usize,
+    id: u64,
+    class: ObjectClass,
+    label: TrackerLabel,
+    judged: bool,
+    alarm: Option<ErrorKind>,
+}
+
+/// Runs the test bed on a scene (its clouds are not used) with the given monitor parameters.
+///
+/// # Errors
+/// Invalid parameters or a frame the monitor refuses.
+pub fn run_bed(scene: &Scene, params: &MonitorParams, config: TrackerModelConfig) -> Result<BedResult, String> {
+    // Plausibility only: no LiDAR; a grid large enough that it does not matter.
+    let params = MonitorParams { grid_size_m: 1000.0, cell_size_m: 2.0, ..*params };
+    let mut monitor = Monitor::new(params).map_err(|e| e.to_string())?;
+    let mut model = TrackerModel::new(config);
+    let mut recs: Vec<StateRec> = Vec::new();
+    let mut objects = Vec::new();
+    for (k, clean) in scene.frames.iter().enumerate() {
+        objects.clone_from(&clean.objects);
+        let labels = model.apply(&mut objects);
+        let frame = pmon_monitor::Frame {
+            timestamp_s: clean.timestamp_s,
+            world_from_ego: clean.world_from_ego,
+            objects: &objects,
+            cloud: None,
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        let rep = monitor.check(&frame).map_err(|e| format!("{}: frame {k}: {e}", scene.name))?;
+        for ((o, r), l) in objects.iter().zip(rep.objects).zip(labels) {
+            recs.push(StateRec {
+                frame: k,
+                id: o.id,
+                class: o.class,
+                label: l,
+                judged: matches!(r.motion.verdict, MotionVerdict::Plausible | MotionVerdict::Implausible(_)),
+                alarm: alarm_kind(&r.motion),
+            });
+        }
+    }
+    let by_key: HashMap<(u64, usize), usize> = recs.iter().enumerate().map(|(i, r)| ((r.id, r.frame), i)).collect();
+    let get = |id: u64, f: Option<usize>| f.and_then(|f| by_key.get(&(id, f))).and_then(|&i| recs.get(i));
+    let mut out = BedResult { scene: scene.name.clone(), ..BedResult::default() };
+    let (mut judged_all, mut alarms_all) = (0u64, 0u64);
+    for r in &recs {
+        let mut c = BedCounts::default();
+        judged_all += u64::from(r.judged);
+        alarms_all += u64::from(r.alarm.is_some());
+        let prev = get(r.id, r.frame.checked_sub(1));
+        let next = get(r.id, Some(r.frame + 1));
+        match r.label.severity {
+            Severity::Benign => {
+                let explained = prev.is_some_and(|p| p.label.severity != Severity::Benign);
+                if r.judged && !explained {
+                    if std::env::var_os("PMON_BED_DEBUG").is_some() && r.alarm.is_some() {
+                        let p2 = get(r.id, r.frame.checked_sub(2)).map(|p| p.label);
+                        eprintln!(
+                            "FA {} {} {:?} prev {:?} prev2 {:?}",
+                            r.frame,
+                            r.id,
+                            r.alarm,
+                            prev.map(|p| p.label),
+                            p2
+                        );
+                    }
+                    c.benign_judged += 1;
+                    c.benign_alarms += u64::from(r.alarm.is_some());
+                }
+            }
+            sev => {
+                let window = [Some(r), next];
+                let judged = window.iter().flatten().any(|s| s.judged);
+                let first = window.iter().flatten().find_map(|s| s.alarm);
+                if sev == Severity::Critical {
+                    if judged {
+                        c.critical += 1;
+                        if let Some(kind) = first {
+                            c.critical_detected += 1;
+                            c.kind_correct += u64::from(Some(kind) == r.label.kind);
+                        }
+                    } else {
+                        c.critical_not_judged += 1;
+                    }
+                } else if judged {
+                    c.intermediate += 1;
+                    c.intermediate_detected += u64::from(first.is_some());
+                }
+            }
+        }
+        out.all.add(&c);
+        out.per_class.entry(r.class.name().to_string()).or_default().add(&c);
+        if r.label.severity == Severity::Critical {
+            if let Some(k) = r.label.kind {
+                let name = if r.label.warmup { "speed (warm-up)" } else { k.name() };
+                out.per_kind.entry(name.to_string()).or_default().add(&c);
+            }
+        }
+    }
+    out.alarms_per_mille_all = 1000.0 * alarms_all as f64 / judged_all.max(1) as f64;
+    Ok(out)
+}
+
+/// A text table of bed results: one row per scene and class, and per kind.
+#[must_use]
+pub fn bed_table(results: &[BedResult]) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let pm = |r: Rate| if r.n == 0 { "n/a".to_string() } else { format!("{:.2}", 1000.0 * r.value) };
+    let pct = |r: Rate| if r.n == 0 { "n/a".to_string() } else { format!("{:.1} %", 100.0 * r.value) };
+    let _ = writeln!(
+        s,
+        "{:<34} {:>9} {:>10} {:>8} {:>9} {:>8} {:>7} {:>9}",
+        "scene / class", "benign", "FA per mille", "critical", "recall", "kind ok", "1st fr.", "all alarms"
+    );
+    let mut total = BedCounts::default();
+    for r in results {
+        total.add(&r.all);
+        let row = |s: &mut String, name: &str, c: &BedCounts, extra: String| {
+            let _ = writeln!(
+                s,
+                "{:<34} {:>9} {:>10} {:>8} {:>9} {:>8} {:>7} {:>9}",
+                name,
+                c.benign_judged,
+                pm(c.false_alarm_rate()),
+                c.critical,
+                pct(c.recall()),
+                pct(c.kind_accuracy()),
+                c.critical_not_judged,
+                extra
+            );
+        };
+        row(&mut s, &r.scene, &r.all, format!("{:.1}", r.alarms_per_mille_all));
+        for (class, c) in &r.per_class {
+            row(&mut s, &format!("  {class}"), c, String::new());
+        }
+        for (kind, c) in &r.per_kind {
+            row(&mut s, &format!("  critical {kind}"), c, String::new());
+        }
+    }
+    let _ = writeln!(
+        s,
+        "{:<34} {:>9} {:>10} {:>8} {:>9} {:>8} {:>7}",
+        "all scenes",
+        total.benign_judged,
+        pm(total.false_alarm_rate()),
+        total.critical,
+        pct(total.recall()),
+        pct(total.kind_accuracy()),
+        total.critical_not_judged
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pmon_monitor::{ObjectState, PlausibilityMode, Pose2};
+    use pmon_recording::RecordedFrame;
+
+    fn scene() -> Scene {
+        // 20 cars at 10 m/s and 10 standing pedestrians, 30 s at 10 Hz.
+        let frames = (0..300u64)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                let mut f = RecordedFrame::empty(k, t, Pose2::default());
+                for i in 0..30u64 {
+                    let moving = i < 20;
+                    f.objects.push(ObjectState {
+                        id: i + 1,
+                        class: if moving { ObjectClass::Car } else { ObjectClass::Pedestrian },
+                        x_m: if moving { (10.0 * t) as f32 } else { 5.0 },
+                        y_m: 4.0 * i as f32,
+                        heading_rad: 0.0,
+                        speed_mps: if moving { 10.0 } else { 0.0 },
+                        length_m: if moving { 4.5 } else { 0.6 },
+                        width_m: if moving { 1.8 } else { 0.6 },
+                        uncertainty: None,
+                    });
+                }
+                f
+            })
+            .collect();
+        Scene { name: "straight".into(), source: "test".into(), frames }
+    }
+
+    #[test]
+    fn calibrated_rule_cuts_false_alarms_and_keeps_catching_jumps() {
+        let mut cfg = TrackerModelConfig::new(11);
+        cfg.jump_rate = 0.01;
+        let s = scene();
+        let paper = run_bed(&s, &MonitorParams::default(), cfg).unwrap();
+        let cal_params = MonitorParams { plausibility_mode: PlausibilityMode::Calibrated, ..MonitorParams::default() };
+        let cal = run_bed(&s, &cal_params, cfg).unwrap();
+        assert!(paper.all.benign_judged > 5000);
+        assert!(paper.all.false_alarm_rate().value > 0.005, "{:?}", paper.all);
+        // This scene has 3x the bed's jump rate, and flips of cars at 10 m/s echo in the following frames' baseline
+        // (measured 7.6 per mille, above the 1 per mille goal): at least 20x below the paper's rule.
+        assert!(cal.all.false_alarm_rate().value < 0.01, "{:?}", cal.all);
+        assert!(cal.all.false_alarm_rate().value * 20.0 < paper.all.false_alarm_rate().value);
+        let jumps = cal.per_kind.get("position_jump").copied().unwrap_or_default();
+        assert!(jumps.critical > 30 && jumps.recall().value > 0.9, "{jumps:?}");
+        assert!(jumps.kind_accuracy().value > 0.9, "{jumps:?}");
+    }
+}

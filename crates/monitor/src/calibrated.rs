@@ -1,0 +1,552 @@
+//! The calibrated, tracker-aware plausibility rule (beyond the paper; docs/plausibility.md).
+//!
+//! Per track a fixed-capacity ring buffer ([`History`]) keeps the last [`HISTORY`] states. For a new state
+//! `s1` the rule computes, with the previous state `s0`:
+//!
+//! 1. **Heading** (only where defined: both reported speeds `>= heading_min_speed_mps`, neither speed in its
+//!    warm-up). The heading sigma grows towards standstill as `sigma_th + sigma_v / v`. A change
+//!    `|D| - z sigma_D > pi / 2` is a *heading flip*; otherwise `|D| / dt - z sigma_D / dt > omega_max` is a
+//!    *turn rate* beyond the limit (`z`: the two-sided normal quantile of `false_alarm_probability`).
+//! 2. **Acceleration** `(v1 - v0) / dt` against `a_acc`, `a_br` with margin `z hypot(sigma_v0, sigma_v1) / dt`
+//!    (skipped when either speed is in its warm-up).
+//! 3. **Motion** over a baseline: the start `b` is the oldest state within `baseline_s` that raised no alarm
+//!    and whose speed is initialised (else the oldest initialised one in the window, else the previous state). The displacement predicted by the reported
+//!    velocities, `sum_i dt_i / 2 (v_i u_i + v_(i+1) u_(i+1))` (trapezoid, `u` the heading's unit vector), is
+//!    compared with the observed `p1 - p_b`. Box re-fits: the residual shrinks by half the length change along
+//!    the box and half the width change across it (the reference point moved, the object did not). The
+//!    covariance `S` is the two positions' plus each velocity's (`sigma_v` along the heading,
+//!    `v sigma_th + sigma_v` across, weighted by its share of the baseline; speed errors independent from frame
+//!    to frame, as in the paper's propagation). Implausible if `r^T S^-1 r > -2 ln p` (chi-square, 2 degrees of
+//!    freedom).
+//!
+//! Kinds: a flip first; then for the motion, a *position jump* if the box also leaves the straight-line
+//! extrapolation of its own last two alarm-free positions (positions only, `a_acc dt^2` allowed; or that
+//! distance is at least 0.7 of the motion residual), else a
+//! *speed inconsistent with motion*; an acceleration alarm alone is a *speed* error when the new speed is far
+//! from the speed observed over the baseline, else *acceleration*.
+//!
+//! Each gate fires with probability at most `p` on honest Gaussian input, so a state raises a false alarm
+//! with probability at most about `4 p`. Every loop is bounded by [`HISTORY`].
+
+use crate::geometry::wrap_angle;
+use crate::params::MotionLimits;
+use crate::verdict::{Conditions, ImplausibilityKind};
+
+/// States kept per track (the current one included once pushed).
+pub const HISTORY: usize = 12;
+
+/// Safety-critical position error (the paper's Sec. III-A), metres.
+pub const CRITICAL_POSITION_M: f64 = 1.0;
+/// Safety-critical speed error (the paper's Sec. III-A), m/s.
+pub const CRITICAL_SPEED_MPS: f64 = 3.0;
+
+/// One remembered state, world frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Entry {
+    /// Timestamp, seconds.
+    pub t_s: f64,
+    /// Position, metres.
+    pub x_m: f64,
+    /// Position, metres.
+    pub y_m: f64,
+    /// Reported speed, m/s.
+    pub v_mps: f32,
+    /// Reported heading, radians.
+    pub heading_rad: f32,
+    /// Position sigma along x, metres.
+    pub sx_m: f32,
+    /// Position sigma along y, metres.
+    pub sy_m: f32,
+    /// Speed sigma, m/s.
+    pub sv_mps: f32,
+    /// Heading sigma of a moving object, radians.
+    pub sh_rad: f32,
+    /// Box length, metres.
+    pub length_m: f32,
+    /// Box width, metres.
+    pub width_m: f32,
+    /// The speed is not yet initialised (0 in the track's warm-up).
+    pub warmup: bool,
+    /// This state raised an alarm (not used as a reference while alarm-free states remain).
+    pub suspect: bool,
+    /// This state's heading was called flipped (its velocity is left out of the baseline).
+    pub flipped: bool,
+}
+
+impl Entry {
+    fn heading_sigma(&self) -> f64 {
+        let v = f64::from(self.v_mps).max(0.05);
+        (f64::from(self.sh_rad) + f64::from(self.sv_mps) / v).min(core::f64::consts::PI)
+    }
+}
+
+/// A fixed-capacity ring buffer of a track's states, oldest first.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct History {
+    items: [Entry; HISTORY],
+    start: u8,
+    len: u8,
+}
+
+impl History {
+    /// Number of states.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
+    }
+
+    /// True when empty.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The `i`-th state, oldest first.
+    #[must_use]
+    pub fn get(&self, i: usize) -> Option<&Entry> {
+        if i >= self.len() {
+            return None;
+        }
+        self.items.get((usize::from(self.start) + i) % HISTORY)
+    }
+
+    /// The newest state.
+    #[must_use]
+    pub fn last(&self) -> Option<&Entry> {
+        self.len().checked_sub(1).and_then(|i| self.get(i))
+    }
+
+    /// Appends a state, dropping the oldest when full.
+    pub fn push(&mut self, e: Entry) {
+        if self.len() < HISTORY {
+            let idx = (usize::from(self.start) + self.len()) % HISTORY;
+            if let Some(slot) = self.items.get_mut(idx) {
+                *slot = e;
+            }
+            self.len += 1;
+        } else {
+            if let Some(slot) = self.items.get_mut(usize::from(self.start)) {
+                *slot = e;
+            }
+            self.start = ((usize::from(self.start) + 1) % HISTORY) as u8;
+        }
+    }
+
+    /// A history holding only `e`.
+    #[must_use]
+    pub fn with(e: Entry) -> Self {
+        let mut h = Self::default();
+        h.push(e);
+        h
+    }
+}
+
+/// The gates of a false-alarm probability `p`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gates {
+    /// Chi-square quantile with 2 degrees of freedom, `-2 ln p`.
+    pub chi2_2: f64,
+    /// Two-sided normal quantile `z` with `P(|N| > z) = p`.
+    pub z: f64,
+}
+
+impl Gates {
+    /// Gates for `p` in (0, 0.5) (Abramowitz and Stegun 26.2.23 for `z`, error below 4.5e-4).
+    #[must_use]
+    pub fn new(p: f64) -> Self {
+        let p = p.clamp(1e-300, 0.5);
+        let q = 0.5 * p;
+        let t = libm::sqrt(-2.0 * libm::log(q));
+        let z = t
+            - (2.515_517 + 0.802_853 * t + 0.010_328 * t * t)
+                / (1.0 + 1.432_788 * t + 0.189_269 * t * t + 0.001_308 * t * t * t);
+        Self { chi2_2: -2.0 * libm::log(p), z }
+    }
+}
+
+/// What the calibrated rule found for one state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CalibratedCheck {
+    /// Conditions that fired (flip and turn rate as `TURN_RATE`, motion as `POSITION`).
+    pub fired: Conditions,
+    /// What is wrong, when something fired.
+    pub kind: Option<ImplausibilityKind>,
+    /// Its size in the kind's unit.
+    pub error_size: f64,
+    /// Size over the safety-critical size.
+    pub severity: f64,
+    /// Acceleration estimate and margin, m/s^2.
+    pub accel: (f64, f64),
+    /// Turn-rate estimate and margin, rad/s (0, 0 when the heading is not defined).
+    pub turn_rate: (f64, f64),
+    /// Predicted position `p_b + sum`, world frame, metres.
+    pub predicted: [f64; 2],
+    /// Sigma of the residual per axis, metres.
+    pub predicted_margin: [f64; 2],
+    /// `|r|` after the re-fit allowance, metres.
+    pub residual: f64,
+    /// Distance along `r` at which the gate fires, metres.
+    pub allowance: f64,
+}
+
+fn shrink(r: f64, by: f64) -> f64 {
+    if r > by {
+        r - by
+    } else if r < -by {
+        r + by
+    } else {
+        0.0
+    }
+}
+
+/// Residual after the re-fit allowance: `r` in the frame of heading `th`, each axis shrunk.
+fn refit_allowance(r: [f64; 2], th: f64, dl: f64, dw: f64) -> [f64; 2] {
+    let (s, c) = libm::sincos(th);
+    let lon = shrink(c * r[0] + s * r[1], 0.5 * dl.abs());
+    let lat = shrink(-s * r[0] + c * r[1], 0.5 * dw.abs());
+    [c * lon - s * lat, s * lon + c * lat]
+}
+
+/// Mahalanobis distance squared of `r` under the symmetric `[sxx, sxy, syy]`.
+fn mahalanobis2(r: [f64; 2], s: [f64; 3]) -> f64 {
+    let det = s[0] * s[2] - s[1] * s[1];
+    if det.is_nan() || det <= 0.0 {
+        return f64::INFINITY;
+    }
+    (s[2] * r[0] * r[0] - 2.0 * s[1] * r[0] * r[1] + s[0] * r[1] * r[1]) / det
+}
+
+/// Adds a velocity's covariance (`sv` along `th`, `sc` across), weighted by `w` seconds.
+fn add_velocity_cov(cov: &mut [f64; 3], w: f64, th: f64, sv: f64, sc: f64) {
+    let (s, c) = libm::sincos(th);
+    let (a, b) = ((w * sv) * (w * sv), (w * sc) * (w * sc));
+    cov[0] += a * c * c + b * s * s;
+    cov[1] += (a - b) * s * c;
+    cov[2] += a * s * s + b * c * c;
+}
+
+/// Runs the calibrated rule for the new state `s1` against the track's history (newest last; must not be
+/// empty, and `s1.t_s` must be later than the newest state: the caller checks).
+#[must_use]
+pub fn check_calibrated(
+    h: &History,
+    s1: &Entry,
+    limits: &MotionLimits,
+    gates: &Gates,
+    heading_min_speed_mps: f64,
+    baseline_s: f64,
+) -> CalibratedCheck {
+    let n = h.len();
+    let s0 = h.last().copied().unwrap_or(*s1);
+    let dt = (s1.t_s - s0.t_s).max(1e-9);
+    let (v0, v1) = (f64::from(s0.v_mps), f64::from(s1.v_mps));
+    let mut fired = Conditions::default();
+    let mut kind = None;
+    let mut error_size = 0.0;
+    let mut severity = 0.0;
+
+    // 1. Heading.
+    let mut turn = (0.0, 0.0);
+    let heading_defined = !s0.warmup && !s1.warmup && v0.min(v1) >= heading_min_speed_mps;
+    let d_heading = wrap_angle(f64::from(s1.heading_rad) - f64::from(s0.heading_rad));
+    if heading_defined {
+        let m = gates.z * libm::hypot(s0.heading_sigma(), s1.heading_sigma());
+        turn = (d_heading / dt, m / dt);
+        let w_max = f64::from(limits.turn_rate_max_radps).abs();
+        if libm::fabs(d_heading) - m > core::f64::consts::FRAC_PI_2 {
+            fired = fired.union(Conditions::TURN_RATE);
+            kind = Some(ImplausibilityKind::HeadingFlip);
+            error_size = libm::fabs(d_heading);
+            severity = 2.0 * 0.5 * (v0 + v1) * libm::sin(0.5 * libm::fabs(d_heading)) / CRITICAL_SPEED_MPS;
+        } else if libm::fabs(turn.0) - turn.1 > w_max {
+            fired = fired.union(Conditions::TURN_RATE);
+            kind = Some(ImplausibilityKind::TurnRate);
+            error_size = libm::fabs(turn.0) - w_max;
+            severity = 0.5 * (v0 + v1) * error_size * dt / CRITICAL_SPEED_MPS;
+        }
+    }
+
+    // 2. Acceleration.
+    let accel = (v1 - v0) / dt;
+    let accel_margin = gates.z * libm::hypot(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt;
+    let accel_fired = !s0.warmup
+        && !s1.warmup
+        && (accel - accel_margin > f64::from(limits.accel_max_mps2)
+            || accel + accel_margin < f64::from(limits.brake_max_mps2));
+
+    // 3. Motion over the baseline: the oldest alarm-free, initialised state within baseline_s, else s0.
+    // When every state in the window raised an alarm (a permanent error), the oldest in the window: the error
+    // keeps showing over the whole baseline.
+    let within = |e: &Entry| s1.t_s - e.t_s <= baseline_s + 1e-9;
+    let oldest_clean = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect && !e.warmup));
+    let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup));
+    let b = oldest_clean.or(oldest_any).unwrap_or(n.saturating_sub(1));
+    let sb = h.get(b).copied().unwrap_or(s0);
+    let mut pred = [0.0f64; 2];
+    let mut cov = [
+        f64::from(sb.sx_m) * f64::from(sb.sx_m) + f64::from(s1.sx_m) * f64::from(s1.sx_m),
+        0.0,
+        f64::from(sb.sy_m) * f64::from(sb.sy_m) + f64::from(s1.sy_m) * f64::from(s1.sy_m),
+    ];
+    // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no
+    // velocity); each velocity weighs half of its two adjacent intervals.
+    let mut prev: Option<Entry> = None;
+    let mut prev_w = 0.0f64;
+    let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
+        let th = f64::from(e.heading_rad);
+        let v = f64::from(e.v_mps);
+        let (s, c) = libm::sincos(th);
+        pred[0] += w * v * c;
+        pred[1] += w * v * s;
+        let sv = f64::from(e.sv_mps);
+        add_velocity_cov(cov, w, th, sv, v * f64::from(e.sh_rad) + sv);
+    };
+    for j in b..=n {
+        let e = if j < n { h.get(j).copied().unwrap_or(*s1) } else { *s1 };
+        if j != b && j < n && e.flipped {
+            continue;
+        }
+        if let Some(p) = prev {
+            let half = 0.5 * (e.t_s - p.t_s);
+            add(&p, prev_w + half, &mut pred, &mut cov);
+            prev_w = half;
+        }
+        prev = Some(e);
+    }
+    if let Some(p) = prev {
+        add(&p, prev_w, &mut pred, &mut cov);
+    }
+    let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
+    let r = refit_allowance(
+        raw,
+        f64::from(s1.heading_rad),
+        f64::from(s1.length_m - sb.length_m),
+        f64::from(s1.width_m - sb.width_m),
+    );
+    let d2 = mahalanobis2(r, cov);
+    let residual = libm::hypot(r[0], r[1]);
+    let allowance = if d2 > 0.0 && d2.is_finite() { residual * libm::sqrt(gates.chi2_2 / d2) } else { f64::INFINITY };
+    let motion_fired = d2 > gates.chi2_2;
+    let span = (s1.t_s - sb.t_s).max(1e-9);
+    let observed_speed = libm::hypot(s1.x_m - sb.x_m, s1.y_m - sb.y_m) / span;
+    let reported_speed = libm::hypot(pred[0], pred[1]) / span;
+
+    if motion_fired {
+        fired = fired.union(Conditions::POSITION);
+        if kind.is_none() {
+            // Positions only: the straight-line extrapolation of the two newest alarm-free states.
+            let mut a = None;
+            let mut c2 = None;
+            for i in (0..n).rev() {
+                if let Some(e) = h.get(i).filter(|e| !e.suspect) {
+                    if a.is_none() {
+                        a = Some(*e);
+                    } else if e.t_s < a.map_or(0.0, |x: Entry| x.t_s) {
+                        c2 = Some(*e);
+                        break;
+                    }
+                }
+            }
+            let jump = match (a, c2) {
+                (Some(a), Some(c2)) => {
+                    let k = (s1.t_s - a.t_s) / (a.t_s - c2.t_s).max(1e-9);
+                    let q = [a.x_m + k * (a.x_m - c2.x_m), a.y_m + k * (a.y_m - c2.y_m)];
+                    let rj = refit_allowance(
+                        [s1.x_m - q[0], s1.y_m - q[1]],
+                        f64::from(s1.heading_rad),
+                        f64::from(s1.length_m - a.length_m),
+                        f64::from(s1.width_m - a.width_m),
+                    );
+                    let sq = |x: f32| f64::from(x) * f64::from(x);
+                    let acc = f64::from(limits.accel_max_mps2.max(-limits.brake_max_mps2))
+                        * (s1.t_s - a.t_s)
+                        * (s1.t_s - c2.t_s)
+                        * 0.5;
+                    let var = 0.5 * (sq(s1.sx_m) + sq(s1.sy_m))
+                        + (1.0 + k) * (1.0 + k) * 0.5 * (sq(a.sx_m) + sq(a.sy_m))
+                        + k * k * 0.5 * (sq(c2.sx_m) + sq(c2.sy_m))
+                        + acc * acc;
+                    let dj = libm::hypot(rj[0], rj[1]);
+                    // A jump if the positions alone are off, or if they explain most of the residual (a speed
+                    // error leaves the positions on their straight line).
+                    Some((dj, dj * dj / var > gates.chi2_2 || dj >= 0.7 * residual))
+                }
+                _ => None,
+            };
+            match jump {
+                Some((dj, true)) => {
+                    kind = Some(ImplausibilityKind::PositionJump);
+                    error_size = dj;
+                    severity = dj / CRITICAL_POSITION_M;
+                }
+                Some((_, false)) => {
+                    kind = Some(ImplausibilityKind::SpeedInconsistent);
+                    error_size = reported_speed - observed_speed;
+                    severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
+                }
+                None => {
+                    // A young track: a speed that is 0 or not yet initialised is the suspect, else the box.
+                    if s0.warmup || s1.warmup || v0 < 1e-3 || v1 < 1e-3 {
+                        kind = Some(ImplausibilityKind::SpeedInconsistent);
+                        error_size = reported_speed - observed_speed;
+                        severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
+                    } else {
+                        kind = Some(ImplausibilityKind::PositionJump);
+                        error_size = residual;
+                        severity = residual / CRITICAL_POSITION_M;
+                    }
+                }
+            }
+        }
+    }
+    if accel_fired {
+        fired = fired.union(Conditions::ACCELERATION);
+        if kind.is_none() {
+            // Which speed agrees with the motion observed over the baseline?
+            if libm::fabs(v1 - observed_speed) > libm::fabs(v0 - observed_speed) {
+                kind = Some(ImplausibilityKind::SpeedInconsistent);
+                error_size = v1 - observed_speed;
+                severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
+            } else {
+                let lim = if accel > 0.0 { f64::from(limits.accel_max_mps2) } else { f64::from(limits.brake_max_mps2) };
+                kind = Some(ImplausibilityKind::Acceleration);
+                error_size = accel - lim;
+                severity = libm::fabs(error_size) * dt / CRITICAL_SPEED_MPS;
+            }
+        }
+    }
+    CalibratedCheck {
+        fired,
+        kind,
+        error_size,
+        severity,
+        accel: (accel, accel_margin),
+        turn_rate: turn,
+        predicted: [sb.x_m + pred[0], sb.y_m + pred[1]],
+        predicted_margin: [libm::sqrt(cov[0].max(0.0)), libm::sqrt(cov[2].max(0.0))],
+        residual,
+        allowance,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn e(t: f64, x: f64, v: f32) -> Entry {
+        Entry {
+            t_s: t,
+            x_m: x,
+            y_m: 0.0,
+            v_mps: v,
+            heading_rad: 0.0,
+            sx_m: 0.1,
+            sy_m: 0.1,
+            sv_mps: 0.5,
+            sh_rad: 0.1,
+            length_m: 4.5,
+            width_m: 1.8,
+            warmup: false,
+            suspect: false,
+            flipped: false,
+        }
+    }
+
+    fn track(v: f32, frames: usize) -> History {
+        let mut h = History::default();
+        for k in 0..frames {
+            h.push(e(k as f64 * 0.1, f64::from(v) * k as f64 * 0.1, v));
+        }
+        h
+    }
+
+    fn run(h: &History, s1: &Entry) -> CalibratedCheck {
+        check_calibrated(h, s1, &MotionLimits::default(), &Gates::new(1e-4), 1.0, 0.5)
+    }
+
+    #[test]
+    fn gates_match_tables() {
+        let g = Gates::new(1e-3);
+        assert!((g.chi2_2 - 13.8155).abs() < 1e-3);
+        assert!((g.z - 3.2905).abs() < 2e-3, "{}", g.z);
+        let g = Gates::new(0.05);
+        assert!((g.z - 1.96).abs() < 2e-3, "{}", g.z);
+    }
+
+    #[test]
+    fn ring_buffer_keeps_the_newest() {
+        let h = track(1.0, HISTORY + 5);
+        assert_eq!(h.len(), HISTORY);
+        assert!((h.get(0).unwrap().t_s - 0.5).abs() < 1e-9);
+        assert!((h.last().unwrap().t_s - (HISTORY + 4) as f64 * 0.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn steady_motion_is_plausible() {
+        let h = track(10.0, 8);
+        let c = run(&h, &e(0.8, 8.0, 10.0));
+        assert!(c.fired.is_empty(), "{c:?}");
+    }
+
+    #[test]
+    fn permanent_speed_error_of_3_mps_shows_over_the_baseline() {
+        // Reported 13 m/s, moving at 10 m/s: over 0.5 s the box is 1.5 m behind its reported motion.
+        let mut h = History::default();
+        for k in 0..8 {
+            h.push(e(k as f64 * 0.1, k as f64, 13.0));
+        }
+        let c = run(&h, &e(0.8, 8.0, 13.0));
+        assert!(c.fired.contains(Conditions::POSITION), "{c:?}");
+        assert_eq!(c.kind, Some(ImplausibilityKind::SpeedInconsistent));
+        assert!((c.error_size - 3.0).abs() < 0.3, "{}", c.error_size);
+    }
+
+    #[test]
+    fn a_jump_is_named_a_jump_and_a_flip_a_flip() {
+        let h = track(10.0, 8);
+        let c = run(&h, &e(0.8, 8.0, 10.0)); // baseline
+        assert!(c.kind.is_none());
+        let mut j = e(0.8, 8.0, 10.0);
+        j.y_m = 2.0;
+        let c = run(&h, &j);
+        assert_eq!(c.kind, Some(ImplausibilityKind::PositionJump), "{c:?}");
+        assert!((c.error_size - 2.0).abs() < 0.3);
+        let mut f = e(0.8, 8.0, 10.0);
+        f.heading_rad = 3.1;
+        let c = run(&h, &f);
+        assert_eq!(c.kind, Some(ImplausibilityKind::HeadingFlip), "{c:?}");
+    }
+
+    #[test]
+    fn heading_noise_at_standstill_and_refits_are_tolerated() {
+        let h = track(0.05, 8);
+        let mut s = e(0.8, 0.04, 0.05);
+        s.heading_rad = 2.5;
+        assert!(run(&h, &s).fired.is_empty());
+        // Length grows by 1.6 m, the centre moves by 0.8 m along the box.
+        let h = track(0.0, 8);
+        let mut s = e(0.8, 0.8, 0.0);
+        s.length_m = 6.1;
+        assert!(run(&h, &s).fired.is_empty());
+    }
+
+    #[test]
+    fn warmup_hides_no_large_speed_error() {
+        // A car reported at 0 m/s in its warm-up moved 2.7 m in 0.1 s: reported.
+        let mut s0 = e(0.0, 0.0, 0.0);
+        s0.warmup = true;
+        s0.sv_mps = 0.7;
+        let h = History::with(s0);
+        let mut s1 = e(0.1, 2.7, 0.0);
+        s1.warmup = true;
+        s1.sv_mps = 0.7;
+        let c = run(&h, &s1);
+        assert_eq!(c.kind, Some(ImplausibilityKind::SpeedInconsistent), "{c:?}");
+        assert!(c.severity >= 1.0);
+        // A pedestrian at 1.4 m/s in its warm-up: tolerated.
+        let mut s1 = e(0.1, 0.14, 0.0);
+        s1.warmup = true;
+        s1.sv_mps = 0.7;
+        assert!(run(&h, &s1).fired.is_empty());
+    }
+}
