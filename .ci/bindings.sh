@@ -15,7 +15,13 @@ echo "== bindings: C++ example"
 make -C examples/cpp PMON_LIB_DIR="$PWD/target/debug" --always-make
 compare() { # name recording
     ./target/debug/pmon check "$2" --format jsonl >"$work/$1.rust.jsonl" || [ $? -eq 1 ]
-    examples/cpp/pmon_replay "$2" >"$work/$1.cpp.jsonl" || [ $? -eq 1 ]
+    # A converted recording carries params.toml (the dataset's ground height and ego footprint), which
+    # `pmon check` applies; the C++ example is given the same file.
+    if [ -f "$2/params.toml" ]; then
+        examples/cpp/pmon_replay "$2" "$2/params.toml" >"$work/$1.cpp.jsonl" || [ $? -eq 1 ]
+    else
+        examples/cpp/pmon_replay "$2" >"$work/$1.cpp.jsonl" || [ $? -eq 1 ]
+    fi
     python3 .ci/compare_jsonl.py "$work/$1.rust.jsonl" "$work/$1.cpp.jsonl"
 }
 ./target/debug/pmon simulate --scenario pedestrians --seed 7 --duration-s 3 --out "$work/sim"

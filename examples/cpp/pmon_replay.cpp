@@ -99,7 +99,12 @@ int main(int argc, char** argv) {
               ",\"predicted_world_m\":" + arr(r.predicted_world_m) +
               ",\"predicted_margin_m\":" + arr(r.predicted_margin_m) +
               ",\"position_residual_m\":" + num(r.position_residual_m) +
-              ",\"position_allowance_m\":" + num(r.position_allowance_m) + "}";
+              ",\"position_allowance_m\":" + num(r.position_allowance_m);
+      if (r.kind_name[0]) {
+        line += ",\"kind\":" + str(text(r.kind_name)) + ",\"error_size\":" + num(r.error_size) +
+                ",\"error_unit\":" + str(text(r.error_unit)) + ",\"severity\":" + num(r.severity);
+      }
+      line += "}";
       std::puts(line.c_str());
       if (r.verdict != PMON_VERDICT_CONSISTENT && r.verdict != PMON_VERDICT_NOT_MONITORED) alarms = true;
     }

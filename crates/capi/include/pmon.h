@@ -223,6 +223,14 @@ typedef struct PmonObjectResult {
   uint8_t sensor_text[64];
   // The plausibility checks' verdict as text (`implausible(position)`).
   uint8_t motion_text[64];
+  // Kind of an implausible motion (`speed_inconsistent`, `position_jump`, ...), else empty.
+  uint8_t kind_name[32];
+  // Unit of `error_size` (`m`, `m/s`, `rad`, ...), else empty.
+  uint8_t error_unit[8];
+  // Estimated size of the motion error in `error_unit` (0 without a kind).
+  float error_size;
+  // `error_size` over the safety-critical size (>= 1: safety-critical; 0 without a kind).
+  float severity;
 } PmonObjectResult;
 
 // A conflict cluster: LiDAR evidence no object explains.

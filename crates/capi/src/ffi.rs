@@ -216,6 +216,14 @@ pub struct PmonObjectResult {
     pub sensor_text: [u8; 64],
     /// The plausibility checks' verdict as text (`implausible(position)`).
     pub motion_text: [u8; 64],
+    /// Kind of an implausible motion (`speed_inconsistent`, `position_jump`, ...), else empty.
+    pub kind_name: [u8; 32],
+    /// Unit of `error_size` (`m`, `m/s`, `rad`, ...), else empty.
+    pub error_unit: [u8; 8],
+    /// Estimated size of the motion error in `error_unit` (0 without a kind).
+    pub error_size: f32,
+    /// `error_size` over the safety-critical size (>= 1: safety-critical; 0 without a kind).
+    pub severity: f32,
 }
 
 /// A conflict cluster: LiDAR evidence no object explains.
@@ -501,12 +509,24 @@ fn object_result(r: &ObjectReport) -> PmonObjectResult {
         conditions_text: [0; 48],
         sensor_text: [0; 64],
         motion_text: [0; 64],
+        kind_name: [0; 32],
+        error_unit: [0; 8],
+        error_size: 0.0,
+        severity: 0.0,
     };
     write_display(&mut out.verdict_name, &r.verdict.name());
     match r.verdict {
-        Verdict::NotMonitored(reason) => write_display(&mut out.reason_name, &reason),
+        Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => {
+            write_display(&mut out.reason_name, &reason);
+        }
         Verdict::ImplausibleMotion(c) => write_display(&mut out.conditions_text, &c),
         _ => {}
+    }
+    if let Some(kind) = r.motion.kind {
+        write_display(&mut out.kind_name, &kind.name());
+        write_display(&mut out.error_unit, &kind.unit());
+        out.error_size = r.motion.error_size;
+        out.severity = r.motion.severity;
     }
     write_display(&mut out.sensor_text, &r.sensor.verdict);
     write_display(&mut out.motion_text, &r.motion.verdict);
