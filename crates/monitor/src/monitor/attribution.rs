@@ -1,0 +1,578 @@
+//! The evidence attribution of the sensor checks (docs/attribution.md): which object each explained cell
+//! belongs to (`eta_own`), what the sensor saw of a footprint, the gated one-to-one assignment of conflict
+//! clusters to objects, the evidence memory's part in it, spill-over, and the free-space test towards the
+//! sensor. Part of [`Monitor`]; `monitor.rs` keeps the stages and the verdicts.
+
+use super::*;
+
+/// What the sensor saw of an object's footprint (the cells overlapping it), for objects without evidence of
+/// their own: was the place visibly empty, hidden, or taken by another object's evidence?
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct FootprintSight {
+    /// Footprint cells.
+    pub(super) total: u32,
+    /// Seen empty: rays passed over them and returned from beyond.
+    pub(super) visible: u32,
+    /// Shadowed by evidence no object explains, in the region of interest (likely this object, displaced).
+    pub(super) unexplained_shadow: u32,
+    /// Occupied by evidence that another object owns, with the cell's centre inside that object's footprint:
+    /// two objects cannot stand in one place.
+    pub(super) foreign: u32,
+    /// A cell of the unexplained evidence that shadows the footprint (`NO_CELL`: none).
+    pub(super) occluder: u32,
+    /// The first few distinct cells that stood for the unexplained evidence, with the shadowed cells each
+    /// accounts for, so that the test can be brought up to date once evidence is attributed without a second
+    /// walk over the footprint (`occluders_len > OCCLUDERS`: too many to keep; walk again).
+    pub(super) occluders: [(u32, u32); OCCLUDERS],
+    pub(super) occluders_len: usize,
+}
+
+impl FootprintSight {
+    pub(super) fn fraction(&self, k: u32) -> f32 {
+        if self.total > 0 {
+            k as f32 / self.total as f32
+        } else {
+            0.0
+        }
+    }
+
+    /// Share of the footprint the sensor contradicts: seen empty, behind unexplained evidence, or taken.
+    pub(super) fn contradicted(&self) -> f32 {
+        self.fraction(self.visible + self.unexplained_shadow + self.foreign)
+    }
+}
+
+impl Monitor {
+    /// `eta_own` of every object: the highest occupancy probability among the cells it owns (one pass over the
+    /// touched cells).
+    pub(super) fn own_evidence(&mut self) {
+        let floor = self.grid.probability_of_hits(0);
+        for s in &mut self.scratch {
+            s.eta_own = floor;
+        }
+        let tau = self.params.tau_fn;
+        for &idx in self.grid.touched() {
+            if self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED {
+                continue;
+            }
+            let Some(&o) = self.owner.get(idx as usize) else { continue };
+            if let Some(s) = self.scratch.get_mut(o as usize) {
+                let p = self.grid.probability(idx);
+                s.eta_own = s.eta_own.max(p);
+                if p > tau {
+                    let (x, y) = self.grid.geometry.cell_center(idx);
+                    s.own_sum = [s.own_sum[0] + x, s.own_sum[1] + y, s.own_sum[2] + 1.0];
+                }
+            }
+        }
+    }
+
+    /// What the sensor saw of object `j`'s footprint (see [`FootprintSight`]).
+    pub(super) fn footprint_sight(&self, j: usize, footprint: &crate::geometry::OrientedRect) -> FootprintSight {
+        let geometry = self.grid.geometry;
+        let mut sight = FootprintSight { occluder: NO_CELL, ..FootprintSight::default() };
+        let Some(range) = geometry.cell_range(footprint.aabb()) else { return sight };
+        let (grid, visibility, tau) = (&self.grid, &self.visibility, self.params.tau_fn);
+        // At most `SIGHT_SAMPLES` cells along each axis of the range are looked at (every `stride`-th row and
+        // column): the fractions need no more, and a car at 0.1 m cells would otherwise cost 900 look-ups.
+        let span = (range.2 - range.0).max(range.3 - range.1) + 1;
+        let stride = span.div_ceil(SIGHT_SAMPLES).max(1);
+        let n = geometry.cells_per_side;
+        geometry.for_each_cell_overlapping(footprint, range, |idx, cx, cy| {
+            if stride > 1 && !((idx % n - range.0).is_multiple_of(stride) && (idx / n - range.1).is_multiple_of(stride))
+            {
+                return;
+            }
+            sight.total += 1;
+            if grid.probability(idx) > tau && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED {
+                let other = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
+                let taken = other != j
+                    && self.scratch.get(other).and_then(|s| s.region).is_some_and(|r| r.footprint.contains(cx, cy));
+                if taken {
+                    sight.foreign += 1;
+                    return;
+                }
+            }
+            match visibility.sight(cx, cy) {
+                Sight::Visible => sight.visible += 1,
+                // Behind evidence nobody explains, in the region of interest.
+                Sight::Shadowed(c) => {
+                    if let Some(k) = self.unexplained_at(c) {
+                        sight.unexplained_shadow += 1;
+                        sight.occluder = k;
+                        let n = sight.occluders_len.min(OCCLUDERS);
+                        if let Some(o) = sight.occluders.get_mut(..n).and_then(|l| l.iter_mut().find(|o| o.0 == k)) {
+                            o.1 += 1;
+                        } else {
+                            if let Some(o) = sight.occluders.get_mut(n) {
+                                *o = (k, 1);
+                            }
+                            sight.occluders_len += 1;
+                        }
+                    }
+                }
+                Sight::Unreached => {}
+            }
+        });
+        sight
+    }
+
+    /// The conflict cell (of a cluster in the region of interest) that stands for the nearest return `c` of a
+    /// visibility bin: `c` itself, or, when `c` is unexplained but holds too few hits to be occupied (the first
+    /// return of an object is often alone in its cell), an 8-neighbour of it. `None` when `c` is explained,
+    /// scenery, or not next to unexplained evidence in the region of interest.
+    pub(super) fn unexplained_at(&self, c: u32) -> Option<u32> {
+        if c == NO_CELL || self.grid.hits(c) == 0 {
+            return None;
+        }
+        let flags = self.grid.flags(c);
+        if flags & FLAG_ATTRIBUTED != 0 {
+            // Another object's displaced evidence: it hides what lies behind it, like any object.
+            return None;
+        }
+        if flags & FLAG_ROI_CONFLICT != 0 {
+            return Some(c);
+        }
+        if flags & (FLAG_EXPLAINED | FLAG_STATIC) != 0 {
+            return None;
+        }
+        let n = self.grid.geometry.cells_per_side;
+        let (cx, cy) = (c % n, c / n);
+        for y in cy.saturating_sub(1)..=(cy + 1).min(n - 1) {
+            for x in cx.saturating_sub(1)..=(cx + 1).min(n - 1) {
+                let idx = y * n + x;
+                if self.grid.flags(idx) & (FLAG_ROI_CONFLICT | FLAG_ATTRIBUTED) == FLAG_ROI_CONFLICT {
+                    return Some(idx);
+                }
+            }
+        }
+        None
+    }
+
+    /// Distance from a cluster's cells (not their centres: no cell comes nearer than touching) to a region,
+    /// metres, or `None` when it exceeds `reach` (decided first on bounding boxes, which skips most pairs).
+    pub(super) fn cluster_distance(&self, k: usize, region: &crate::geometry::OrientedRect, reach: f32) -> Option<f32> {
+        let geometry = self.grid.geometry;
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
+        let cluster = self.clusters.get(k)?;
+        let &(start, end) = self.cluster_spans.get(k)?;
+        let rb = region.aabb();
+        let cb = cluster.bounds_m;
+        let gap_x = (cb[0] - rb[2]).max(rb[0] - cb[2]).max(0.0);
+        let gap_y = (cb[1] - rb[3]).max(rb[1] - cb[3]).max(0.0);
+        // Bounds are of cell centres: allow half a diagonal, as the exact test below does. First without the
+        // square root: `hypot(gx, gy) >= max(gx, gy)` also after rounding, so this skips only pairs the test
+        // with `hypotf` skips (most pairs are far apart).
+        if gap_x.max(gap_y) - half_diagonal > reach || libm::hypotf(gap_x, gap_y) - half_diagonal > reach {
+            return None;
+        }
+        let mut d = f32::INFINITY;
+        for &c in self.queue.get(start as usize..end as usize).unwrap_or(&[]) {
+            let (x, y) = geometry.cell_center(c);
+            d = d.min((region.distance(x, y) - half_diagonal).max(0.0));
+            if d <= 0.0 {
+                break;
+            }
+        }
+        (d <= reach).then_some(d)
+    }
+
+    /// Gives the evidence no object explains to the objects it belongs to.
+    ///
+    /// 1. Ownership: each explained cell belongs to the object whose footprint is nearest (`eta_own`). An object
+    ///    whose own evidence is below `tau_tp` is *unconfirmed*: occluded, a ghost, or displaced.
+    /// 2. Assignment: clusters in the region of interest go to unconfirmed objects by a gated, one-to-one,
+    ///    deterministic assignment on the displacement it implies (the distance from the cluster to the
+    ///    region `A_o`), nearest pairs first. The gate is `conflict_association_m` for an object whose
+    ///    footprint the sensor contradicts (seen empty, behind unexplained evidence, or taken by another
+    ///    object's evidence: it is not where it claims) and touching only for one hidden from the sensor (an
+    ///    occluded object has no reason to be displaced). A confirmed object takes no displaced evidence.
+    /// 3. Spill-over: a cluster left over that continues a confirmed object's own evidence (8-adjacent cells) and
+    ///    fits its box together with it, or that touches an unconfirmed object's region (within half a cell)
+    ///    and fits its box, is that object's evidence reaching over its edge (the nearest such object).
+    ///
+    /// Everything else is a missed object. Bounded: pairs are kept up to a fixed capacity
+    /// (`ASSOCIATION_CANDIDATES` per cluster on average), sorted in place.
+    pub(super) fn attribute_clusters(&mut self) {
+        self.own_evidence();
+        let tau_tp = self.params.tau_tp;
+        let touch = 0.5 * self.grid.geometry.cell_size_m;
+        let gate = self.params.conflict_association_m;
+        let follow = 0.5 * gate;
+        for s in &self.scratch {
+            let entry = match s.region {
+                None => ([f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY], 0),
+                Some(r) => {
+                    let mut bits = CANDIDATE_REGION;
+                    if s.eta_own >= tau_tp {
+                        bits |= CANDIDATE_CONFIRMED;
+                    }
+                    if matches!(s.recalled, Some((EvidenceKind::Displaced, _))) {
+                        bits |= CANDIDATE_DISPLACED;
+                    }
+                    (r.grown.aabb(), bits)
+                }
+            };
+            let j = self.candidates.len();
+            if j < self.candidates.capacity() {
+                self.candidates.push(entry);
+                let index = u32::try_from(j).unwrap_or(u32::MAX);
+                if entry.1 & CANDIDATE_REGION != 0 && self.by_x.len() < self.by_x.capacity() {
+                    self.by_x.push((entry.0[0], index));
+                    self.widest_m = self.widest_m.max(entry.0[2] - entry.0[0]);
+                }
+                if entry.1 & CANDIDATE_DISPLACED != 0 && self.displaced.len() < self.displaced.capacity() {
+                    self.displaced.push(index);
+                }
+            }
+        }
+        self.by_x.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        // Candidate pairs.
+        for k in 0..self.clusters.len() {
+            let Some(cb) = self.clusters.get(k).filter(|c| c.in_roi).map(|c| c.bounds_m) else { continue };
+            // A track whose evidence stood apart from it last frame: its evidence is expected where the offset puts
+            // it now (the cost is how far the cluster is from there).
+            for m in 0..self.displaced.len() {
+                let Some(j) = self.displaced.get(m).map(|&j| j as usize) else { continue };
+                let Some(s) = self.scratch.get(j) else { continue };
+                let (Some(region), Some((_, r))) = (s.region, s.recalled) else { continue };
+                let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
+                if let Some(d) = self.cluster_point_distance(k, expected, follow) {
+                    if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
+                        self.pairs.push((d, k as u32, j as u32));
+                    }
+                }
+            }
+            // Objects without evidence of their own (a followed track's pair above stands for it).
+            let (lo, hi) = self.x_window(cb, gate);
+            for m in lo..hi {
+                let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
+                let Some(&(rb, bits)) = self.candidates.get(j) else { continue };
+                if bits & CANDIDATE_CONFIRMED != 0 || self.far_apart(cb, rb, gate) {
+                    continue;
+                }
+                let Some(s) = self.scratch.get(j) else { continue };
+                let Some(region) = s.region else { continue };
+                if let (true, Some((_, r))) = (bits & CANDIDATE_DISPLACED != 0, s.recalled) {
+                    let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
+                    if self.cluster_point_distance(k, expected, follow).is_some() {
+                        continue;
+                    }
+                }
+                let Some(d) = self.cluster_distance(k, &region.grown, gate) else { continue };
+                // The whole gate for an object the sensor contradicts, or one that claims to stand behind the
+                // evidence on its own line of sight (displaced away from it; its place is then hidden, often also
+                // behind a low obstacle the rays passed over); touching only for one merely hidden.
+                let reachable = d <= touch
+                    || self.clusters.get(k).is_some_and(|c| self.behind(&region.footprint, c.centroid_m))
+                    || self.sight_of(j, &region).contradicted() >= self.params.ghost_visible_fraction;
+                if reachable && self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
+                    self.pairs.push((d, k as u32, j as u32));
+                }
+            }
+        }
+        // Nearest first; ties by cluster, then object: deterministic.
+        self.pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        for p in 0..self.pairs.len() {
+            let Some(&(_, k, j)) = self.pairs.get(p) else { continue };
+            let free = self.clusters.get(k as usize).is_some_and(|c| c.object.is_none());
+            if free && self.scratch.get(j as usize).is_some_and(|s| s.cluster.is_none()) {
+                self.give(k as usize, j as usize);
+            }
+        }
+        // Spill-over of the clusters left.
+        let adjacent = core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 1e-3;
+        for k in 0..self.clusters.len() {
+            let Some(cb) = self.clusters.get(k).filter(|c| c.in_roi && c.object.is_none()).map(|c| c.bounds_m) else {
+                continue;
+            };
+            let mut best: Option<(f32, usize)> = None;
+            let (lo, hi) = self.x_window(cb, adjacent);
+            for m in lo..hi {
+                let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
+                let Some(&(rb, bits)) = self.candidates.get(j) else { continue };
+                // A confirmed object's own evidence continues into the cluster (8-adjacent cells), and both
+                // together fit its box: the box is displaced (or too small). Evidence merely near a confirmed box
+                // is not its. An unconfirmed object takes a cluster that touches its region and fits its box.
+                let confirmed = bits & CANDIDATE_CONFIRMED != 0;
+                // A cell next to an owned cell (which overlaps the region) is at most a cell diagonal from it.
+                let reach = if confirmed { adjacent } else { touch };
+                if bits & CANDIDATE_REGION == 0 || self.far_apart(cb, rb, reach) {
+                    continue;
+                }
+                let Some(region) = self.scratch.get(j).and_then(|s| s.region) else { continue };
+                let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
+                let ok = if confirmed {
+                    self.cluster_touches_own_evidence(j, k) && self.evidence_fits(j, &region, k, true)
+                } else {
+                    self.evidence_fits(j, &region, k, false)
+                };
+                // Nearest; ties to the lower index (deterministic whatever the loop order).
+                if ok && best.is_none_or(|(bd, bj)| d.total_cmp(&bd).then(j.cmp(&bj)).is_lt()) {
+                    best = Some((d, j));
+                }
+            }
+            if let Some((_, j)) = best {
+                self.give(k, j);
+            }
+        }
+    }
+
+    /// The range of `by_x` whose regions' bounding boxes can come within `reach` of a cluster's bounds along x.
+    pub(super) fn x_window(&self, cluster_bounds: [f32; 4], reach: f32) -> (usize, usize) {
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * self.grid.geometry.cell_size_m;
+        let lo = cluster_bounds[0] - reach - half_diagonal - self.widest_m;
+        let hi = cluster_bounds[2] + reach + half_diagonal;
+        let start = self.by_x.partition_point(|&(x, _)| x < lo);
+        let end = self.by_x.partition_point(|&(x, _)| x <= hi);
+        (start, end.max(start))
+    }
+
+    /// True when the rays pass through most of object `j`'s footprint and end on its own evidence behind it:
+    /// of 3 x 3 points spread over the box (at -0.6, 0 and 0.6 of its half length and half width), at least
+    /// `ghost_visible_fraction` lie in front of the nearest obstacle of their direction by more than the
+    /// region's margin (an object displaced by its stated uncertainty is not caught), and that obstacle is
+    /// evidence the object owns (rays that pass beside a box's body, or end on something else, prove
+    /// nothing). Points, not cells: the visibility map keeps the ranges of the returns themselves.
+    pub(super) fn seen_through(&self, j: usize, region: &Region) -> bool {
+        let fp = &region.footprint;
+        let margin = region.margin_length_m.max(region.margin_width_m);
+        let tau = self.params.tau_fn;
+        let mut free = 0u32;
+        for u in [-0.6f32, 0.0, 0.6] {
+            for v in [-0.6f32, 0.0, 0.6] {
+                let (lu, lv) = (u * fp.half_length, v * fp.half_width);
+                let (x, y) = (fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos);
+                let Some((clearance, cell)) = self.visibility.clearance(x, y) else { continue };
+                let own = |c: u32| {
+                    self.grid.probability(c) > tau
+                        && self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                        && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
+                };
+                // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
+                let n = self.grid.geometry.cells_per_side;
+                let near_own = own(cell)
+                    || [cell.wrapping_sub(1), cell + 1, cell.wrapping_sub(n), cell + n]
+                        .into_iter()
+                        .any(|c| c < n * n && own(c));
+                if clearance > margin && near_own {
+                    free += 1;
+                }
+            }
+        }
+        free as f32 >= self.params.ghost_visible_fraction * 9.0
+    }
+
+    /// A sight brought up to date after the attribution: shadows cast by evidence now attributed to an object
+    /// hide rather than contradict.
+    pub(super) fn without_attributed(&self, mut sight: FootprintSight) -> FootprintSight {
+        sight.occluder = NO_CELL;
+        for &(cell, count) in sight.occluders.get(..sight.occluders_len).unwrap_or(&[]) {
+            if self.grid.flags(cell) & FLAG_ATTRIBUTED != 0 {
+                sight.unexplained_shadow = sight.unexplained_shadow.saturating_sub(count);
+            } else {
+                sight.occluder = cell;
+            }
+        }
+        sight
+    }
+
+    /// What the sensor saw of object `j`'s footprint, computed once per frame (see [`FootprintSight`]).
+    pub(super) fn sight_of(&mut self, j: usize, region: &Region) -> FootprintSight {
+        if let Some(sight) = self.scratch.get(j).and_then(|s| s.sight) {
+            return sight;
+        }
+        let sight = self.footprint_sight(j, &region.footprint);
+        if let Some(s) = self.scratch.get_mut(j) {
+            s.sight = Some(sight);
+        }
+        sight
+    }
+
+    /// True when a cluster's bounds (of cell centres) and a region's bounding box are more than `reach` apart,
+    /// cells included (a lower bound of [`Monitor::cluster_distance`]: skips most pairs cheaply).
+    pub(super) fn far_apart(&self, cluster_bounds: [f32; 4], region_aabb: [f32; 4], reach: f32) -> bool {
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * self.grid.geometry.cell_size_m;
+        let gap_x = (cluster_bounds[0] - region_aabb[2]).max(region_aabb[0] - cluster_bounds[2]);
+        let gap_y = (cluster_bounds[1] - region_aabb[3]).max(region_aabb[1] - cluster_bounds[3]);
+        gap_x.max(gap_y) - half_diagonal > reach
+    }
+
+    /// Index of the reported cluster that contains a cell (linear in the conflict cells; only called for
+    /// objects without evidence of their own).
+    pub(super) fn cluster_of(spans: &[(u32, u32)], queue: &[u32], cell: u32) -> Option<usize> {
+        if cell == NO_CELL {
+            return None;
+        }
+        spans.iter().position(|&(a, b)| queue.get(a as usize..b as usize).is_some_and(|cells| cells.contains(&cell)))
+    }
+
+    /// True when a footprint lies behind a point as the sensor sees them: the point's bearing within the
+    /// footprint's angular extent (plus half a cell), and the point nearer than the footprint's centre.
+    pub(super) fn behind(&self, footprint: &crate::geometry::OrientedRect, point: [f32; 2]) -> bool {
+        let o = self.visibility.origin();
+        let (fx, fy) = (footprint.cx - o[0], footprint.cy - o[1]);
+        let (px, py) = (point[0] - o[0], point[1] - o[1]);
+        let (rf, rp) = (libm::hypotf(fx, fy), libm::hypotf(px, py));
+        // Also false for NaN distances.
+        if rp.partial_cmp(&rf) != Some(core::cmp::Ordering::Less) || rf <= 0.0 {
+            return false;
+        }
+        let reach = libm::hypotf(footprint.half_length, footprint.half_width) + 0.5 * self.grid.geometry.cell_size_m;
+        // The angle between the two directions is at most `asin(reach / rf)`: in front (positive dot product),
+        // and `sin(angle) = |cross| / (rf rp) <= reach / rf` (any angle up to 90 degrees once `reach >= rf`).
+        let (cross, dot) = ((fx * py - fy * px).abs(), fx * px + fy * py);
+        dot > 0.0 && (reach >= rf || cross <= reach * rp)
+    }
+
+    /// Distance from a cluster's cells to a point, metres (no cell comes nearer than touching), or `None` beyond
+    /// `reach`.
+    pub(super) fn cluster_point_distance(&self, k: usize, p: [f32; 2], reach: f32) -> Option<f32> {
+        let geometry = self.grid.geometry;
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
+        let cb = self.clusters.get(k)?.bounds_m;
+        let gap_x = (cb[0] - p[0]).max(p[0] - cb[2]).max(0.0);
+        let gap_y = (cb[1] - p[1]).max(p[1] - cb[3]).max(0.0);
+        if gap_x.max(gap_y) - half_diagonal > reach {
+            return None;
+        }
+        let mut d = f32::INFINITY;
+        for &c in self.cluster_cells(k) {
+            let (x, y) = geometry.cell_center(c);
+            d = d.min((libm::hypotf(x - p[0], y - p[1]) - half_diagonal).max(0.0));
+        }
+        (d <= reach).then_some(d)
+    }
+
+    /// Cells of cluster `k`.
+    pub(super) fn cluster_cells(&self, k: usize) -> &[u32] {
+        self.cluster_spans.get(k).and_then(|&(a, b)| self.queue.get(a as usize..b as usize)).unwrap_or(&[])
+    }
+
+    /// True when a cell of cluster `k` is 8-adjacent to an occupied cell that object `j` owns.
+    pub(super) fn cluster_touches_own_evidence(&self, j: usize, k: usize) -> bool {
+        let n = self.grid.geometry.cells_per_side;
+        let tau = self.params.tau_fn;
+        self.cluster_cells(k).iter().any(|&c| {
+            let (cx, cy) = (c % n, c / n);
+            (cy.saturating_sub(1)..=(cy + 1).min(n - 1)).any(|y| {
+                (cx.saturating_sub(1)..=(cx + 1).min(n - 1)).any(|x| {
+                    let idx = y * n + x;
+                    self.grid.probability(idx) > tau
+                        && self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                        && self.owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+                })
+            })
+        })
+    }
+
+    /// Could cluster `k` (with object `j`'s own occupied evidence, when `with_own`) be the evidence of `j`'s box
+    /// moved somewhere? True when its extent along and across the box, over cell centres, is at most the box's
+    /// length and width plus one cell diagonal (a cell centre is within half a diagonal of every point of the
+    /// cell) and twice the safety margin (LiDAR noise). A wall, a hedge or two objects side by side do not fit
+    /// a pedestrian.
+    pub(super) fn evidence_fits(&self, j: usize, region: &Region, k: usize, with_own: bool) -> bool {
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
+        // First on the cluster's bounds: two of its cells as far apart as its bounding box is wide cannot both lie
+        // in a box whose diagonal is shorter (this skips walls and hedges without a look at their cells).
+        if let Some(b) = self.clusters.get(k).map(|c| c.bounds_m) {
+            let diagonal = libm::hypotf(2.0 * fp.half_length + slack, 2.0 * fp.half_width + slack);
+            if (b[2] - b[0]).max(b[3] - b[1]) > diagonal {
+                return false;
+            }
+        }
+        let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+        let mut add = |x: f32, y: f32| {
+            let (u, v) = fp.local(x, y);
+            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+        };
+        for &c in self.cluster_cells(k) {
+            let (x, y) = geometry.cell_center(c);
+            add(x, y);
+        }
+        if with_own {
+            let tau = self.params.tau_fn;
+            if let Some(range) = geometry.cell_range(region.grown.aabb()) {
+                let (grid, owner) = (&self.grid, &self.owner);
+                geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
+                    if grid.probability(idx) > tau
+                        && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                        && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+                    {
+                        add(x, y);
+                    }
+                });
+            }
+        }
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+
+    /// Attributes cluster `k` to object `j` (an object keeps its largest cluster as the one it reports).
+    pub(super) fn give(&mut self, k: usize, j: usize) {
+        let Some(cluster) = self.clusters.get_mut(k) else { return };
+        cluster.object = u32::try_from(j).ok();
+        let cells = cluster.cells;
+        if let Some(&(a, b)) = self.cluster_spans.get(k) {
+            for &c in self.queue.get(a as usize..b as usize).unwrap_or(&[]) {
+                self.grid.set_flags(c, FLAG_ATTRIBUTED);
+            }
+        }
+        if let Some(s) = self.scratch.get_mut(j) {
+            if s.cluster.is_none_or(|(_, size)| cells > size) {
+                s.cluster = u16::try_from(k).ok().map(|k16| (k16, cells));
+            }
+        }
+    }
+}
+
+/// The paper's consistency `eta` of report `j`.
+pub(super) fn s_eta(reports: &[ObjectReport], j: usize) -> f32 {
+    reports.get(j).map_or(0.0, |r| r.sensor.eta)
+}
+
+/// Distinct occluding cells a [`FootprintSight`] keeps count of.
+pub(super) const OCCLUDERS: usize = 4;
+
+/// Most cells looked at along each axis of a footprint's cell range by the sight test.
+pub(super) const SIGHT_SAMPLES: u32 = 8;
+
+/// Candidate bit: the object has a region in the grid.
+pub(super) const CANDIDATE_REGION: u8 = 1;
+/// Candidate bit: the object is confirmed by its own evidence (`eta_own >= tau_tp`).
+pub(super) const CANDIDATE_CONFIRMED: u8 = 2;
+/// Candidate bit: the track's evidence stood apart from it in the previous frame.
+pub(super) const CANDIDATE_DISPLACED: u8 = 4;
+
+/// Average number of candidate objects per conflict cluster the evidence assignment keeps room for.
+pub(super) const ASSOCIATION_CANDIDATES: usize = 8;
+
+/// Marks a hit cell as explained by object `i`'s region and makes `i` its owner when the cell lies deepest in
+/// `i`'s region so far (strictly: ties stay with the lower index).
+///
+/// Depth is measured relative to the region's size, `max(|u| / half length, |v| / half width)` in the region's
+/// axes (1 on its edge): evidence on an object's face lies well inside its own region, while a neighbour whose
+/// region only reaches it with its margin sees it near its edge, whatever the two objects' sizes.
+#[inline]
+pub(super) fn claim(
+    grid: &mut OccupancyGrid,
+    owner: &mut [u32],
+    owner_depth: &mut [f32],
+    region: &Region,
+    i: usize,
+    idx: u32,
+    penalty: f32,
+) {
+    let (x, y) = grid.geometry.cell_center(idx);
+    let (u, v) = region.grown.local(x, y);
+    let d = (u.abs() / region.grown.half_length).max(v.abs() / region.grown.half_width) + penalty;
+    let first = grid.flags(idx) & FLAG_EXPLAINED == 0;
+    if let (Some(o), Some(od)) = (owner.get_mut(idx as usize), owner_depth.get_mut(idx as usize)) {
+        if first || d < *od {
+            *o = u32::try_from(i).unwrap_or(u32::MAX);
+            *od = d;
+        }
+    }
+    grid.set_flags(idx, FLAG_EXPLAINED);
+}
