@@ -1,6 +1,6 @@
 //! Sets `cfg(pmon_no_data)` when the real data extracts are absent (`PMON_DATA_DIR`, default `../shared/data`
 //! beside the repository), so that the tests needing them are listed as `ignored, needs the real data ...` in
-//! plain `cargo test` output instead of passing silently (see docs/testing.md).
+//! plain `cargo test` output instead of passing silently (see docs/cli.md).
 
 use std::path::PathBuf;
 
