@@ -105,6 +105,14 @@ impl GridGeometry {
         self.origin_m + (i as f32 + 0.5) * self.cell_size_m
     }
 
+    /// A cell and its 8 neighbours inside the grid, row by row (at most 9 cells).
+    pub fn block3x3(self, index: u32) -> impl Iterator<Item = u32> {
+        let n = self.cells_per_side.max(1);
+        let (cx, cy) = (index % n, index / n);
+        (cy.saturating_sub(1)..=(cy + 1).min(n - 1))
+            .flat_map(move |y| (cx.saturating_sub(1)..=(cx + 1).min(n - 1)).map(move |x| y * n + x))
+    }
+
     /// Centre of a cell, ego frame, metres.
     #[must_use]
     pub fn cell_center(&self, index: u32) -> (f32, f32) {

@@ -9,6 +9,15 @@ use common::*;
 use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectReport, PointCloud, Pose2, SensorVerdict};
 
 fn run(monitor: &mut Monitor, objects: &[pmon_monitor::ObjectState], points_ego: &[[f32; 3]]) -> Vec<ObjectReport> {
+    run_frame(monitor, objects, points_ego).0
+}
+
+/// Runs one frame; returns the reports and the number of missed-object clusters.
+fn run_frame(
+    monitor: &mut Monitor,
+    objects: &[pmon_monitor::ObjectState],
+    points_ego: &[[f32; 3]],
+) -> (Vec<ObjectReport>, usize) {
     let pts = to_sensor(points_ego);
     let frame = Frame {
         timestamp_s: 0.0,
@@ -18,7 +27,8 @@ fn run(monitor: &mut Monitor, objects: &[pmon_monitor::ObjectState], points_ego:
         roi_in_ego: &[],
         static_in_ego: &[],
     };
-    monitor.check(&frame).unwrap().objects.to_vec()
+    let report = monitor.check(&frame).unwrap();
+    (report.objects.to_vec(), report.missed_objects())
 }
 
 /// Two pedestrians side by side; one is reported 1.5 m further away than it is. The displaced one is the
@@ -94,25 +104,6 @@ mod guarantee {
     use pmon_monitor::theory::dx_min_m;
     use proptest::prelude::*;
 
-    /// Runs one frame; returns the first object's report and the number of missed-object clusters.
-    fn run_with_missed(
-        m: &mut Monitor,
-        objects: &[pmon_monitor::ObjectState],
-        points_ego: &[[f32; 3]],
-    ) -> (ObjectReport, usize) {
-        let pts = to_sensor(points_ego);
-        let frame = Frame {
-            timestamp_s: 0.0,
-            world_from_ego: Pose2::default(),
-            objects,
-            cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
-            roi_in_ego: &[],
-            static_in_ego: &[],
-        };
-        let report = m.check(&frame).unwrap();
-        (report.objects[0], report.missed_objects())
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig { cases: 300, .. ProptestConfig::default() })]
 
@@ -146,7 +137,8 @@ mod guarantee {
             prop_assume!(reported.x_m.hypot(reported.y_m) > 0.5 * length.hypot(width) + 1.0);
             let mut pts = visible_face_points(&truth, 0.05);
             pts.extend(ground_points(45.0));
-            let (r, missed) = run_with_missed(&mut m, &[reported], &pts);
+            let (reports, missed) = run_frame(&mut m, &[reported], &pts);
+            let r = reports[0];
             prop_assert!(
                 !(r.sensor.verdict == SensorVerdict::Consistent && missed > 0),
                 "d {d:.2} (dx_min {bound:.2}): consistent with {missed} missed objects beside it: {:?}", r.sensor
@@ -186,7 +178,7 @@ mod guarantee {
             prop_assume!(reported.x_m.hypot(reported.y_m) > 0.5 * length.hypot(width) + 2.0);
             let mut pts = visible_face_points(&truth, 0.05);
             pts.extend(ground_points(45.0));
-            let (r, _) = run_with_missed(&mut m, &[reported], &pts);
+            let r = run(&mut m, &[reported], &pts)[0];
             prop_assert!(
                 matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost),
                 "towards by {d:.2} (extent {extent:.2}) not flagged: {:?}", r.sensor

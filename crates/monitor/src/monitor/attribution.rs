@@ -136,17 +136,10 @@ impl Monitor {
         if flags & (FLAG_EXPLAINED | FLAG_STATIC) != 0 {
             return None;
         }
-        let n = self.grid.geometry.cells_per_side;
-        let (cx, cy) = (c % n, c / n);
-        for y in cy.saturating_sub(1)..=(cy + 1).min(n - 1) {
-            for x in cx.saturating_sub(1)..=(cx + 1).min(n - 1) {
-                let idx = y * n + x;
-                if self.grid.flags(idx) & (FLAG_ROI_CONFLICT | FLAG_ATTRIBUTED) == FLAG_ROI_CONFLICT {
-                    return Some(idx);
-                }
-            }
-        }
-        None
+        self.grid
+            .geometry
+            .block3x3(c)
+            .find(|&idx| self.grid.flags(idx) & (FLAG_ROI_CONFLICT | FLAG_ATTRIBUTED) == FLAG_ROI_CONFLICT)
     }
 
     /// Distance from a cluster's cells (not their centres: no cell comes nearer than touching) to a region,
@@ -155,7 +148,6 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         let cluster = self.clusters.get(k)?;
-        let &(start, end) = self.cluster_spans.get(k)?;
         let rb = region.aabb();
         let cb = cluster.bounds_m;
         let gap_x = (cb[0] - rb[2]).max(rb[0] - cb[2]).max(0.0);
@@ -166,27 +158,38 @@ impl Monitor {
         if gap_x.max(gap_y) - half_diagonal > reach || libm::hypotf(gap_x, gap_y) - half_diagonal > reach {
             return None;
         }
+        let d = self.nearest_cell_distance(k, |x, y| region.distance(x, y));
+        (d <= reach).then_some(d)
+    }
+
+    /// The smallest `distance(cell centre) - half a cell diagonal` (at least 0) over cluster `k`'s cells: how near
+    /// its cells (not their centres) come to something. Stops at 0.
+    fn nearest_cell_distance(&self, k: usize, distance: impl Fn(f32, f32) -> f32) -> f32 {
+        let geometry = self.grid.geometry;
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         let mut d = f32::INFINITY;
-        for &c in self.queue.get(start as usize..end as usize).unwrap_or(&[]) {
+        for &c in self.cluster_cells(k) {
             let (x, y) = geometry.cell_center(c);
-            d = d.min((region.distance(x, y) - half_diagonal).max(0.0));
+            d = d.min((distance(x, y) - half_diagonal).max(0.0));
             if d <= 0.0 {
                 break;
             }
         }
-        (d <= reach).then_some(d)
+        d
     }
 
     /// Gives the evidence no object explains to the objects it belongs to.
     ///
-    /// 1. Ownership: each explained cell belongs to the object whose footprint is nearest (`eta_own`). An object
-    ///    whose own evidence is below `tau_tp` is *unconfirmed*: occluded, a ghost, or displaced.
+    /// 1. Ownership: each explained cell belongs to the object in whose region it lies deepest (`eta_own`, see
+    ///    [`claim`]). An object whose own evidence is below `tau_tp` is *unconfirmed*: occluded, a ghost, or
+    ///    displaced.
     /// 2. Assignment: clusters in the region of interest go to unconfirmed objects by a gated, one-to-one,
     ///    deterministic assignment on the displacement it implies (the distance from the cluster to the
     ///    region `A_o`), nearest pairs first. The gate is `conflict_association_m` for an object whose
     ///    footprint the sensor contradicts (seen empty, behind unexplained evidence, or taken by another
-    ///    object's evidence: it is not where it claims) and touching only for one hidden from the sensor (an
-    ///    occluded object has no reason to be displaced). A confirmed object takes no displaced evidence.
+    ///    object's evidence: it is not where it claims) or that stands behind the cluster on its line of sight,
+    ///    and touching only for one merely hidden. A track whose evidence stood apart from it last frame is
+    ///    offered the clusters near where that offset puts its evidence now, at the cost of that distance.
     /// 3. Spill-over: a cluster left over that continues a confirmed object's own evidence (8-adjacent cells) and
     ///    fits its box together with it, or that touches an unconfirmed object's region (within half a cell)
     ///    and fits its box, is that object's evidence reaching over its edge (the nearest such object).
@@ -436,11 +439,7 @@ impl Monitor {
         if gap_x.max(gap_y) - half_diagonal > reach {
             return None;
         }
-        let mut d = f32::INFINITY;
-        for &c in self.cluster_cells(k) {
-            let (x, y) = geometry.cell_center(c);
-            d = d.min((libm::hypotf(x - p[0], y - p[1]) - half_diagonal).max(0.0));
-        }
+        let d = self.nearest_cell_distance(k, |x, y| libm::hypotf(x - p[0], y - p[1]));
         (d <= reach).then_some(d)
     }
 
@@ -451,17 +450,12 @@ impl Monitor {
 
     /// True when a cell of cluster `k` is 8-adjacent to an occupied cell that object `j` owns.
     pub(super) fn cluster_touches_own_evidence(&self, j: usize, k: usize) -> bool {
-        let n = self.grid.geometry.cells_per_side;
         let tau = self.params.tau_fn;
         self.cluster_cells(k).iter().any(|&c| {
-            let (cx, cy) = (c % n, c / n);
-            (cy.saturating_sub(1)..=(cy + 1).min(n - 1)).any(|y| {
-                (cx.saturating_sub(1)..=(cx + 1).min(n - 1)).any(|x| {
-                    let idx = y * n + x;
-                    self.grid.probability(idx) > tau
-                        && self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                        && self.owner.get(idx as usize).is_some_and(|&o| o as usize == j)
-                })
+            self.grid.geometry.block3x3(c).any(|idx| {
+                self.grid.probability(idx) > tau
+                    && self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                    && self.owner.get(idx as usize).is_some_and(|&o| o as usize == j)
             })
         })
     }
