@@ -4,6 +4,7 @@ mod bag;
 mod check;
 mod config;
 mod output;
+mod readme_table;
 mod reproduce;
 mod simulate;
 mod tracker_bed;

@@ -209,6 +209,48 @@ fn reproduce_writes_a_report_derived_from_the_runs() {
         p["rate"]["value"].as_f64().unwrap()
     };
     let normal = run("normal", None);
+    // Issue 15: the README's results table is the generated one. `--readme` writes it between the markers of
+    // a copy of the README, leaving the rest untouched ...
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
+    let copy = dir.path().join("README.md");
+    std::fs::write(&copy, &readme).unwrap();
+    let out = dir.path().join("readme-run");
+    let o = pmon(&[
+        "reproduce",
+        "--smoke",
+        "--seed",
+        "3",
+        "--data",
+        "/nonexistent",
+        "--out",
+        out.to_str().unwrap(),
+        "--readme",
+        copy.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let md = std::fs::read_to_string(out.join("paper-vs-pmon.md")).unwrap();
+    let updated = std::fs::read_to_string(&copy).unwrap();
+    let block = |t: &str| -> String {
+        let b = t.find("<!-- paper-vs-pmon:begin").expect("README has no results block");
+        let e = t.find("<!-- paper-vs-pmon:end -->").expect("README has no end marker");
+        t[b..e].to_string()
+    };
+    assert!(block(&updated).contains(&md), "{}", block(&updated));
+    assert!(block(&updated).contains("Seed 3, smoke run"), "{}", block(&updated));
+    let outside = |t: &str| t.replace(&block(t), "");
+    assert_eq!(outside(&updated), outside(&readme));
+    // ... and the committed README's table has a row for every claim the simulated experiments make, with a
+    // verdict (the numbers are those of the full run it was generated from; the real-data rows need the data).
+    let committed = block(&readme);
+    for c in normal["claims"].as_array().unwrap() {
+        let paper = c["paper"].as_str().unwrap().replace('|', "\\|");
+        if paper.contains("NOT RUN") || c["pmon"].as_str().unwrap().contains("NOT RUN") {
+            continue;
+        }
+        let row = committed.lines().find(|l| l.starts_with(&format!("| {paper} |")));
+        let row = row.unwrap_or_else(|| panic!("README's results table has no row for claim `{paper}`"));
+        assert!(row.ends_with("| met |") || row.ends_with("| missed |") || row.ends_with("| informational |"), "{row}");
+    }
     // A monitor whose safety margin swallows every displacement.
     let weak = run("weak", Some("safety_margin_m = 3.0\n"));
     let r_normal = recall_at(&normal, "sensor recall, 0.5 m cells", 2.0);

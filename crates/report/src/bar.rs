@@ -255,6 +255,12 @@ impl Draw for BarChart {
                 let (c, l) = area.split_horizontally(chart_w.max(1));
                 (c, Some(l))
             }
+            (Placement::Below, Some(lb)) => {
+                let below = lb.in_columns(entries.len(), i32::try_from(aw).unwrap_or(0) - px.i(16.0));
+                let chart_h = i32::try_from(ah).unwrap_or(0) - below.h - px.i(10.0);
+                let (c, l) = area.split_vertically(chart_h.max(1));
+                (c, Some(l))
+            }
             _ => (area.clone(), None),
         };
         let m = axes::margins(&chart_area, &x_axis, &y_axis, px);
@@ -297,6 +303,14 @@ impl Draw for BarChart {
                 Placement::Outside => {
                     if let Some(la) = legend_area {
                         draw_legend(&la, (px.i(4.0), m.top), &lb, &entries, px)?;
+                    }
+                }
+                Placement::Below => {
+                    if let Some(la) = legend_area {
+                        let (lw, _) = la.dim_in_pixel();
+                        let lw = i32::try_from(lw).unwrap_or(0);
+                        let below = lb.in_columns(entries.len(), lw - px.i(16.0));
+                        draw_legend(&la, ((lw - below.w) / 2, px.i(4.0)), &below, &entries, px)?;
                     }
                 }
                 Placement::None => {}

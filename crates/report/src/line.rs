@@ -8,9 +8,9 @@ use plotters::style::text_anchor::{HPos, VPos};
 
 use crate::axes::{self, Axis};
 use crate::plot::{
-    clip_polyline, de, draw_label, draw_legend, draw_marker, draw_path, draw_title, legend_box, max_outside_w,
-    nice_step, resolve_range, text_at, text_size, ticks_with_step, DataRect, LegendEntry, Marker, Occupancy, Polyline,
-    Px, Swatch,
+    clip_polyline, de, draw_label, draw_legend, draw_marker, draw_path, draw_title, label_rect, legend_box,
+    max_outside_w, nice_step, resolve_range, text_at, text_size, ticks_with_step, DataRect, LegendEntry, Marker,
+    Occupancy, Polyline, Px, Swatch,
 };
 use crate::render::{impl_figure, Draw, Output};
 use crate::style::{LegendPosition, Placement, SeriesColor, SeriesStyle, REF_GREY};
@@ -389,6 +389,12 @@ impl Draw for LineChart {
                 let (c, l) = area.split_horizontally(chart_w.max(1));
                 (c, Some(l))
             }
+            (Placement::Below, Some(lb)) => {
+                let below = lb.in_columns(entries.len(), i32::try_from(aw).unwrap_or(0) - px.i(16.0));
+                let chart_h = i32::try_from(ah).unwrap_or(0) - below.h - px.i(10.0);
+                let (c, l) = area.split_vertically(chart_h.max(1));
+                (c, Some(l))
+            }
             _ => (area.clone(), None),
         };
         let (cw, _) = chart_area.dim_in_pixel();
@@ -450,6 +456,14 @@ impl Draw for LineChart {
                         draw_legend(&la, (px.i(4.0), m.top), &lb, &entries, px)?;
                     }
                 }
+                Placement::Below => {
+                    if let Some(la) = legend_area {
+                        let (lw, _) = la.dim_in_pixel();
+                        let lw = i32::try_from(lw).unwrap_or(0);
+                        let below = lb.in_columns(entries.len(), lw - px.i(16.0));
+                        draw_legend(&la, ((lw - below.w) / 2, px.i(4.0)), &below, &entries, px)?;
+                    }
+                }
                 Placement::None => {}
             }
         }
@@ -477,6 +491,8 @@ pub(crate) fn draw_ref_lines<DB: DrawingBackend>(
     px: Px,
 ) -> Result<(), String> {
     let font = px.f(13.0);
+    // Labels already drawn (pixel rectangles): a vertical line's label moves down until it overlaps none.
+    let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
     for r in refs {
         let color = r.rgb();
         let dash = r.dashed.then(|| (px.i(6.0), px.i(4.0)));
@@ -509,10 +525,24 @@ pub(crate) fn draw_ref_lines<DB: DrawingBackend>(
                 }
                 // Label right of the line at the top, or left of it near the right edge.
                 let style = text_at(font, color, HPos::Left, VPos::Top);
-                let (tw, _) = text_size(pa, &r.label, &style);
-                let fits_right = x + px.i(4.0) + i32::try_from(tw).unwrap_or(0) < pw;
+                let (tw, th) = text_size(pa, &r.label, &style);
+                let size = (i32::try_from(tw).unwrap_or(0), i32::try_from(th).unwrap_or(0));
+                let fits_right = x + px.i(4.0) + size.0 < pw;
                 let (tx, hp) = if fits_right { (x + px.i(4.0), HPos::Left) } else { (x - px.i(4.0), HPos::Right) };
-                draw_label(pa, &r.label, font, color, (tx, px.i(5.0)), hp, VPos::Top, px)?;
+                let overlaps = |a: (i32, i32, i32, i32), b: &(i32, i32, i32, i32)| {
+                    a.0 < b.2 + px.i(4.0) && b.0 < a.2 + px.i(4.0) && a.1 < b.3 && b.1 < a.3
+                };
+                let mut ty = px.i(5.0);
+                let mut rect = label_rect((tx, ty), hp, VPos::Top, size);
+                for _ in 0..refs.len() {
+                    if !placed.iter().any(|b| overlaps(rect, b)) {
+                        break;
+                    }
+                    ty += size.1 + px.i(4.0);
+                    rect = label_rect((tx, ty), hp, VPos::Top, size);
+                }
+                placed.push(rect);
+                draw_label(pa, &r.label, font, color, (tx, ty), hp, VPos::Top, px)?;
             }
         }
     }

@@ -376,6 +376,25 @@ pub(crate) struct LegendBox {
     sample_w: i32,
     gap: i32,
     font: f64,
+    /// Entries per row (1: one column).
+    cols: i32,
+    /// Width of one column.
+    col_w: i32,
+}
+
+impl LegendBox {
+    /// The same legend in as many columns as fit in `max_w` pixels (entries run left to right, then down).
+    pub fn in_columns(self, n_entries: usize, max_w: i32) -> Self {
+        let n = i32::try_from(n_entries).unwrap_or(i32::MAX).max(1);
+        let col_w = self.col_w + self.pad;
+        let cols = ((max_w - self.pad) / col_w.max(1)).clamp(1, n);
+        let rows = (n + cols - 1) / cols;
+        let w = self.pad + cols * col_w;
+        // The one-column box is 2 pad + n rows minus a small trim; keep the trim.
+        let trim = 2 * self.pad + n.saturating_mul(self.row_h) - self.h;
+        let h = 2 * self.pad + rows.saturating_mul(self.row_h) - trim;
+        Self { w, h, cols, col_w, ..self }
+    }
 }
 
 /// Measures the legend for `entries` (None if there are none).
@@ -395,9 +414,10 @@ pub(crate) fn legend_box<DB: DrawingBackend>(
     let sample_w = px.i(30.0);
     let gap = px.i(7.0);
     let n = i32::try_from(entries.len()).unwrap_or(i32::MAX / 2 / row_h.max(1));
-    let w = pad + sample_w + gap + i32::try_from(text_w).unwrap_or(0) + pad;
+    let col_w = sample_w + gap + i32::try_from(text_w).unwrap_or(0);
+    let w = pad + col_w + pad;
     let h = pad + n.saturating_mul(row_h) + pad - px.i(2.0);
-    Some(LegendBox { w, h, pad, row_h, sample_w, gap, font })
+    Some(LegendBox { w, h, pad, row_h, sample_w, gap, font, cols: 1, col_w })
 }
 
 /// Draws the legend with its top-left corner at pixel `at` of `area`.
@@ -415,9 +435,10 @@ pub(crate) fn draw_legend<DB: DrawingBackend>(
     let style = text_at(lb.font, INK, HPos::Left, VPos::Center);
     let lw = px.u(2.0);
     for (i, e) in entries.iter().enumerate() {
-        let row = i32::try_from(i).unwrap_or(0);
+        let i = i32::try_from(i).unwrap_or(0);
+        let (row, col) = (i / lb.cols.max(1), i % lb.cols.max(1));
         let cy = y0 + lb.pad + row * lb.row_h + lb.row_h / 2 - px.i(1.0);
-        let sx0 = x0 + lb.pad;
+        let sx0 = x0 + lb.pad + col * (lb.col_w + lb.pad);
         let sx1 = sx0 + lb.sample_w;
         let cx = (sx0 + sx1) / 2;
         let half = (lb.row_h / 2 - px.i(2.0)).max(2);
@@ -609,21 +630,11 @@ impl Occupancy {
         }
     }
 
-    /// [`Self::best_placement`], except that a legend wider than `max_outside_w` pixels is never put outside (it
-    /// would squeeze the plot): it goes into the least covered corner instead.
+    /// [`Self::best_placement`], except that a legend wider than `max_outside_w` pixels is never put beside the
+    /// plot (it would squeeze it): it goes under the plot instead, in columns, where it hides nothing.
     pub fn auto_placement(&self, size: (i32, i32), inset: i32, max_outside_w: i32) -> Placement {
         match self.best_placement(size, inset) {
-            Placement::Outside if size.0 > max_outside_w => {
-                let corner = Corner::AUTO_ORDER
-                    .into_iter()
-                    .map(|c| (c, self.covered_fraction(c.place((self.w, self.h), size, inset), size)))
-                    .fold(None, |best: Option<(Corner, f64)>, (c, f)| match best {
-                        Some((_, bf)) if bf <= f => best,
-                        _ => Some((c, f)),
-                    })
-                    .map_or(Corner::UpperRight, |(c, _)| c);
-                Placement::Inside(corner)
-            }
+            Placement::Outside if size.0 > max_outside_w => Placement::Below,
             p => p,
         }
     }
@@ -645,11 +656,33 @@ pub(crate) fn draw_title<DB: DrawingBackend>(
         let (_, rest) = root.split_vertically(px.i(8.0));
         return Ok(rest);
     }
-    let style = text_at(px.f(19.0), INK, HPos::Center, VPos::Top);
-    let (_, th) = text_size(root, title, &style);
+    // A title wider than the figure is shrunk to fit, and below 14 px split into two lines at the middle space.
     let pad = px.i(9.0);
-    root.draw_text(title, &style, (i32::try_from(w / 2).unwrap_or(0), pad)).map_err(de)?;
-    let used = pad + i32::try_from(th).unwrap_or(0) + px.i(6.0);
+    let avail = f64::from(w) - 2.0 * f64::from(pad);
+    let width_at = |t: &str, f: f64| f64::from(text_size(root, t, &text_at(f, INK, HPos::Center, VPos::Top)).0);
+    let full = px.f(19.0);
+    let fit = |lines: &[&str]| {
+        let widest = lines.iter().map(|l| width_at(l, full)).fold(1.0, f64::max);
+        (full * avail / widest).min(full)
+    };
+    let one = fit(&[title]);
+    let lines: Vec<&str> = if one >= px.f(14.0) {
+        vec![title]
+    } else {
+        let mid = title.len() / 2;
+        let split = title.match_indices(' ').map(|(i, _)| i).min_by_key(|&i| i.abs_diff(mid)).unwrap_or(title.len());
+        let (a, b) = title.split_at(split);
+        vec![a.trim(), b.trim()]
+    };
+    let font = fit(&lines).max(px.f(10.0));
+    let style = text_at(font, INK, HPos::Center, VPos::Top);
+    let mut y = pad;
+    for line in lines.iter().filter(|l| !l.is_empty()) {
+        let (_, th) = text_size(root, line, &style);
+        root.draw_text(line, &style, (i32::try_from(w / 2).unwrap_or(0), y)).map_err(de)?;
+        y += i32::try_from(th).unwrap_or(0) + px.i(2.0);
+    }
+    let used = y + px.i(4.0);
     let (_, rest) = root.split_vertically(used);
     Ok(rest)
 }
@@ -761,8 +794,8 @@ mod tests {
         // Data everywhere: nothing fits inside.
         occ.mark_rect((0.0, 0.0), (400.0, 300.0));
         assert_eq!(occ.best_placement((100, 50), 8), Placement::Outside);
-        // ... unless it is too wide to sit beside the plot.
-        assert!(matches!(occ.auto_placement((100, 50), 8, 90), Placement::Inside(_)));
+        // ... and one too wide to sit beside the plot goes under it.
+        assert_eq!(occ.auto_placement((100, 50), 8, 90), Placement::Below);
         assert_eq!(occ.auto_placement((100, 50), 8, 110), Placement::Outside);
         // A legend larger than the plot goes outside.
         assert_eq!(Occupancy::new(50, 50, 4).best_placement((100, 50), 8), Placement::Outside);

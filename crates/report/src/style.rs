@@ -121,6 +121,9 @@ impl Corner {
 pub(crate) enum Placement {
     Inside(Corner),
     Outside,
+    /// Under the plot, in as many columns as fit: for a legend too wide to go beside the plot and that would
+    /// hide data in every corner.
+    Below,
     None,
 }
 
