@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")"
 data="${PMON_DATA_DIR:-../../shared/data}"
 rm -rf corpus
-for t in recording kitti nuscenes nuscenes_v1 av2_feather commonroad params monitor; do
+for t in recording kitti nuscenes nuscenes_v1 av2_feather commonroad params monitor mcap_bag; do
   mkdir -p "corpus/$t"
   cp seeds/"$t"/* "corpus/$t/" 2>/dev/null || true
 done
@@ -24,4 +24,34 @@ if [ -d "$data" ]; then
   echo "fuzz corpus: seeds + real extracts from $data"
 else
   echo "fuzz corpus: committed seeds only (no real data at $data)"
+fi
+# An MCAP seed written by pmon itself, when pmon is built: two frames of one car with a 64-point cloud on it,
+# converted to a bag (object lists, PointCloud2, tf), small enough for -max_len.
+pmon=""
+for p in ../target/debug/pmon ../target/release/pmon; do [ -x "$p" ] && pmon="$p" && break; done
+if [ -n "$pmon" ]; then
+  tmp=$(mktemp -d)
+  mkdir -p "$tmp/rec/clouds"
+  python3 - "$tmp/rec" <<'PY'
+import json, struct, sys
+d = sys.argv[1]
+pts = [(10.0 + 0.1 * (i % 8) + f, -0.8 + 0.2 * (i // 8), 0.8) for f in (0.0,) for i in range(64)]
+with open(d + "/frames.jsonl", "w") as out:
+    for f in range(2):
+        with open(f"{d}/clouds/{f:06d}.bin", "wb") as c:
+            for p in pts:
+                c.write(struct.pack("<3f", p[0] + f, p[1], p[2]))
+        obj = {"id": 1, "class": "car", "x_m": 11 + f, "y_m": 0, "heading_rad": 0, "speed_mps": 10, "length_m": 4, "width_m": 2}
+        cloud = {"file": f"clouds/{f:06d}.bin", "points": len(pts),
+                 "ego_from_sensor": {"rotation": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "translation_m": [0, 0, 1.7]}}
+        out.write(json.dumps({"frame": f, "timestamp_s": 0.1 * f, "objects": [obj], "cloud": cloud}) + "\n")
+PY
+  if "$pmon" convert "$tmp/rec/frames.jsonl" --format mcap --out corpus/mcap_bag/two_frames.mcap >/dev/null; then
+    echo "fuzz corpus: mcap_bag seeded with a bag written by $pmon"
+  else
+    echo "fuzz corpus: no MCAP seed (pmon convert failed)"
+  fi
+  rm -rf "$tmp"
+else
+  echo "fuzz corpus: no MCAP seed (pmon is not built)"
 fi
