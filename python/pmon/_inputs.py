@@ -94,7 +94,7 @@ def object_columns(objects: Any) -> dict:
     if ids.ndim != 1:
         raise ValueError(f"objects['id'] must be one-dimensional, got shape {ids.shape}")
     if ids.dtype.kind == "u":
-        ids = ids.astype(np.uint64, copy=False)
+        ids = np.ascontiguousarray(ids, dtype=np.uint64)
     elif ids.dtype.kind == "i":
         if len(ids) and ids.min() < 0:
             raise ValueError(f"objects['id'] must not be negative (row {int(np.argmin(ids))}: {ids.min()})")
