@@ -258,9 +258,12 @@ struct ReportColumns {
     missed_objects: usize,
 }
 
+/// A named float column of the report and how to read it.
+type Field<T> = (&'static str, fn(&ObjectReport) -> T);
+
 /// The float fields of an object's report, by the names of `pmon check --format jsonl` (arrays split into
 /// `_x` / `_y`); the one mapping from the core's report to Python: a field added to `ObjectReport` goes here.
-const OBJECT_F32: [(&str, fn(&ObjectReport) -> f32); 16] = [
+const OBJECT_F32: [Field<f32>; 16] = [
     ("eta", |r| r.sensor.eta),
     ("margin_length_m", |r| r.sensor.margin_length_m),
     ("margin_width_m", |r| r.sensor.margin_width_m),
@@ -279,7 +282,7 @@ const OBJECT_F32: [(&str, fn(&ObjectReport) -> f32); 16] = [
     ("severity", |r| if r.motion.kind.is_some() { r.motion.severity } else { f32::NAN }),
 ];
 
-const OBJECT_F64: [(&str, fn(&ObjectReport) -> f64); 3] = [
+const OBJECT_F64: [Field<f64>; 3] = [
     ("dt_s", |r| r.motion.dt_s),
     ("predicted_world_x_m", |r| r.motion.predicted_world_m[0]),
     ("predicted_world_y_m", |r| r.motion.predicted_world_m[1]),
