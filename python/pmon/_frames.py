@@ -140,7 +140,8 @@ class Dataset:
     """A dataset in its native layout, read by pmon's readers (``docs/datasets.md``): iterate over it for
     :class:`Frame` objects. ``params`` are the defaults with the dataset's ground height and ego footprint,
     as ``pmon check`` uses them; ``notes`` say what the reader assumed (a nominal calibration, where the
-    region of interest comes from). The reader loads the annotations and sweeps when it opens the dataset."""
+    region of interest comes from). The reader loads the annotations and sweeps when it opens the dataset;
+    iterate it once (``len`` counts the frames not yet taken); open it again to start over."""
 
     def __init__(self, spec: str, *, roi: str = "auto", sidewalk_m: float = 0.0, grid_size_m: Optional[float] = None):
         self.spec = spec
