@@ -112,16 +112,13 @@ def object_columns(objects: Any) -> dict:
             raise ValueError(f"objects['class'][{i}]: class code {classes[i]} is unknown (0..{len(CLASS_NAMES) - 1})")
         codes = classes.astype(np.uint8)
     elif classes.dtype.kind in "USO":
-        # One dictionary look-up per distinct class, not per object.
+        class_list = classes.tolist()
         try:
-            uniq, inverse = np.unique(classes.astype(str) if classes.dtype.kind != "O" else classes, return_inverse=True)
-        except TypeError:
-            uniq, inverse = None, None
-        if uniq is None or any(not isinstance(c, str) or c not in _CLASS_CODES for c in uniq.tolist()):
-            bad = [c for c in classes.tolist() if not isinstance(c, str) or c not in _CLASS_CODES][0]
-            i = classes.tolist().index(bad)
-            raise ValueError(f"objects['class'][{i}]: unknown class {bad!r} (known: {', '.join(CLASS_NAMES)})")
-        codes = np.asarray([_CLASS_CODES[c] for c in uniq.tolist()], dtype=np.uint8)[inverse.reshape(-1)]
+            codes = np.fromiter((_CLASS_CODES[c] for c in class_list), dtype=np.uint8, count=n)
+        except (KeyError, TypeError):
+            i, bad = next((i, c) for i, c in enumerate(class_list) if not isinstance(c, str) or c not in _CLASS_CODES)
+            known = ", ".join(CLASS_NAMES)
+            raise ValueError(f"objects['class'][{i}]: unknown class {bad!r} (known: {known})") from None
     else:
         raise ValueError(f"objects['class'] must be class names or codes, got dtype {classes.dtype}")
     state = np.empty((n, 6), dtype=np.float32)

@@ -2,7 +2,6 @@
 //! points (a C-contiguous `(N, 3)` float32 array is read in place, `(N, 4)` is copied into a buffer made once,
 //! as in the C API) and returns the report as a dict of numpy arrays.
 
-use std::fmt::Write as _;
 use std::time::Instant;
 
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -204,28 +203,34 @@ impl Monitor {
 }
 
 /// Distinct texts of a column and each row's index into them: a frame has a handful of distinct verdicts, so
-/// Python builds its string array with one fancy-indexing step instead of one string object per row.
-#[derive(Default)]
-struct TextColumn {
+/// each distinct value is formatted once (compared by value, not by text), and Python builds its string array
+/// with one fancy-indexing step instead of one string object per row.
+struct TextColumn<K> {
+    keys: Vec<K>,
     table: Vec<String>,
     index: Vec<u16>,
-    scratch: String,
 }
 
-impl TextColumn {
-    fn push(&mut self, value: Option<&dyn std::fmt::Display>) {
-        self.scratch.clear();
-        if let Some(v) = value {
-            let _ = write!(self.scratch, "{v}");
-        }
-        let i = match self.table.iter().position(|t| *t == self.scratch) {
+impl<K: PartialEq + Copy> TextColumn<K> {
+    fn with_capacity(n: usize) -> Self {
+        Self { keys: Vec::new(), table: Vec::new(), index: Vec::with_capacity(n) }
+    }
+
+    /// Adds a row; `render` makes the text of a value not seen before (empty: does not apply).
+    fn push(&mut self, key: K, render: impl FnOnce(K) -> String) {
+        let i = match self.keys.iter().position(|k| *k == key) {
             Some(i) => i,
             None => {
-                self.table.push(self.scratch.clone());
-                self.table.len() - 1
+                self.keys.push(key);
+                self.table.push(render(key));
+                self.keys.len() - 1
             }
         };
         self.index.push(u16::try_from(i).unwrap_or(u16::MAX));
+    }
+
+    fn into_parts(self) -> (Vec<String>, Vec<u16>) {
+        (self.table, self.index)
     }
 }
 
@@ -233,13 +238,8 @@ impl TextColumn {
 #[derive(Default)]
 struct ReportColumns {
     id: Vec<u64>,
-    verdict: TextColumn,
-    reason: TextColumn,
-    conditions: TextColumn,
-    sensor: TextColumn,
-    motion: TextColumn,
-    kind: TextColumn,
-    error_unit: TextColumn,
+    /// (name, distinct texts, index per row).
+    texts: Vec<(&'static str, Vec<String>, Vec<u16>)>,
     is_alarm: Vec<bool>,
     f32s: Vec<(&'static str, Vec<f32>)>,
     f64s: Vec<(&'static str, Vec<f64>)>,
@@ -295,24 +295,28 @@ fn report_columns(rep: &FrameReport<'_>) -> ReportColumns {
         f64s: OBJECT_F64.iter().map(|(k, _)| (*k, Vec::with_capacity(n))).collect(),
         ..ReportColumns::default()
     };
+    let mut verdict = TextColumn::with_capacity(n);
+    let mut reason = TextColumn::with_capacity(n);
+    let mut conditions = TextColumn::with_capacity(n);
+    let mut sensor = TextColumn::with_capacity(n);
+    let mut motion = TextColumn::with_capacity(n);
+    let mut kind = TextColumn::with_capacity(n);
+    let mut unit = TextColumn::with_capacity(n);
     for r in rep.objects {
         c.id.push(r.id);
-        c.verdict.push(Some(&r.verdict.name()));
-        let reason = match r.verdict {
-            Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => Some(reason.name()),
-            _ => None,
-        };
-        c.reason.push(reason.as_ref().map(|s| s as &dyn std::fmt::Display));
-        match r.verdict {
-            Verdict::ImplausibleMotion(cond) => c.conditions.push(Some(&cond)),
-            _ => c.conditions.push(None),
-        }
-        c.sensor.push(Some(&r.sensor.verdict));
-        c.motion.push(Some(&r.motion.verdict));
-        let kind = r.motion.kind.map(|k| k.name());
-        c.kind.push(kind.as_ref().map(|s| s as &dyn std::fmt::Display));
-        let unit = r.motion.kind.map(|k| k.unit());
-        c.error_unit.push(unit.as_ref().map(|s| s as &dyn std::fmt::Display));
+        verdict.push(r.verdict, |v| v.name().to_string());
+        reason.push(r.verdict, |v| match v {
+            Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => reason.name().to_string(),
+            _ => String::new(),
+        });
+        conditions.push(r.verdict, |v| match v {
+            Verdict::ImplausibleMotion(cond) => cond.to_string(),
+            _ => String::new(),
+        });
+        sensor.push(r.sensor.verdict, |v| v.to_string());
+        motion.push(r.motion.verdict, |v| v.to_string());
+        kind.push(r.motion.kind, |k| k.map_or_else(String::new, |k| k.name().to_string()));
+        unit.push(r.motion.kind, |k| k.map_or_else(String::new, |k| k.unit().to_string()));
         c.is_alarm.push(r.verdict.is_alarm());
         for ((_, col), (_, get)) in c.f32s.iter_mut().zip(OBJECT_F32.iter()) {
             col.push(get(r));
@@ -321,6 +325,17 @@ fn report_columns(rep: &FrameReport<'_>) -> ReportColumns {
             col.push(get(r));
         }
         c.cluster.push(r.sensor.cluster.map_or(-1, i32::from));
+    }
+    for (name, (table, index)) in [
+        ("verdict", verdict.into_parts()),
+        ("reason", reason.into_parts()),
+        ("conditions", conditions.into_parts()),
+        ("sensor", sensor.into_parts()),
+        ("motion", motion.into_parts()),
+        ("kind", kind.into_parts()),
+        ("error_unit", unit.into_parts()),
+    ] {
+        c.texts.push((name, table, index));
     }
     let names = ["centroid_x_m", "centroid_y_m", "min_x_m", "min_y_m", "max_x_m", "max_y_m"];
     c.c_f32s = names.iter().map(|k| (*k, Vec::with_capacity(rep.clusters.len()))).collect();
@@ -346,18 +361,9 @@ impl ReportColumns {
     fn into_py(self, py: Python<'_>) -> PyResult<(Bound<'_, PyDict>, Bound<'_, PyDict>, Bound<'_, PyDict>)> {
         let objects = PyDict::new(py);
         objects.set_item("id", self.id.into_pyarray(py))?;
-        for (name, col) in [
-            ("verdict", self.verdict),
-            ("reason", self.reason),
-            ("conditions", self.conditions),
-            ("sensor", self.sensor),
-            ("motion", self.motion),
-            ("kind", self.kind),
-            ("error_unit", self.error_unit),
-        ] {
+        for (name, table, index) in self.texts {
             // (table, index): `pmon` turns it into a string array.
-            let table = PyList::new(py, col.table)?;
-            objects.set_item(name, (table, col.index.into_pyarray(py)))?;
+            objects.set_item(name, (PyList::new(py, table)?, index.into_pyarray(py)))?;
         }
         objects.set_item("is_alarm", self.is_alarm.into_pyarray(py))?;
         for (name, col) in self.f32s {
