@@ -25,5 +25,5 @@ rm -rf "$wheels"
 echo "== python: pytest"
 # From python/tests, not python/: there the source folder pmon/ (without the compiled module) would shadow the
 # installed package.
-(cd python/tests && PMON_BIN="$PWD/../../target/debug/pmon" "../../$venv/bin/python" -m pytest -q -p no:cacheprovider)
+(cd python/tests && PMON_BIN="$PWD/../../target/debug/pmon" "../../$venv/bin/python" -m pytest -q -rs -p no:cacheprovider)
 echo "== python.sh took $(( $(date +%s) - start )) s"
