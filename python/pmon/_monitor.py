@@ -9,9 +9,7 @@ import numpy as np
 from . import _inputs, _pmon
 from ._params import Params, ParamsLike, as_params
 
-_TEXT_COLUMNS = ("verdict", "reason", "conditions", "sensor", "motion", "kind", "error_unit")
-# Text columns whose empty value means "does not apply" (None in the result).
-_OPTIONAL_TEXT = ("reason", "conditions", "kind", "error_unit")
+_CLASS_NAMES = np.asarray(_inputs.CLASS_NAMES, dtype=object)
 
 
 def _json_value(v: Any) -> Any:
@@ -26,15 +24,6 @@ def _json_value(v: Any) -> Any:
     if isinstance(v, float):
         return v if np.isfinite(v) else None
     return v
-
-
-def _texts(name: str, packed: tuple) -> np.ndarray:
-    table, index = packed
-    if name in _OPTIONAL_TEXT:
-        table = [t if t else None for t in table]
-    values = np.empty(len(table), dtype=object)
-    values[:] = table
-    return values[index]
 
 
 class CheckResult:
@@ -223,10 +212,7 @@ class Monitor:
             _inputs.polygon_list(static, "static"),
             _core_time,
         )
-        for name in _TEXT_COLUMNS:
-            o[name] = _texts(name, o[name])
-        class_names = np.asarray(_inputs.CLASS_NAMES, dtype=object)
-        o["class"] = class_names[cols["classes"]]
+        o["class"] = _CLASS_NAMES[cols["classes"]]
         return CheckResult(o, c, s, t, frame)
 
     def check_frame(self, frame: Any) -> CheckResult:

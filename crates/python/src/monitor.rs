@@ -4,12 +4,12 @@
 
 use std::time::Instant;
 
-use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pmon_monitor::{FrameReport, Isometry3, ObjectClass, ObjectReport, ObjectState, Pose2, Uncertainty, Verdict};
 use pmon_session::{CheckError, FlatCloud, Session};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyDict, PyList, PyString};
 
 use crate::params::params_from_json;
 
@@ -203,8 +203,8 @@ impl Monitor {
 }
 
 /// Distinct texts of a column and each row's index into them: a frame has a handful of distinct verdicts, so
-/// each distinct value is formatted once (compared by value, not by text), and Python builds its string array
-/// with one fancy-indexing step instead of one string object per row.
+/// each distinct value is formatted once (compared by value, not by text) and becomes one Python str, which
+/// every row with that value shares.
 struct TextColumn<K> {
     keys: Vec<K>,
     table: Vec<String>,
@@ -257,6 +257,9 @@ struct ReportColumns {
     object_alarms: usize,
     missed_objects: usize,
 }
+
+/// Text columns whose empty value means "does not apply" (`None` in Python).
+const OPTIONAL_TEXTS: [&str; 4] = ["reason", "conditions", "kind", "error_unit"];
 
 /// A named float column of the report and how to read it.
 type Field<T> = (&'static str, fn(&ObjectReport) -> T);
@@ -362,8 +365,17 @@ impl ReportColumns {
         let objects = PyDict::new(py);
         objects.set_item("id", self.id.into_pyarray(py))?;
         for (name, table, index) in self.texts {
-            // (table, index): `pmon` turns it into a string array.
-            objects.set_item(name, (PyList::new(py, table)?, index.into_pyarray(py)))?;
+            // An object array of str (None where a text does not apply), one str object per distinct text.
+            let optional = OPTIONAL_TEXTS.contains(&name);
+            let distinct: Vec<Py<PyAny>> = table
+                .iter()
+                .map(|t| if optional && t.is_empty() { py.None() } else { PyString::new(py, t).into_any().unbind() })
+                .collect();
+            let column: Vec<Py<PyAny>> = index
+                .iter()
+                .map(|&i| distinct.get(usize::from(i)).map_or_else(|| py.None(), |o| o.clone_ref(py)))
+                .collect();
+            objects.set_item(name, PyArray1::from_vec(py, column))?;
         }
         objects.set_item("is_alarm", self.is_alarm.into_pyarray(py))?;
         for (name, col) in self.f32s {
