@@ -10,5 +10,6 @@
 //! recording through the monitor with a few lines (see `examples/cpp/`).
 
 pub mod ffi;
-pub mod session;
+/// The safe layer shared with the Python package (`crates/session`), re-exported under its former path.
+pub use pmon_session as session;
 mod text;

@@ -1,5 +1,7 @@
-//! A monitor with the scratch buffers a foreign caller needs: safe Rust, shared by the C API (`ffi.rs`) and the
-//! Python bindings (`python/`).
+//! # pmon-session: the monitor for foreign callers
+//!
+//! A monitor with the scratch buffers a foreign caller needs: safe Rust, shared by the C API (`crates/capi`,
+//! re-exported there as `pmon_capi::session`) and the Python package (`crates/python`).
 //!
 //! Foreign callers hand over flat `f32` point buffers (stride 3 or 4), their own object records and polygons
 //! as (pointer, length) pairs. [`Session`] turns these into the monitor's borrowed [`Frame`] without allocating

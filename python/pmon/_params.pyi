@@ -1,0 +1,53 @@
+# Type stub of pmon._params: the fields of Params (generated at run time from the Rust defaults; the test
+# tests/test_stubs.py checks that this list matches them).
+import os
+from typing import Any, Dict, List, Mapping, Optional, Union
+
+class Params:
+    grid_size_m: float
+    cell_size_m: float
+    ground_z_m: float
+    min_obstacle_height_m: float
+    max_obstacle_height_m: float
+    ego_footprint_m: List[float]
+    hit_probability: float
+    safety_margin_m: float
+    tau_tp: float
+    tau_fn: float
+    gamma_sens: float
+    min_cluster_cells: int
+    conflict_association_m: float
+    ghost_visible_fraction: float
+    visibility_bins: int
+    motion_limits: Dict[str, Any]
+    per_class_limits: Dict[str, Any]
+    gamma_plaus: float
+    default_uncertainty: Dict[str, Any]
+    max_time_step_s: float
+    plausibility_mode: str
+    false_alarm_probability: float
+    baseline_s: float
+    warmup_frames: int
+    warmup_speed_sigma_mps: float
+    heading_min_speed_mps: float
+    tracker_noise: Dict[str, Any]
+    per_class_noise: Dict[str, Any]
+    max_points: int
+    max_objects: int
+    max_clusters: int
+    max_object_size_m: float
+    def __init__(self, **overrides: Any) -> None: ...
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any], base: Optional[Params] = ...) -> Params: ...
+    @classmethod
+    def from_toml(cls, path: Union[str, os.PathLike[str]], base: Optional[Params] = ...) -> Params: ...
+    def replace(self, **changes: Any) -> Params: ...
+    @staticmethod
+    def fields() -> List[str]: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+    def to_json(self) -> str: ...
+    def to_toml(self) -> str: ...
+
+ParamsLike = Union[None, Params, Mapping[str, Any], str, os.PathLike[str]]
+
+def as_params(params: ParamsLike) -> Params: ...
