@@ -42,6 +42,15 @@ impl TfBuffer {
         }
     }
 
+    /// Forgets time-stamped edges older than `before_s`, keeping the newest of each child (a live node's
+    /// buffer stays bounded). Call after [`Self::finish`].
+    pub fn prune(&mut self, before_s: f64) {
+        for v in self.dynamic.values_mut() {
+            let keep_from = v.partition_point(|e| e.0 < before_s).min(v.len().saturating_sub(1));
+            v.drain(..keep_from);
+        }
+    }
+
     /// True when no transform was added.
     #[must_use]
     pub fn is_empty(&self) -> bool {
@@ -127,6 +136,10 @@ mod tests {
         assert!((p.x_m - 110.0).abs() < 1e-9);
         assert!(b.lookup2("map", "base_link", 12.0, 0.2).is_none(), "too far in time");
         assert!(b.lookup3("base_link", "camera", 0.0, 0.0).is_none(), "missing transform");
+        b.prune(10.5);
+        assert!(b.lookup2("map", "base_link", 10.0, 0.2).is_none(), "pruned");
+        b.prune(100.0);
+        assert!(b.lookup2("map", "base_link", 11.0, 0.2).is_some(), "the newest edge is kept");
         // A cycle ends at the chain bound.
         b.add(&TfMessage { transforms: vec![ts("b", "a", 0, 0.0), ts("a", "b", 0, 0.0)] }, true);
         assert!(b.lookup3("base_link", "a", 0.0, 0.0).is_none());
