@@ -25,7 +25,7 @@ fi
 # Built outside the namespace (the same feature set as the main test run: nothing is compiled again).
 cargo test --workspace --locked --test ros2_live --no-run
 echo "== live ROS 2 node vs Cyclone DDS (network namespace, loopback with multicast)"
-python="$(pwd)/$venv/bin/python"
+python="$(cd "$venv" && pwd)/bin/python"
 unshare --net -- bash -c '
     set -euo pipefail
     ip link set lo up

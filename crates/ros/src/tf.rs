@@ -51,6 +51,12 @@ impl TfBuffer {
         }
     }
 
+    /// The newest stamp of the time-stamped edge to `child`, seconds.
+    #[must_use]
+    pub fn latest(&self, child: &str) -> Option<f64> {
+        self.dynamic.get(child).and_then(|v| v.last()).map(|e| e.0)
+    }
+
     /// True when no transform was added.
     #[must_use]
     pub fn is_empty(&self) -> bool {
@@ -136,6 +142,8 @@ mod tests {
         assert!((p.x_m - 110.0).abs() < 1e-9);
         assert!(b.lookup2("map", "base_link", 12.0, 0.2).is_none(), "too far in time");
         assert!(b.lookup3("base_link", "camera", 0.0, 0.0).is_none(), "missing transform");
+        assert_eq!(b.latest("base_link"), Some(11.0));
+        assert_eq!(b.latest("lidar"), None, "static edges have no stamp");
         b.prune(10.5);
         assert!(b.lookup2("map", "base_link", 10.0, 0.2).is_none(), "pruned");
         b.prune(100.0);

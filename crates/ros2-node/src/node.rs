@@ -342,7 +342,10 @@ pub fn run(
         // Check every list that is ready (all of them when stopping).
         let limit_reached = |n: u64| cfg.max_frames.is_some_and(|m| n >= m);
         while !limit_reached(frame_index) {
-            let Some(ready) = pairer.next(secs(started), stopping) else { break };
+            // The ego pose: once one has been seen, a list waits for one at or after its stamp.
+            let latest_pose = odo.last().map(|o| o.0).into_iter().chain(tf_buf.latest(&t.ego_frame)).reduce(f64::max);
+            let pose_ready = |stamp_s: f64| latest_pose.is_none_or(|p| p >= stamp_s);
+            let Some(ready) = pairer.next(secs(started), stopping, &pose_ready) else { break };
             let (list, log_time_ns, arrived_s) = ready.list;
             let cloud = ready.cloud.map(|(_, c)| (c.0, Some(c.1.clone())));
             if cloud.is_none() && st.checks.unpaired_object_lists.len() < MAX_PROBLEMS {

@@ -4,9 +4,10 @@
 //! to what has arrived so far:
 //! - object lists are checked in arrival order (the monitor keeps per-track history, so order matters);
 //! - the oldest waiting list is paired as soon as a cloud stamped at or after it has arrived (clouds arrive
-//!   in stamp order, so no nearer cloud can come later), or when it has waited `wait_s` (wall clock): then
-//!   with the nearest buffered cloud within the tolerance, or with none (checked with the plausibility checks
-//!   only, reported as unpaired);
+//!   in stamp order, so no nearer cloud can come later) and the caller's other inputs are there (the node:
+//!   an ego pose at or after the list's stamp, once it has seen one), or when it has waited `wait_s` (wall
+//!   clock): then with the nearest buffered cloud within the tolerance, or with none (checked with the
+//!   plausibility checks only, reported as unpaired);
 //! - at most `max_clouds` clouds are held (the oldest goes first; one that never paired is reported) and at
 //!   most `max_lists` lists wait (a further list drops the oldest waiting one, reported): the node drops and
 //!   reports frames rather than queueing without bound.
@@ -118,13 +119,15 @@ impl<C, L> Pairer<C, L> {
             .map(|(i, _)| i)
     }
 
-    /// The oldest waiting list if it can be checked now (wall time `now_s`), with its cloud. `flush` checks it
-    /// without waiting any longer (at shutdown).
-    pub fn next(&mut self, now_s: f64, flush: bool) -> Option<Ready<C, L>> {
+    /// The oldest waiting list if it can be checked now (wall time `now_s`), with its cloud. `others_ready`
+    /// says whether the other inputs for a list stamped so are there; `flush` checks the list without waiting
+    /// any longer (at shutdown).
+    pub fn next(&mut self, now_s: f64, flush: bool, others_ready: &dyn Fn(f64) -> bool) -> Option<Ready<C, L>> {
         let front = self.lists.front()?;
         let later_cloud = self.clouds.iter().any(|c| c.stamp_s >= front.stamp_s);
+        let complete = later_cloud && others_ready(front.stamp_s);
         let timed_out = now_s - front.arrived_s >= self.cfg.wait_s;
-        if !later_cloud && !timed_out && !flush {
+        if !complete && !timed_out && !flush {
             return None;
         }
         let w = self.lists.pop_front()?;
@@ -163,11 +166,11 @@ mod tests {
     fn exact_stamp_pairs_at_once_and_order_is_kept() {
         let mut p = pairer();
         assert!(p.push_list(1.0, 10, 0.0).is_none());
-        assert!(p.next(0.0, false).is_none(), "no cloud yet: wait");
+        assert!(p.next(0.0, false, &|_| true).is_none(), "no cloud yet: wait");
         assert!(p.push_cloud(1.0, "c1").is_none());
-        let r = p.next(0.01, false).unwrap();
+        let r = p.next(0.01, false, &|_| true).unwrap();
         assert_eq!((r.list, r.stamp_s, r.cloud.map(|c| (c.0, *c.1))), (10, 1.0, Some((1.0, "c1"))));
-        assert!(p.next(0.01, false).is_none());
+        assert!(p.next(0.01, false, &|_| true).is_none());
     }
 
     #[test]
@@ -175,24 +178,33 @@ mod tests {
         let mut p = pairer();
         p.push_cloud(0.98, "early");
         p.push_list(1.0, 1, 0.0);
-        assert!(p.next(0.0, false).is_none(), "a nearer cloud may still come");
+        assert!(p.next(0.0, false, &|_| true).is_none(), "a nearer cloud may still come");
         p.push_cloud(1.2, "late");
-        let r = p.next(0.0, false).unwrap();
+        let r = p.next(0.0, false, &|_| true).unwrap();
         assert_eq!(r.cloud.map(|c| *c.1), Some("early"));
         // Outside the tolerance: checked without a cloud.
         p.push_list(1.1, 2, 0.0);
-        let r = p.next(0.0, false).unwrap();
+        let r = p.next(0.0, false, &|_| true).unwrap();
         assert!(r.cloud.is_none());
+    }
+
+    #[test]
+    fn a_list_waits_for_the_other_inputs_too() {
+        let mut p = pairer();
+        p.push_list(1.0, 1, 0.0);
+        p.push_cloud(1.0, "c");
+        assert!(p.next(0.1, false, &|t| t <= 0.9).is_none(), "no ego pose at 1.0 s yet");
+        assert!(p.next(0.1, false, &|t| t <= 1.0).is_some());
     }
 
     #[test]
     fn waiting_ends_after_wait_s_and_flush_ends_it_at_once() {
         let mut p = pairer();
         p.push_list(5.0, 1, 100.0);
-        assert!(p.next(100.29, false).is_none());
-        assert!(p.next(100.3, false).unwrap().cloud.is_none());
+        assert!(p.next(100.29, false, &|_| true).is_none());
+        assert!(p.next(100.31, false, &|_| true).unwrap().cloud.is_none());
         p.push_list(6.0, 2, 200.0);
-        assert_eq!(p.next(200.0, true).unwrap().list, 2);
+        assert_eq!(p.next(200.0, true, &|_| true).unwrap().list, 2);
     }
 
     #[test]
@@ -202,9 +214,9 @@ mod tests {
         p.push_cloud(2.0, "b");
         assert_eq!(p.push_cloud(3.0, "c"), Some(Dropped::UnpairedCloud(1.0)));
         p.push_list(2.0, 1, 0.0);
-        assert!(p.next(0.0, false).is_some());
-        p.push_cloud(4.0, "d");
-        assert_eq!(p.push_cloud(5.0, "e"), None, "cloud b was used: not reported");
+        assert!(p.next(0.0, false, &|_| true).is_some());
+        assert_eq!(p.push_cloud(4.0, "d"), None, "cloud b was used: not reported");
+        assert_eq!(p.push_cloud(5.0, "e"), Some(Dropped::UnpairedCloud(3.0)));
         p.push_list(10.0, 1, 0.0);
         p.push_list(11.0, 2, 0.0);
         assert_eq!(p.push_list(12.0, 3, 0.0), Some(Dropped::List(10.0)));
