@@ -2,7 +2,7 @@
 # CI part for the live ROS 2 node (docs/ros2.md, "The live node"): `pmon ros2` against an independent DDS peer,
 # Cyclone DDS from PyPI (`cyclonedds`), over loopback in a network namespace of its own (DDS discovers its peers
 # by multicast, which plain loopback does not carry). Called from .ci/run; skips with a message where network
-# namespaces are not permitted.
+# namespaces are not permitted. PMON_ROS2_LOAD=1 adds the load measurement (KITTI sweeps at 10 Hz, ~20 s).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$(date +%s)
@@ -32,6 +32,6 @@ unshare --net -- bash -c '
     ip link set lo multicast on
     ip route add 224.0.0.0/4 dev lo
     PMON_ROS2_LIVE=1 PMON_ROS_PYTHON="$1" cargo test --offline --workspace --locked --test ros2_live -- \
-        --nocapture --test-threads 1
-' _ "$python"
+        --nocapture --test-threads 1 $2
+' _ "$python" "$([ "${PMON_ROS2_LOAD:-0}" = 1 ] && echo --include-ignored)"
 echo "== ros2_live.sh took $(( $(date +%s) - start )) s"

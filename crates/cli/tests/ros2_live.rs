@@ -183,3 +183,88 @@ fn simulated_drive_at_10_hz_over_dds_equals_pmon_check() {
     assert!(n.contains(&format!("pmon ros2: {frames} frames (object lists)")), "{n}");
     assert!(n.contains("object lists dropped 0") && n.contains("lost in DDS 0 object lists and 0 clouds"), "{n}");
 }
+
+/// The KITTI object extracts (113k-127k points a sweep), as `pmon convert --format mcap` writes them; `None`
+/// (with a message) when `../shared/data` (or `PMON_DATA_DIR`) does not have them.
+fn kitti_bag(dir: &Path) -> Option<PathBuf> {
+    let data = std::env::var_os("PMON_DATA_DIR")
+        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"), PathBuf::from);
+    let kitti = data.join("kitti/object/training");
+    if !kitti.join("velodyne").is_dir() {
+        eprintln!("skipped: no KITTI extracts in {}", kitti.display());
+        return None;
+    }
+    let bag = dir.join("kitti.mcap");
+    let spec = format!("kitti:{}", kitti.display());
+    run_ok(pmon().args(["convert", &spec, "--format", "mcap", "--out"]).arg(&bag), "pmon convert kitti");
+    Some(bag)
+}
+
+#[test]
+fn kitti_sweeps_of_115k_points_over_dds_equal_pmon_check() {
+    let Some(py) = python() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let Some(bag) = kitti_bag(dir.path()) else { return };
+    let live = live_run(&py, dir.path(), &bag, 43, &[], &["--rate-hz", "10"]);
+    let s = &live.summary;
+    assert_eq!(s["frames_compared"], 6, "{s}");
+    assert_eq!(s["diagnostics_compared"], 6, "{s}");
+    assert!(live.node_stdout.contains("lost in DDS 0 object lists and 0 clouds"), "{}", live.node_stdout);
+}
+
+/// Load: the KITTI sweeps replayed ten times at 10 Hz (60 frames, each stamped past the previous pass). Prints
+/// the node's check time and arrival-to-publication time (median, p99), the peer's publish-to-verdict time and
+/// the drops; asserts only that no frame went missing silently (each object list sent got its verdicts or was
+/// counted as dropped or lost). Opt-in: `PMON_ROS2_LOAD=1 .ci/ros2_live.sh` (timings are measured, never
+/// asserted).
+#[test]
+#[ignore = "load measurement, run by PMON_ROS2_LOAD=1 .ci/ros2_live.sh"]
+fn kitti_at_10_hz_load_every_frame_accounted_for() {
+    let Some(py) = python() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let Some(bag) = kitti_bag(dir.path()) else { return };
+    let node_out = dir.path().join("node.out");
+    let mut node = pmon()
+        .args(["ros2", "--domain-id", "44"])
+        .stdout(Stdio::from(std::fs::File::create(&node_out).unwrap()))
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let peer_json = dir.path().join("peer.json");
+    let peer = Command::new(&py)
+        .arg(interop_dir().join("dds_peer.py"))
+        .arg(&bag)
+        .arg(&peer_json)
+        .args(["--domain", "44", "--rate-hz", "10", "--repeat", "10", "--timeout-s", "120"])
+        .env("CYCLONEDDS_URI", CYCLONE_URI)
+        .output()
+        .unwrap();
+    Command::new("kill").args(["-INT", &node.id().to_string()]).status().unwrap();
+    let status = wait(&mut node, Duration::from_secs(30), "pmon ros2 after SIGINT");
+    assert!(status.success());
+    let node_stdout = std::fs::read_to_string(&node_out).unwrap();
+    eprintln!("{}\n{node_stdout}", String::from_utf8_lossy(&peer.stdout));
+    let p: Value = serde_json::from_str(&std::fs::read_to_string(&peer_json).unwrap()).unwrap();
+    let sent = p["object_lists_sent"].as_u64().unwrap();
+    let received = p["verdicts"].as_array().unwrap().len() as u64;
+    let count = |label: &str| -> u64 {
+        let i = node_stdout.find(label).unwrap_or_else(|| panic!("{label} not in {node_stdout}")) + label.len();
+        node_stdout[i..].split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let dropped = count("object lists dropped ");
+    let lost = count("lost in DDS ");
+    assert_eq!(received + dropped + lost, sent, "every object list sent is checked or counted: {node_stdout}");
+    let mut lat: Vec<f64> = p["latency_s"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    lat.sort_by(f64::total_cmp);
+    if !lat.is_empty() {
+        let q = |f: f64| lat[((f * lat.len() as f64).ceil() as usize).clamp(1, lat.len()) - 1] * 1e3;
+        eprintln!(
+            "load: {sent} object lists at 10 Hz in {:.1} s ({} sent late by the peer), {received} verdicts, \
+             {dropped} dropped, {lost} lost in DDS; peer publish-to-verdict median {:.2} ms, p99 {:.2} ms",
+            p["replay_s"].as_f64().unwrap(),
+            p["lists_sent_late"],
+            q(0.5),
+            q(0.99)
+        );
+    }
+}
