@@ -268,3 +268,45 @@ fn kitti_at_10_hz_load_every_frame_accounted_for() {
         );
     }
 }
+
+#[test]
+fn a_malformed_cloud_over_dds_is_reported_and_the_node_goes_on() {
+    let Some(py) = python() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_ok(
+        Command::new(&py).arg(interop_dir().join("make_bag.py")).arg(dir.path().join("bag")).arg("--malformed"),
+        "make_bag --malformed",
+    );
+    let bag = PathBuf::from(out.trim());
+    let node_out = dir.path().join("node.out");
+    let node_err = dir.path().join("node.err");
+    let mut node = pmon()
+        .args(["ros2", "--domain-id", "45"])
+        .stdout(Stdio::from(std::fs::File::create(&node_out).unwrap()))
+        .stderr(Stdio::from(std::fs::File::create(&node_err).unwrap()))
+        .spawn()
+        .unwrap();
+    let peer_json = dir.path().join("peer.json");
+    let peer = Command::new(&py)
+        .arg(interop_dir().join("dds_peer.py"))
+        .arg(&bag)
+        .arg(&peer_json)
+        .args(["--domain", "45"])
+        .env("CYCLONEDDS_URI", CYCLONE_URI)
+        .output()
+        .unwrap();
+    Command::new("kill").args(["-INT", &node.id().to_string()]).status().unwrap();
+    let status = wait(&mut node, Duration::from_secs(20), "pmon ros2 after SIGINT");
+    let (n_out, n_err) = (std::fs::read_to_string(&node_out).unwrap(), std::fs::read_to_string(&node_err).unwrap());
+    let peer_out = String::from_utf8_lossy(&peer.stdout);
+    assert!(peer.status.success() && peer_out.contains("header-only PointCloud2"), "{peer_out}\n{n_out}\n{n_err}");
+    assert!(status.success(), "{n_out}\n{n_err}");
+    // The cut cloud is reported when it arrives; its object list is still checked (without a cloud).
+    assert!(n_err.contains("/sensing/lidar/concatenated/pointcloud: cloud not used:"), "{n_err}");
+    assert!(n_out.contains("pmon ros2: 3 frames (object lists), 2 clouds"), "{n_out}");
+    assert!(n_out.contains("(1 undecodable messages)"), "{n_out}");
+    let p: Value = serde_json::from_str(&std::fs::read_to_string(&peer_json).unwrap()).unwrap();
+    let v = p["verdicts"].as_array().unwrap();
+    assert_eq!(v.len(), 3);
+    assert_eq!(v[1]["sensor_status"], "no_lidar_data", "the list whose cloud was cut: {}", v[1]);
+}

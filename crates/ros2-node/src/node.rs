@@ -128,9 +128,13 @@ impl SequenceGaps {
     }
 }
 
-/// Takes every available sample; decode errors are returned as messages (the sample is gone).
+/// Samples taken from one subscription per turn of the loop (a bound; the rest are taken in the next turn).
+const MAX_TAKE: usize = 256;
+
+/// Takes the available samples (at most [`MAX_TAKE`]); decode errors are returned as messages (RustDDS moves
+/// past an undecodable sample, so it is reported once and gone).
 fn drain<T: 'static + DeserializeOwned>(sub: &Subscription<T>, out: &mut Vec<Result<(T, MessageInfo), String>>) {
-    loop {
+    for _ in 0..MAX_TAKE {
         match sub.take() {
             Ok(Some(s)) => out.push(Ok(s)),
             Ok(None) => break,
@@ -244,6 +248,7 @@ pub fn run(
     let mut events = Events::with_capacity(16);
     let mut frame_index = 0u64;
     let mut last_frame_s = 0.0f64;
+    let mut first_list_s: Option<f64> = None;
     let mut last_stale_s = f64::NEG_INFINITY;
     let mut st = State { checks: BagSummary::default(), counters: NodeCounters::default() };
 
@@ -328,6 +333,7 @@ pub fn run(
                 Ok((list, info)) => {
                     st.counters.lists_lost_in_dds += gaps.1.lost(&info);
                     let stamp = list.header().stamp.as_secs_f64();
+                    first_list_s.get_or_insert(now);
                     if let Some(d) = pairer.push_list(stamp, (list, now_ns(), now), now) {
                         st.dropped(d, cfg.pairing.max_lists, log);
                     }
@@ -342,9 +348,12 @@ pub fn run(
         // Check every list that is ready (all of them when stopping).
         let limit_reached = |n: u64| cfg.max_frames.is_some_and(|m| n >= m);
         while !limit_reached(frame_index) {
-            // The ego pose: once one has been seen, a list waits for one at or after its stamp.
+            // The ego pose: a list waits for one at or after its stamp.
             let latest_pose = odo.last().map(|o| o.0).into_iter().chain(tf_buf.latest(&t.ego_frame)).reduce(f64::max);
-            let pose_ready = |stamp_s: f64| latest_pose.is_none_or(|p| p >= stamp_s);
+            // Before any pose has arrived, the first list waits for one (up to the pairing wait); a system
+            // without odometry or `/tf` pays that wait once.
+            let no_pose_yet_ok = first_list_s.is_some_and(|f| secs(started) - f >= cfg.pairing.wait_s);
+            let pose_ready = |stamp_s: f64| latest_pose.map_or(no_pose_yet_ok, |p| p >= stamp_s);
             let Some(ready) = pairer.next(secs(started), stopping, &pose_ready) else { break };
             let (list, log_time_ns, arrived_s) = ready.list;
             let cloud = ready.cloud.map(|(_, c)| (c.0, Some(c.1.clone())));

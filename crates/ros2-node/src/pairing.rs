@@ -5,7 +5,7 @@
 //! - object lists are checked in arrival order (the monitor keeps per-track history, so order matters);
 //! - the oldest waiting list is paired as soon as a cloud stamped at or after it has arrived (clouds arrive
 //!   in stamp order, so no nearer cloud can come later) and the caller's other inputs are there (the node:
-//!   an ego pose at or after the list's stamp, once it has seen one), or when it has waited `wait_s` (wall
+//!   an ego pose at or after the list's stamp), or when it has waited `wait_s` (wall
 //!   clock): then with the nearest buffered cloud within the tolerance, or with none (checked with the
 //!   plausibility checks only, reported as unpaired);
 //! - at most `max_clouds` clouds are held (the oldest goes first; one that never paired is reported) and at

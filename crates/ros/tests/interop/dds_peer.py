@@ -4,7 +4,9 @@ over DDS and records what pmon publishes.
 Usage: dds_peer.py BAG.mcap OUT.json [--domain D] [--rate-hz R] [--timeout-s T] [--objects-topic TOPIC]
 
 - Reads every message of the bag with the Python `mcap` reader and decodes its CDR with Cyclone's own
-  deserializer into the types of ros2_types.py (written from the upstream .msg files, independent of pmon).
+  deserializer into the types of ros2_types.py (written from the upstream .msg files, independent of pmon);
+  a cloud Cyclone cannot decode (a deliberately cut one) is sent as a header-only PointCloud2 by a second
+  participant, as a peer with a wrong type definition would (it does not decode at the receiver).
 - Waits until pmon's readers have matched each of its writers (discovery), then publishes `/tf_static`
   (transient local) and the other messages in the bag's log-time order, one object list per 1/R s (the
   messages before an object list go out just before it: odometry, transforms, its cloud).
@@ -59,9 +61,14 @@ with open(args.bag, "rb") as f:
             continue
         try:
             sample = cls.deserialize(bytes(message.data))
-        except Exception as e:  # a deliberately malformed message: not sendable as a typed sample
-            print(f"peer: {channel.topic} @ {message.log_time}: not decodable by Cyclone, not sent ({e})")
-            continue
+        except Exception as e:  # a deliberately malformed message (a cut cloud): its header only, as a peer
+            # with a wrong PointCloud2 definition would send it (Cyclone will not send bytes its type rejects)
+            if cls is not R.PointCloud2:
+                raise
+            sample = R.PointCloud2HeaderOnly.deserialize(bytes(message.data))
+            cls = R.PointCloud2HeaderOnly
+            print(f"peer: {channel.topic} @ {message.log_time}: not decodable by Cyclone ({e}): "
+                  "sent as a header-only PointCloud2 from a second participant")
         messages.append((message.log_time, channel.topic == args.objects_topic, channel.topic, cls, sample))
 # In log-time order; at equal log times an object list goes after its inputs (as a perception stack publishes).
 messages = [m[2:] for m in sorted(messages, key=lambda m: (m[0], m[1]))]
@@ -95,18 +102,26 @@ print(f"peer: {len(messages)} messages from {args.bag}, {len(lists)} object list
 
 dp = DomainParticipant(args.domain)
 writers = {}
+bad_writers = {}
 for topic, cls, _ in messages:
-    if topic not in writers:
+    if cls is R.PointCloud2HeaderOnly and topic not in bad_writers:
+        dp_bad = DomainParticipant(args.domain)
+        bad_writers[topic] = DataWriter(dp_bad, Topic(dp_bad, "rt" + topic, cls), qos=reliable)
+    elif topic not in writers:
         qos = latched if topic == "/tf_static" else (
             best_effort if cls is R.PointCloud2 and args.cloud_best_effort else reliable)
         writers[topic] = DataWriter(dp, Topic(dp, "rt" + topic, cls), qos=qos)
+
+
+def writer_of(topic, sample):
+    return bad_writers[topic] if isinstance(sample, R.PointCloud2HeaderOnly) else writers[topic]
 
 
 def serialized(topic, sample):
     """Cyclone's CDR of a sample, made before the replay starts: serialising a 120k-point cloud takes Cyclone's
     Python layer ~0.15 s, too slow to do at 10 Hz. Sent with the binding's raw write (what DataWriter.write
     does after serialising)."""
-    w = writers[topic]
+    w = writer_of(topic, sample)
     ser = sample.serialize(use_version_2=w._use_version_2)
     return ser.ljust((len(ser) + 3) & ~3, b"\0")
 
@@ -117,7 +132,7 @@ diag_reader = DataReader(dp, Topic(dp, "rt/diagnostics", R.DiagnosticArray), qos
 
 t_start = time.monotonic()
 deadline = t_start + args.timeout_s
-while any(len(w.get_matched_subscriptions()) == 0 for w in writers.values()) or \
+while any(len(w.get_matched_subscriptions()) == 0 for w in [*writers.values(), *bad_writers.values()]) or \
         len(verdict_reader.get_matched_publications()) == 0 or len(diag_reader.get_matched_publications()) == 0:
     if time.monotonic() > deadline:
         missing = [t for t, w in writers.items() if not w.get_matched_subscriptions()]
@@ -144,15 +159,15 @@ def collect():
 
 
 
-def send(topic, ser):
-    if ddspy_write(writers[topic]._ref, ser) < 0:
+def send(topic, sample, ser):
+    if ddspy_write(writer_of(topic, sample)._ref, ser) < 0:
         raise RuntimeError(f"write on {topic} failed")
 
 
 # tf_static first (latched), then the rest in log-time order, an object list every 1/rate s.
 for topic, sample, ser in prepared:
     if topic == "/tf_static":
-        send(topic, ser)
+        send(topic, sample, ser)
 period = 1.0 / args.rate_hz
 next_list = t_replay = time.monotonic()
 late = 0
@@ -167,7 +182,7 @@ for topic, sample, ser in prepared:
             time.sleep(0.002)
         next_list += period
         sent_at[stamp_key(sample.header)] = time.monotonic()
-    send(topic, ser)
+    send(topic, sample, ser)
     collect()
 
 replay_s = time.monotonic() - t_replay

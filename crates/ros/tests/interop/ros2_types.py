@@ -275,3 +275,11 @@ BY_ROS_NAME = {
     "nav_msgs/msg/Odometry": Odometry,
     "tf2_msgs/msg/TFMessage": TFMessage,
 }
+
+
+@dataclass
+class PointCloud2HeaderOnly(IdlStruct, typename=_name("sensor_msgs", "PointCloud2")):
+    """A peer with a wrong definition of PointCloud2 (only the header): what it sends does not decode as a
+    PointCloud2 at the receiver. Used to send a malformed sample over DDS, which Cyclone refuses to do with raw
+    bytes that do not match the type."""
+    header: Header
