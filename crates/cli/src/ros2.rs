@@ -162,7 +162,7 @@ pub fn run(args: &Ros2Args) -> Result<ExitCode> {
     let mut log = |line: &str| eprintln!("{line}");
     let summary = pmon_ros2_node::run(&cfg, &params, &stop, &mut log)?;
     if stop.load(Ordering::SeqCst) {
-        eprintln!("pmon ros2: stopping (Ctrl-C): the waiting object lists were checked");
+        eprintln!("pmon ros2: stopping (Ctrl-C or SIGTERM): the waiting object lists were checked");
     }
     let mut out = io::stdout().lock();
     write_summary(&mut out, "pmon ros2", &summary.checks)?;

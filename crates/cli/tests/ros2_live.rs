@@ -113,7 +113,7 @@ fn live_run(py: &Path, dir: &Path, bag: &Path, domain: u16, node_args: &[&str], 
     );
     eprintln!("{}", String::from_utf8_lossy(&peer.stdout));
     assert!(status.success(), "pmon ros2 exit status {status} after SIGINT: {node_stdout}\n{node_stderr}");
-    assert!(node_stderr.contains("stopping (Ctrl-C)"), "{node_stderr}");
+    assert!(node_stderr.contains("stopping (Ctrl-C or SIGTERM)"), "{node_stderr}");
 
     // pmon check on the same bag: JSON lines and the results MCAP (for /diagnostics).
     let results = dir.join("results.mcap");

@@ -43,6 +43,9 @@ pub enum NodeError {
         /// Why.
         message: String,
     },
+    /// A setting out of range.
+    #[error("{0}")]
+    Config(String),
     /// The monitor's parameters or a frame were refused.
     #[error("monitor: {0}")]
     Monitor(String),
@@ -56,6 +59,9 @@ pub struct NodeSummary {
     /// Drops, losses, latencies.
     pub counters: NodeCounters,
 }
+
+/// The largest DDS domain id (RTPS port mapping: 7400 + 250 * domain + offsets must fit in 16 bits).
+pub const MAX_DOMAIN_ID: u16 = 232;
 
 /// Problems kept for the summary (each is also logged when it happens); more are counted only.
 const MAX_PROBLEMS: usize = 1000;
@@ -165,11 +171,18 @@ pub fn run(
     stop: &AtomicBool,
     log: &mut dyn FnMut(&str),
 ) -> Result<NodeSummary, NodeError> {
+    if cfg.domain_id > MAX_DOMAIN_ID {
+        return Err(NodeError::Config(format!(
+            "DDS domain {} is out of range: ROS 2 uses 0..={MAX_DOMAIN_ID} (the UDP ports of higher domains \
+             do not fit)",
+            cfg.domain_id
+        )));
+    }
     let mut monitor = Monitor::new(*params).map_err(|e| NodeError::Monitor(e.to_string()))?;
     let context =
         Context::with_options(ContextOptions::new().domain_id(cfg.domain_id)).map_err(dds("the DDS participant"))?;
     let node_name = NodeName::new(&cfg.namespace, &cfg.node_name).map_err(|e| NodeError::Name {
-        name: format!("{}/{}", cfg.namespace, cfg.node_name),
+        name: format!("{}/{}", cfg.namespace.trim_end_matches('/'), cfg.node_name),
         message: format!("{e:?}"),
     })?;
     let node = context
