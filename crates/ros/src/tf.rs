@@ -42,11 +42,12 @@ impl TfBuffer {
         }
     }
 
-    /// Forgets time-stamped edges older than `before_s`, keeping the newest of each child (a live node's
-    /// buffer stays bounded). Call after [`Self::finish`].
-    pub fn prune(&mut self, before_s: f64) {
+    /// Forgets the time-stamped edges of each child more than `history_s` older than that child's newest (a
+    /// live node's buffer stays bounded). Call after [`Self::finish`].
+    pub fn prune(&mut self, history_s: f64) {
         for v in self.dynamic.values_mut() {
-            let keep_from = v.partition_point(|e| e.0 < before_s).min(v.len().saturating_sub(1));
+            let Some(newest) = v.last().map(|e| e.0) else { continue };
+            let keep_from = v.partition_point(|e| e.0 < newest - history_s);
             v.drain(..keep_from);
         }
     }
@@ -144,9 +145,8 @@ mod tests {
         assert!(b.lookup3("base_link", "camera", 0.0, 0.0).is_none(), "missing transform");
         assert_eq!(b.latest("base_link"), Some(11.0));
         assert_eq!(b.latest("lidar"), None, "static edges have no stamp");
-        b.prune(10.5);
+        b.prune(0.5);
         assert!(b.lookup2("map", "base_link", 10.0, 0.2).is_none(), "pruned");
-        b.prune(100.0);
         assert!(b.lookup2("map", "base_link", 11.0, 0.2).is_some(), "the newest edge is kept");
         // A cycle ends at the chain bound.
         b.add(&TfMessage { transforms: vec![ts("b", "a", 0, 0.0), ts("a", "b", 0, 0.0)] }, true);

@@ -412,7 +412,7 @@ pub fn run(
                 st.counters.publish_errors += 1;
             }
         }
-        tf_buf.prune(odo.last().map_or(f64::NEG_INFINITY, |o| o.0) - TF_HISTORY_S);
+        tf_buf.prune(TF_HISTORY_S);
         if limit_reached(frame_index) || (stopping && pairer.waiting() == 0) {
             break;
         }
