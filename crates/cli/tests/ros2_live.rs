@@ -76,13 +76,16 @@ struct Live {
 }
 
 /// Starts `pmon ros2`, replays `bag` through the Cyclone peer, stops the node with SIGINT, compares with
-/// `pmon check`.
+/// `pmon check`. The node waits up to 2 s (instead of 0.3 s) for a list's cloud and pose: on a loaded
+/// 2-core machine a retransmitted cloud fragment can come late, and a list checked without its cloud would
+/// differ from pmon check for a reason that is not the node's logic (lists whose inputs are there are checked
+/// at once either way).
 fn live_run(py: &Path, dir: &Path, bag: &Path, domain: u16, node_args: &[&str], peer_args: &[&str]) -> Live {
     let node_out = dir.join("node.out");
     let node_err = dir.join("node.err");
     let mut node = pmon()
         .arg("ros2")
-        .args(["--domain-id", &domain.to_string()])
+        .args(["--domain-id", &domain.to_string(), "--pairing-wait-s", "2"])
         .args(node_args)
         .env_remove("ROS_DOMAIN_ID")
         .stdout(Stdio::from(std::fs::File::create(&node_out).unwrap()))
