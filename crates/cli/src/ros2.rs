@@ -12,7 +12,9 @@ use pmon_ros2_node::pairing::PairingConfig;
 use pmon_ros2_node::status::quantile;
 use pmon_ros2_node::{NodeConfig, ObjectsType, Reliability};
 
-use crate::bag::{write_summary, BagArgs};
+use pmon_ros::bag::BagConfig;
+
+use crate::bag::write_summary;
 use crate::config::load_params;
 
 /// `--objects-type`.
@@ -45,9 +47,24 @@ impl From<ReliabilityArg> for Reliability {
 /// Options of `pmon ros2`.
 #[derive(Args, Debug)]
 pub struct Ros2Args {
-    /// Input topics, frames and the pairing tolerance (the same options as `pmon check bag.mcap`).
-    #[command(flatten)]
-    pub bag: BagArgs,
+    /// The `sensor_msgs/PointCloud2` topic.
+    #[arg(long, default_value = "/sensing/lidar/concatenated/pointcloud")]
+    pub cloud_topic: String,
+    /// The object list's topic (`--objects-type` says which type).
+    #[arg(long, default_value = "/perception/object_recognition/tracking/objects")]
+    pub objects_topic: String,
+    /// The ego `nav_msgs/Odometry` topic (`/tf` map -> base_link is used when it has none).
+    #[arg(long, default_value = "/localization/kinematic_state")]
+    pub odometry_topic: String,
+    /// The ego frame the monitor works in.
+    #[arg(long, default_value = "base_link")]
+    pub ego_frame: String,
+    /// The world frame of the ego pose.
+    #[arg(long, default_value = "map")]
+    pub world_frame: String,
+    /// Largest |object stamp - cloud stamp| for a pairing, seconds.
+    #[arg(long, default_value_t = 0.05)]
+    pub pairing_tolerance_s: f64,
     /// The object list's type (DDS matches topics by type).
     #[arg(long, value_enum, default_value_t = ObjectsTypeArg::Tracked)]
     pub objects_type: ObjectsTypeArg,
@@ -111,14 +128,22 @@ impl Ros2Args {
         finite_positive("pairing-wait-s", self.pairing_wait_s)?;
         finite_positive("stale-after-s", self.stale_after_s)?;
         anyhow::ensure!(
-            self.bag.pairing_tolerance_s.is_finite() && self.bag.pairing_tolerance_s >= 0.0,
+            self.pairing_tolerance_s.is_finite() && self.pairing_tolerance_s >= 0.0,
             "--pairing-tolerance-s must be a non-negative number of seconds, got {}",
-            self.bag.pairing_tolerance_s
+            self.pairing_tolerance_s
         );
         anyhow::ensure!(self.depth >= 1, "--depth must be at least 1");
-        let mut topics = self.bag.config();
-        topics.tf_topic.clone_from(&self.tf_topic);
-        topics.tf_static_topic.clone_from(&self.tf_static_topic);
+        let topics = BagConfig {
+            cloud_topic: self.cloud_topic.clone(),
+            objects_topic: self.objects_topic.clone(),
+            odometry_topic: self.odometry_topic.clone(),
+            tf_topic: self.tf_topic.clone(),
+            tf_static_topic: self.tf_static_topic.clone(),
+            ego_frame: self.ego_frame.clone(),
+            world_frame: self.world_frame.clone(),
+            pairing_tolerance_s: self.pairing_tolerance_s,
+            ..BagConfig::default()
+        };
         Ok(NodeConfig {
             objects_type: match self.objects_type {
                 ObjectsTypeArg::Tracked => ObjectsType::Tracked,
