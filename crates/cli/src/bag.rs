@@ -70,7 +70,7 @@ fn stamps(v: &[Time]) -> String {
     format!("{}{more}", shown.join(", "))
 }
 
-fn write_summary(out: &mut dyn Write, name: &str, s: &BagSummary) -> io::Result<()> {
+pub fn write_summary(out: &mut dyn Write, name: &str, s: &BagSummary) -> io::Result<()> {
     writeln!(
         out,
         "\n{name}: {} frames (object lists), {} clouds, {} object states, {} frames with alarms, {} missed-object alarms",

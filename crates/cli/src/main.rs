@@ -6,6 +6,7 @@ mod config;
 mod output;
 mod readme_table;
 mod reproduce;
+mod ros2;
 mod simulate;
 mod tracker_bed;
 mod view;
@@ -101,6 +102,9 @@ enum Command {
     /// Score the plausibility checks on simulated tracker-like output (warm-up, re-fits, jitter, flips, jumps,
     /// drop-outs): false alarms on benign states, recall on safety-critical errors, kind correctness.
     TrackerBed(tracker_bed::TrackerBedArgs),
+    /// Run as a live ROS 2 node (DDS, no ROS installation): subscribe to a point cloud and an Autoware object
+    /// list, publish verdicts (`pmon_msgs/FrameVerdicts`) and `/diagnostics` until Ctrl-C (docs/ros2.md).
+    Ros2(Box<ros2::Ros2Args>),
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
         /// A TOML file of parameters to validate and print merged over the defaults.
@@ -182,6 +186,7 @@ fn main() -> ExitCode {
             convert(&spec, &out, force, &check::read_options(roi, sidewalk_m, grid_size_m))
         }
         Command::TrackerBed(args) => tracker_bed::run(&args),
+        Command::Ros2(args) => ros2::run(&args),
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
     };
     match result {

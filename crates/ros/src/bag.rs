@@ -5,21 +5,18 @@
 //! frames in the object lists' file order as soon as their cloud has been read. Only clouds read ahead of
 //! their object list are held in memory.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-use pmon_monitor::{FrameReport, Monitor, MonitorParams, ObjectState, Pose2};
-use pmon_recording::{OwnedCloud, RecordedFrame};
+use pmon_monitor::{FrameReport, Monitor, MonitorParams, Pose2};
+use pmon_recording::RecordedFrame;
 
 use crate::cdr::decode;
-use crate::convert::{detected, inverse, pose2, tracked};
-use crate::msg::{
-    DetectedObjects, FrameVerdicts, Header, HeaderOnly, Odometry, PointCloud2, TfMessage, Time, TrackedObjects, Uuid,
-};
+use crate::convert::pose2;
+pub use crate::frame::{FrameChecker, ObjectList, ReadCloud};
+use crate::msg::{FrameVerdicts, HeaderOnly, Odometry, PointCloud2, TfMessage, Time};
 use crate::pointcloud::to_points;
 use crate::tf::TfBuffer;
-use crate::verdicts::{frame_verdicts, FrameContext};
 
 /// Topics, frames and tolerances. `Default` is Autoware's (Universe) naming.
 #[derive(Clone, Debug, PartialEq)]
@@ -145,23 +142,6 @@ pub struct CheckedFrame<'a> {
     /// The monitor (its grid holds this frame's occupancy).
     pub monitor: &'a Monitor,
 }
-
-enum ObjectList {
-    Tracked(TrackedObjects),
-    Detected(DetectedObjects),
-}
-
-impl ObjectList {
-    fn header(&self) -> &Header {
-        match self {
-            Self::Tracked(m) => &m.header,
-            Self::Detected(m) => &m.header,
-        }
-    }
-}
-
-/// A cloud read in pass 2: its points (sensor frame) and header, or why it could not be used.
-type ReadCloud = Result<(Vec<[f32; 3]>, Header), String>;
 
 struct Planned {
     list: ObjectList,
@@ -304,16 +284,35 @@ pub fn check_bag(
             *uses.entry(c).or_default() += 1;
         }
     }
+    let used_clouds: BTreeSet<usize> = uses.keys().copied().collect();
     let mut monitor =
         Monitor::new(*params).map_err(|e| BagError::Frame { path: path.into(), message: e.to_string() })?;
     let mut ready: BTreeMap<usize, ReadCloud> = BTreeMap::new();
     let mut queue: VecDeque<Planned> = lists.into();
     let mut frame_index = 0u64;
-    let mut run = Runner { cfg, params, tf: &tf, odometry: &odometry, path };
+    let run = FrameChecker { cfg, params, tf: &tf, odometry: &odometry };
+    let frame_err = |message| BagError::Frame { path: path.into(), message };
+    let mut check = |monitor: &mut Monitor,
+                     p: &Planned,
+                     ready: &mut BTreeMap<usize, ReadCloud>,
+                     index: u64,
+                     summary: &mut BagSummary|
+     -> Result<(), BagError> {
+        // A cloud paired with several lists is cloned for all but its last.
+        let cloud = p.cloud.map(|ci| {
+            let remaining = uses.get_mut(&ci).map(|u| {
+                *u -= 1;
+                *u
+            });
+            let entry = if remaining == Some(0) { ready.remove(&ci) } else { ready.get(&ci).cloned() };
+            (p.cloud_stamp, entry)
+        });
+        run.check(monitor, &p.list, p.log_time_ns, cloud, index, summary, sink).map_err(frame_err)
+    };
     let stream = mcap::MessageStream::new(bytes).map_err(|e| mcap_err(path, &e))?;
     for (index, msg) in stream.enumerate() {
         let msg = msg.map_err(|e| mcap_err(path, &e))?;
-        if uses.contains_key(&index) {
+        if used_clouds.contains(&index) {
             let cloud = decode::<PointCloud2>(&msg.data).map_err(|e| e.to_string()).and_then(|c| {
                 let pts = to_points(&c).map_err(|e| e.to_string())?;
                 if pts.non_finite > 0 {
@@ -337,161 +336,14 @@ pub fn check_bag(
         }
         while queue.front().is_some_and(|p| p.cloud.is_none_or(|c| ready.contains_key(&c))) {
             let Some(p) = queue.pop_front() else { break };
-            run.frame(&mut monitor, &p, &mut ready, &mut uses, frame_index, &mut summary, sink)?;
+            check(&mut monitor, &p, &mut ready, frame_index, &mut summary)?;
             frame_index += 1;
         }
     }
     // Clouds that never arrived cannot happen (they were indexed in pass 1); check whatever is left anyway.
     while let Some(p) = queue.pop_front() {
-        run.frame(&mut monitor, &p, &mut ready, &mut uses, frame_index, &mut summary, sink)?;
+        check(&mut monitor, &p, &mut ready, frame_index, &mut summary)?;
         frame_index += 1;
     }
     Ok(summary)
-}
-
-struct Runner<'a> {
-    cfg: &'a BagConfig,
-    params: &'a MonitorParams,
-    tf: &'a TfBuffer,
-    odometry: &'a [(f64, Pose2)],
-    path: &'a Path,
-}
-
-impl Runner<'_> {
-    fn ego_pose(&self, t_s: f64) -> Option<Pose2> {
-        let k = self.odometry.partition_point(|o| o.0 < t_s);
-        let best = [k.checked_sub(1), Some(k)]
-            .into_iter()
-            .flatten()
-            .filter_map(|j| self.odometry.get(j))
-            .min_by(|a, b| (a.0 - t_s).abs().total_cmp(&(b.0 - t_s).abs()));
-        if let Some((t, p)) = best {
-            if (t - t_s).abs() <= self.cfg.pose_tolerance_s {
-                return Some(*p);
-            }
-        }
-        self.tf.lookup2(&self.cfg.world_frame, &self.cfg.ego_frame, t_s, self.cfg.pose_tolerance_s)
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn frame(
-        &mut self,
-        monitor: &mut Monitor,
-        p: &Planned,
-        ready: &mut BTreeMap<usize, ReadCloud>,
-        uses: &mut BTreeMap<usize, usize>,
-        index: u64,
-        summary: &mut BagSummary,
-        sink: &mut dyn FnMut(&CheckedFrame<'_>) -> Result<(), String>,
-    ) -> Result<(), BagError> {
-        let cfg = self.cfg;
-        let header = p.list.header();
-        let t_s = header.stamp.as_secs_f64();
-        let objects_topic = cfg.objects_topic.as_str();
-        let mut note = |m: String| {
-            summary.problems.push(Problem { topic: objects_topic.into(), log_time_ns: p.log_time_ns, message: m });
-        };
-        let world_from_ego = self.ego_pose(t_s);
-        if world_from_ego.is_none() {
-            note(format!("no ego pose within {} s: plausibility runs in the ego frame", cfg.pose_tolerance_s));
-        }
-        // Where the objects are: the ego frame, the world frame, or a frame with a transform to the ego.
-        let ego_from_msg = if header.frame_id == cfg.ego_frame {
-            Some(Pose2::default())
-        } else if header.frame_id == cfg.world_frame {
-            world_from_ego.as_ref().map(inverse)
-        } else {
-            self.tf.lookup2(&cfg.ego_frame, &header.frame_id, t_s, cfg.pose_tolerance_s)
-        };
-        let mut objects_problem = None;
-        let ego_from_msg = ego_from_msg.unwrap_or_else(|| {
-            objects_problem = Some(format!("missing transform {} <- {}", cfg.ego_frame, header.frame_id));
-            Pose2::default()
-        });
-        let default = self.params.default_uncertainty;
-        let (mut objects, uuids): (Vec<ObjectState>, Vec<Uuid>) = match &p.list {
-            ObjectList::Tracked(m) => {
-                m.objects.iter().map(|o| (tracked(o, &ego_from_msg, &default), o.object_id)).unzip()
-            }
-            ObjectList::Detected(m) => m
-                .objects
-                .iter()
-                .enumerate()
-                // Detections have no track id: a fresh id each frame (frame << 20 | index), new tracks.
-                .map(|(i, o)| (detected(o, (index << 20) | i as u64, &ego_from_msg, &default), Uuid::default()))
-                .unzip(),
-        };
-        if let Some(m) = &objects_problem {
-            note(format!("objects not placed ({m}): every object is not monitored (invalid state)"));
-            // NaN positions make the monitor say "not monitored: invalid state" for each object.
-            for o in &mut objects {
-                o.x_m = f32::NAN;
-            }
-        }
-        // The cloud, moved into the ego frame through the sensor's extrinsic.
-        let mut cloud_problem = None;
-        let mut cloud = None;
-        if let Some(ci) = p.cloud {
-            let remaining = uses.get_mut(&ci).map(|u| {
-                *u -= 1;
-                *u
-            });
-            let entry = if remaining == Some(0) { ready.remove(&ci) } else { ready.get(&ci).cloned() };
-            match entry {
-                Some(Ok((points, h))) => {
-                    match self.tf.lookup3(&cfg.ego_frame, &h.frame_id, h.stamp.as_secs_f64(), cfg.pose_tolerance_s) {
-                        Some(ego_from_sensor) => cloud = Some(OwnedCloud { points_in_sensor: points, ego_from_sensor }),
-                        None => {
-                            let m = format!("missing transform {} <- {}", cfg.ego_frame, h.frame_id);
-                            note(format!("{m}: sensor checks not run"));
-                            cloud_problem = Some(m);
-                        }
-                    }
-                }
-                Some(Err(e)) => cloud_problem = Some(format!("malformed cloud: {e}")),
-                None => cloud_problem = Some("cloud not found".into()),
-            }
-        }
-        let frame = RecordedFrame {
-            index,
-            timestamp_s: t_s,
-            world_from_ego: world_from_ego.unwrap_or_default(),
-            objects,
-            cloud,
-            roi_in_ego: Vec::new(),
-            static_in_ego: Vec::new(),
-        };
-        let mut polygons = Vec::new();
-        let view = frame.as_frame(&mut polygons);
-        let started = Instant::now();
-        let rep = monitor.check(&view).map_err(|e| BagError::Frame {
-            path: self.path.into(),
-            message: format!("object list at {t_s:.3} s: {e}"),
-        })?;
-        let processing_time_s = started.elapsed().as_secs_f64();
-        let ctx = FrameContext {
-            header,
-            cloud_stamp: p.cloud.map(|_| p.cloud_stamp),
-            cloud_problem,
-            uuids: &uuids,
-            processing_time_s,
-        };
-        let verdicts = frame_verdicts(&ctx, &frame.objects, &rep);
-        summary.frames += 1;
-        summary.objects += rep.objects.len() as u64;
-        let missed = rep.missed_objects() as u64;
-        summary.missed_objects += missed;
-        if rep.object_alarms() > 0 || missed > 0 {
-            summary.frames_with_alarms += 1;
-        }
-        for r in rep.objects {
-            *summary.verdicts.entry(r.verdict.to_string()).or_default() += 1;
-        }
-        // The report borrows the monitor; an owned copy lets the sink see the grid as well.
-        let (objects, clusters) = (rep.objects.to_vec(), rep.clusters.to_vec());
-        let report =
-            FrameReport { objects: &objects, clusters: &clusters, grid: rep.grid, sensor_status: rep.sensor_status };
-        sink(&CheckedFrame { frame: &frame, report: &report, verdicts: &verdicts, monitor })
-            .map_err(|message| BagError::Frame { path: self.path.into(), message })
-    }
 }

@@ -5,6 +5,7 @@
 pub mod bag;
 pub mod cdr;
 pub mod convert;
+pub mod frame;
 pub mod msg;
 pub mod output;
 pub mod pointcloud;

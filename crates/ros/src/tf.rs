@@ -42,6 +42,22 @@ impl TfBuffer {
         }
     }
 
+    /// Forgets the time-stamped edges of each child more than `history_s` older than that child's newest (a
+    /// live node's buffer stays bounded). Call after [`Self::finish`].
+    pub fn prune(&mut self, history_s: f64) {
+        for v in self.dynamic.values_mut() {
+            let Some(newest) = v.last().map(|e| e.0) else { continue };
+            let keep_from = v.partition_point(|e| e.0 < newest - history_s);
+            v.drain(..keep_from);
+        }
+    }
+
+    /// The newest stamp of the time-stamped edge to `child`, seconds.
+    #[must_use]
+    pub fn latest(&self, child: &str) -> Option<f64> {
+        self.dynamic.get(child).and_then(|v| v.last()).map(|e| e.0)
+    }
+
     /// True when no transform was added.
     #[must_use]
     pub fn is_empty(&self) -> bool {
@@ -127,6 +143,11 @@ mod tests {
         assert!((p.x_m - 110.0).abs() < 1e-9);
         assert!(b.lookup2("map", "base_link", 12.0, 0.2).is_none(), "too far in time");
         assert!(b.lookup3("base_link", "camera", 0.0, 0.0).is_none(), "missing transform");
+        assert_eq!(b.latest("base_link"), Some(11.0));
+        assert_eq!(b.latest("lidar"), None, "static edges have no stamp");
+        b.prune(0.5);
+        assert!(b.lookup2("map", "base_link", 10.0, 0.2).is_none(), "pruned");
+        assert!(b.lookup2("map", "base_link", 11.0, 0.2).is_some(), "the newest edge is kept");
         // A cycle ends at the chain bound.
         b.add(&TfMessage { transforms: vec![ts("b", "a", 0, 0.0), ts("a", "b", 0, 0.0)] }, true);
         assert!(b.lookup3("base_link", "a", 0.0, 0.0).is_none());

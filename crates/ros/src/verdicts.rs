@@ -14,10 +14,24 @@ pub mod level {
     pub const WARN: u8 = 1;
     /// ERROR.
     pub const ERROR: u8 = 2;
+    /// STALE (no recent information).
+    pub const STALE: u8 = 3;
 }
 
 /// Name of pmon's diagnostic status.
 pub const DIAGNOSTIC_NAME: &str = "pmon: perception monitor";
+
+/// Names of the per-check statuses ([`check_statuses`]).
+pub mod check_names {
+    /// Ghosts and position errors (the sensor consistency check).
+    pub const CONSISTENCY: &str = "pmon: object consistency";
+    /// Evidence no object explains.
+    pub const MISSED: &str = "pmon: missed objects";
+    /// The motion plausibility checks.
+    pub const MOTION: &str = "pmon: motion plausibility";
+    /// Whether the sensor checks had a usable cloud.
+    pub const INPUT: &str = "pmon: sensor input";
+}
 
 /// `pmon_msgs/ObjectVerdict` constant of a verdict.
 #[must_use]
@@ -140,5 +154,118 @@ pub fn diagnostics(v: &FrameVerdicts) -> DiagnosticArray {
             hardware_id: "pmon".into(),
             values,
         }],
+    }
+}
+
+/// One `diagnostic_msgs/DiagnosticStatus` per check, each with a level a system can act on (docs/ros2.md):
+/// - object consistency: ERROR on a ghost or position error, WARN when the sensor checks did not run, else OK;
+/// - missed objects: ERROR when evidence no object explains was found, WARN when the sensor checks did not
+///   run, else OK;
+/// - motion plausibility: ERROR on implausible motion, else OK (it runs without a cloud);
+/// - sensor input: WARN when no cloud was paired or it could not be used (`sensor_status`), else OK.
+#[must_use]
+pub fn check_statuses(v: &FrameVerdicts) -> Vec<DiagnosticStatus> {
+    let kv = |k: &str, val: String| KeyValue { key: k.into(), value: val };
+    let count = |code: u8| v.objects.iter().filter(|o| o.verdict == code).count();
+    let sensor_ran = v.sensor_status.is_empty();
+    let alarm_values = |codes: &[u8]| -> Vec<KeyValue> {
+        v.objects
+            .iter()
+            .filter(|o| codes.contains(&o.verdict))
+            .map(|o| {
+                let what = if o.reason.is_empty() {
+                    o.verdict_name.clone()
+                } else {
+                    format!("{} ({})", o.verdict_name, o.reason)
+                };
+                kv(&format!("object {}", o.id), format!("{what} at ({:.1}, {:.1}) m", o.x_m, o.y_m))
+            })
+            .collect()
+    };
+    let status = |name: &str, (level, message): (u8, String), values: Vec<KeyValue>| DiagnosticStatus {
+        level,
+        name: name.into(),
+        message,
+        hardware_id: "pmon".into(),
+        values,
+    };
+    let not_run = || (level::WARN, format!("not run: {}", v.sensor_status));
+    let (ghosts, position) = (count(1), count(2));
+    let mut consistency = vec![kv("ghosts", ghosts.to_string()), kv("position_errors", position.to_string())];
+    consistency.extend(alarm_values(&[1, 2]));
+    let consistency_level = if ghosts + position > 0 {
+        (level::ERROR, format!("{ghosts} ghosts, {position} position errors"))
+    } else if !sensor_ran {
+        not_run()
+    } else {
+        (level::OK, "consistent".into())
+    };
+    let mut missed = vec![kv("missed_objects", v.missed.len().to_string())];
+    missed.extend(v.missed.iter().map(|m| {
+        kv("missed object", format!("{} cells around ({:.1}, {:.1}) m", m.cells, m.centroid_m[0], m.centroid_m[1]))
+    }));
+    let missed_level = if !v.missed.is_empty() {
+        (level::ERROR, format!("{} missed objects", v.missed.len()))
+    } else if !sensor_ran {
+        not_run()
+    } else {
+        (level::OK, "none".into())
+    };
+    let implausible = count(3);
+    let mut motion = vec![kv("implausible", implausible.to_string())];
+    motion.extend(alarm_values(&[3]));
+    let motion_level = if implausible > 0 {
+        (level::ERROR, format!("{implausible} implausible motions"))
+    } else {
+        (level::OK, "plausible".into())
+    };
+    let input = vec![
+        kv("cloud_paired", v.cloud_paired.to_string()),
+        kv("sensor_status", if sensor_ran { "ran".into() } else { v.sensor_status.clone() }),
+        kv("points_total", v.points_total.to_string()),
+    ];
+    let input_level = if sensor_ran { (level::OK, "cloud used".into()) } else { not_run() };
+    vec![
+        status(check_names::CONSISTENCY, consistency_level, consistency),
+        status(check_names::MISSED, missed_level, missed),
+        status(check_names::MOTION, motion_level, motion),
+        status(check_names::INPUT, input_level, input),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn verdict(id: u64, code: u8, name: &str, reason: &str) -> ObjectVerdict {
+        ObjectVerdict { id, verdict: code, verdict_name: name.into(), reason: reason.into(), ..Default::default() }
+    }
+
+    #[test]
+    fn each_check_has_its_own_level() {
+        let mut v = FrameVerdicts { cloud_paired: true, ..Default::default() };
+        v.objects = vec![verdict(1, 0, "consistent", ""), verdict(2, 1, "ghost", "")];
+        let s = check_statuses(&v);
+        let levels: Vec<(&str, u8)> = s.iter().map(|s| (s.name.as_str(), s.level)).collect();
+        assert_eq!(
+            levels,
+            [
+                (check_names::CONSISTENCY, level::ERROR),
+                (check_names::MISSED, level::OK),
+                (check_names::MOTION, level::OK),
+                (check_names::INPUT, level::OK)
+            ]
+        );
+        assert!(s[0].values.iter().any(|kv| kv.key == "object 2" && kv.value.starts_with("ghost")));
+        // Without a cloud: the sensor checks WARN, motion still judged.
+        v.sensor_status = "no_lidar_data".into();
+        v.cloud_paired = false;
+        v.objects = vec![verdict(3, 3, "implausible motion", "speed")];
+        let s = check_statuses(&v);
+        let levels: Vec<u8> = s.iter().map(|s| s.level).collect();
+        assert_eq!(levels, [level::WARN, level::WARN, level::ERROR, level::WARN]);
+        assert_eq!(s[3].message, "not run: no_lidar_data");
+        // The summary status (the bag's /diagnostics) agrees: ERROR.
+        assert_eq!(diagnostics(&v).status[0].level, level::ERROR);
     }
 }
