@@ -1,6 +1,7 @@
 //! `pmon`: the command line tool of the pmon perception monitor.
 
 mod bag;
+mod calibrate;
 mod check;
 mod config;
 mod output;
@@ -100,6 +101,9 @@ enum Command {
     /// Score the plausibility checks on simulated tracker-like output (warm-up, re-fits, jitter, flips, jumps,
     /// drop-outs): false alarms on benign states, recall on safety-critical errors, kind correctness.
     TrackerBed(tracker_bed::TrackerBedArgs),
+    /// Estimate a tracker's per-class noise (position, speed, heading, vs. speed) from its own output and write a
+    /// parameter file for the calibrated plausibility rule, with the expected false-alarm rate.
+    Calibrate(calibrate::CalibrateArgs),
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
         /// A TOML file of parameters to validate and print merged over the defaults.
@@ -181,6 +185,7 @@ fn main() -> ExitCode {
             convert(&spec, &out, force, &check::read_options(roi, sidewalk_m, grid_size_m))
         }
         Command::TrackerBed(args) => tracker_bed::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
     };
     match result {

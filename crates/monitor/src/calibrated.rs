@@ -8,7 +8,8 @@
 //!    `|D| - z sigma_D > pi / 2` is a *heading flip*; otherwise `|D| / dt - z sigma_D / dt > omega_max` is a
 //!    *turn rate* beyond the limit (`z`: the two-sided normal quantile of `false_alarm_probability`).
 //! 2. **Acceleration** `(v1 - v0) / dt` against `a_acc`, `a_br` with margin `z hypot(sigma_v0, sigma_v1) / dt`
-//!    (skipped when either speed is in its warm-up).
+//!    (skipped while the new speed is in its warm-up; at the first initialised speed after a warm-up the
+//!    warm-up's 0 carries the warm-up sigma, and an alarm names the warm-up's speed error).
 //! 3. **Motion** over a baseline: the start `b` is the oldest state within `baseline_s` that raised no alarm
 //!    and whose speed is initialised (else the oldest initialised one in the window, else the previous state). The displacement predicted by the reported
 //!    velocities, `sum_i dt_i / 2 (v_i u_i + v_(i+1) u_(i+1))` (trapezoid, `u` the heading's unit vector), is
@@ -71,6 +72,8 @@ pub struct Entry {
     pub suspect: bool,
     /// This state's heading was called flipped (its velocity is left out of the baseline).
     pub flipped: bool,
+    /// This state was called a position jump (its position never starts a baseline).
+    pub jumped: bool,
 }
 
 impl Entry {
@@ -216,9 +219,9 @@ fn mahalanobis2(r: [f64; 2], s: [f64; 3]) -> f64 {
     (s[2] * r[0] * r[0] - 2.0 * s[1] * r[0] * r[1] + s[0] * r[1] * r[1]) / det
 }
 
-/// Adds a velocity's covariance (`sv` along `th`, `sc` across), weighted by `w` seconds.
-fn add_velocity_cov(cov: &mut [f64; 3], w: f64, th: f64, sv: f64, sc: f64) {
-    let (s, c) = libm::sincos(th);
+/// Adds a velocity's covariance (`sv` along the heading `(c, s)` = (cos, sin), `sc` across), weighted by `w`
+/// seconds.
+fn add_velocity_cov(cov: &mut [f64; 3], w: f64, (s, c): (f64, f64), sv: f64, sc: f64) {
     let (a, b) = ((w * sv) * (w * sv), (w * sc) * (w * sc));
     cov[0] += a * c * c + b * s * s;
     cov[1] += (a - b) * s * c;
@@ -269,8 +272,11 @@ pub fn check_calibrated(
     // 2. Acceleration.
     let accel = (v1 - v0) / dt;
     let accel_margin = gates.z * libm::hypot(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt;
-    let accel_fired = !s0.warmup
-        && !s1.warmup
+    // The first initialised speed after a warm-up is checked too: the warm-up's 0 carries the warm-up sigma,
+    // so a step beyond `a_acc dt + z hypot(warmup sigma, sigma_v)` says that the object moved at that speed
+    // while the tracker reported 0 (a speed error of the warm-up, named below).
+    let warmup_end = s0.warmup && !s1.warmup;
+    let accel_fired = (warmup_end || (!s0.warmup && !s1.warmup))
         && (accel - accel_margin > f64::from(limits.accel_max_mps2)
             || accel + accel_margin < f64::from(limits.brake_max_mps2));
 
@@ -279,8 +285,11 @@ pub fn check_calibrated(
     // keeps showing over the whole baseline.
     let within = |e: &Entry| s1.t_s - e.t_s <= baseline_s + 1e-9;
     let oldest_clean = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect && !e.warmup));
-    let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup));
-    let b = oldest_clean.or(oldest_any).unwrap_or(n.saturating_sub(1));
+    // (A state called a jump starts no baseline: its position is the wrong part, and every later state
+    // measured from it would echo the jump.)
+    let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup && !e.jumped));
+    let newest_not_jumped = (0..n).rev().find(|&i| h.get(i).is_some_and(|e| within(e) && !e.jumped));
+    let b = oldest_clean.or(oldest_any).or(newest_not_jumped).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     let mut pred = [0.0f64; 2];
     let mut cov = [
@@ -293,13 +302,12 @@ pub fn check_calibrated(
     let mut prev: Option<Entry> = None;
     let mut prev_w = 0.0f64;
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
-        let th = f64::from(e.heading_rad);
         let v = f64::from(e.v_mps);
-        let (s, c) = libm::sincos(th);
+        let (s, c) = libm::sincos(f64::from(e.heading_rad));
         pred[0] += w * v * c;
         pred[1] += w * v * s;
         let sv = f64::from(e.sv_mps);
-        add_velocity_cov(cov, w, th, sv, v * f64::from(e.sh_rad) + sv);
+        add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
     };
     for j in b..=n {
         let e = if j < n { h.get(j).copied().unwrap_or(*s1) } else { *s1 };
@@ -385,8 +393,11 @@ pub fn check_calibrated(
                     severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
                 }
                 None => {
-                    // A young track: a speed that is 0 or not yet initialised is the suspect, else the box.
-                    if s0.warmup || s1.warmup || v0 < 1e-3 || v1 < 1e-3 {
+                    // A young track: the speed is the suspect when the new one is 0 or not yet initialised, or
+                    // when the old one was and the new one agrees with the observed motion (the end of a
+                    // warm-up); else the box (a 0.2 m/s car whose box moved 3 m jumped).
+                    let new_speed_agrees = libm::fabs(v1 - observed_speed) <= 0.5 * observed_speed;
+                    if s1.warmup || v1 < 1e-3 || ((s0.warmup || v0 < 1e-3) && new_speed_agrees) {
                         kind = Some(ImplausibilityKind::SpeedInconsistent);
                         error_size = reported_speed - observed_speed;
                         severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
@@ -402,8 +413,13 @@ pub fn check_calibrated(
     if accel_fired {
         fired = fired.union(Conditions::ACCELERATION);
         if kind.is_none() {
-            // Which speed agrees with the motion observed over the baseline?
-            if libm::fabs(v1 - observed_speed) > libm::fabs(v0 - observed_speed) {
+            // Which speed agrees with the motion observed over the baseline? At the end of a warm-up, the
+            // warm-up's 0 was the error when the new speed agrees with the motion.
+            if warmup_end && libm::fabs(v1 - observed_speed) <= libm::fabs(v0 - observed_speed) {
+                kind = Some(ImplausibilityKind::SpeedInconsistent);
+                error_size = v0 - observed_speed;
+                severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
+            } else if libm::fabs(v1 - observed_speed) > libm::fabs(v0 - observed_speed) {
                 kind = Some(ImplausibilityKind::SpeedInconsistent);
                 error_size = v1 - observed_speed;
                 severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
@@ -449,6 +465,7 @@ mod tests {
             warmup: false,
             suspect: false,
             flipped: false,
+            jumped: false,
         }
     }
 
@@ -548,5 +565,21 @@ mod tests {
         s1.warmup = true;
         s1.sv_mps = 0.7;
         assert!(run(&h, &s1).fired.is_empty());
+    }
+
+    #[test]
+    fn the_end_of_a_warmup_tells_the_speed_the_tracker_hid() {
+        // Reported 0 (warm-up) then 8 m/s, the box moving 0.8 m per frame: the warm-up hid 8 m/s.
+        let mut s0 = e(0.0, 0.0, 0.0);
+        s0.warmup = true;
+        s0.sv_mps = 0.7;
+        let h = History::with(s0);
+        let c = run(&h, &e(0.1, 0.8, 8.0));
+        assert!(c.fired.contains(Conditions::ACCELERATION), "{c:?}");
+        assert_eq!(c.kind, Some(ImplausibilityKind::SpeedInconsistent), "{c:?}");
+        assert!(c.error_size < -6.0 && c.severity > 2.0, "{c:?}");
+        // A walking pedestrian (1.4 m/s) after its warm-up, or a car starting from standstill: tolerated.
+        assert!(run(&h, &e(0.1, 0.14, 1.4)).fired.is_empty());
+        assert!(run(&h, &e(0.1, 0.03, 0.7)).fired.is_empty());
     }
 }
