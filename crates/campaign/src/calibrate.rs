@@ -283,6 +283,7 @@ fn entry(s: &Sample, n: &TrackerNoise, p: &MonitorParams) -> Entry {
         suspect: false,
         flipped: false,
         jumped: false,
+        unit: [0.0; 2], // set by History::push
     }
 }
 

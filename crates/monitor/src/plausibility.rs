@@ -54,6 +54,7 @@ fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> 
         suspect: false,
         flipped: false,
         jumped: false,
+        unit: [0.0; 2], // set by History::push
     }
 }
 
