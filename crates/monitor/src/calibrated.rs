@@ -353,7 +353,14 @@ pub fn check_calibrated(
     let r = refit_allowance(raw, u1, f64::from(s1.length_m - sb.length_m), f64::from(s1.width_m - sb.width_m));
     let d2 = mahalanobis2(r, cov);
     let residual = norm(r[0], r[1]);
-    let allowance = if d2 > 0.0 && d2.is_finite() { residual * libm::sqrt(gates.chi2_2 / d2) } else { f64::INFINITY };
+    // (A residual of exactly 0, noise-free input, has no direction: the allowance along the wider axis.)
+    let allowance = if d2 > 0.0 && d2.is_finite() {
+        residual * libm::sqrt(gates.chi2_2 / d2)
+    } else if d2 <= 0.0 {
+        libm::sqrt(gates.chi2_2 * cov[0].max(cov[2]))
+    } else {
+        f64::INFINITY
+    };
     let motion_fired = d2 > gates.chi2_2;
     let span = (s1.t_s - sb.t_s).max(1e-9);
     let observed_speed = norm(s1.x_m - sb.x_m, s1.y_m - sb.y_m) / span;
