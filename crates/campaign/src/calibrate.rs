@@ -282,7 +282,6 @@ fn entry(s: &Sample, n: &TrackerNoise, p: &MonitorParams) -> Entry {
         warmup: s.warmup,
         suspect: false,
         flipped: false,
-        jumped: false,
         unit: [0.0; 2], // set by History::push
     }
 }

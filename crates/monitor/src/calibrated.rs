@@ -72,8 +72,6 @@ pub struct Entry {
     pub suspect: bool,
     /// This state's heading was called flipped (its velocity is left out of the baseline).
     pub flipped: bool,
-    /// This state was called a position jump (its position never starts a baseline).
-    pub jumped: bool,
     /// `(cos, sin)` of `heading_rad`, set by [`History::push`] (computed once per state, not once per use).
     pub unit: [f32; 2],
 }
@@ -308,11 +306,12 @@ pub fn check_calibrated(
     // keeps showing over the whole baseline.
     let within = |e: &Entry| s1.t_s - e.t_s <= baseline_s + 1e-9;
     let oldest_clean = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect && !e.warmup));
-    // (A state called a jump starts no baseline: its position is the wrong part, and every later state
-    // measured from it would echo the jump.)
-    let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup && !e.jumped));
-    let newest_not_jumped = (0..n).rev().find(|&i| h.get(i).is_some_and(|e| within(e) && !e.jumped));
-    let b = oldest_clean.or(oldest_any).or(newest_not_jumped).unwrap_or(n.saturating_sub(1));
+    // A young track whose only initialised states raised alarms (a jump in its second frame) is measured
+    // from its alarm-free warm-up state (whose speed sigma covers the unknown speed) rather than from the
+    // alarmed state, which every later state would echo.
+    let oldest_alarm_free = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect));
+    let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup));
+    let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     let mut pred = [0.0f64; 2];
     let mut cov = [
@@ -492,7 +491,6 @@ mod tests {
             warmup: false,
             suspect: false,
             flipped: false,
-            jumped: false,
             unit: [1.0, 0.0],
         }
     }

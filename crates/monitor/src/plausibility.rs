@@ -53,7 +53,6 @@ fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> 
         warmup,
         suspect: false,
         flipped: false,
-        jumped: false,
         unit: [0.0; 2], // set by History::push
     }
 }
@@ -309,7 +308,6 @@ impl TrackTable {
                             };
                             e1.suspect = matches!(outcome.verdict, MotionVerdict::Implausible(_));
                             e1.flipped = e1.suspect && outcome.kind == Some(ImplausibilityKind::HeadingFlip);
-                            e1.jumped = e1.suspect && outcome.kind == Some(ImplausibilityKind::PositionJump);
                             if self.next.len() < cap {
                                 let mut hist = tr.hist;
                                 hist.push(e1);
