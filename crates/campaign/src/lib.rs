@@ -5,6 +5,7 @@
 //! over a [`run::Scene`] for each [`run::RunSpec`] in parallel, [`metrics`] scores precision, recall and
 //! false-alarm rates with 95 % confidence intervals.
 
+pub mod calibrate;
 pub mod experiments;
 pub mod inject;
 pub mod metrics;

@@ -12,7 +12,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use pmon_monitor::{Monitor, MonitorParams, MotionOutcome, MotionVerdict, ObjectClass};
+use pmon_monitor::{Monitor, MonitorParams, MotionOutcome, MotionVerdict, ObjectClass, ObjectState};
 use serde::{Deserialize, Serialize};
 
 use crate::metrics::Rate;
@@ -122,6 +122,21 @@ struct StateRec {
     alarm: Option<ErrorKind>,
 }
 
+/// The tracker model's output for each frame of a scene (its object list and one label per object).
+#[must_use]
+pub fn tracker_output(scene: &Scene, config: TrackerModelConfig) -> Vec<(Vec<ObjectState>, Vec<TrackerLabel>)> {
+    let mut model = TrackerModel::new(config);
+    scene
+        .frames
+        .iter()
+        .map(|clean| {
+            let mut objects = clean.objects.clone();
+            let labels = model.apply(&mut objects);
+            (objects, labels)
+        })
+        .collect()
+}
+
 /// Runs the test bed on a scene (its clouds are not used) with the given monitor parameters.
 ///
 /// # Errors
@@ -130,12 +145,8 @@ pub fn run_bed(scene: &Scene, params: &MonitorParams, config: TrackerModelConfig
     // Plausibility only: no LiDAR; a grid large enough that it does not matter.
     let params = MonitorParams { grid_size_m: 1000.0, cell_size_m: 2.0, ..*params };
     let mut monitor = Monitor::new(params).map_err(|e| e.to_string())?;
-    let mut model = TrackerModel::new(config);
     let mut recs: Vec<StateRec> = Vec::new();
-    let mut objects = Vec::new();
-    for (k, clean) in scene.frames.iter().enumerate() {
-        objects.clone_from(&clean.objects);
-        let labels = model.apply(&mut objects);
+    for (k, (clean, (objects, labels))) in scene.frames.iter().zip(tracker_output(scene, config)).enumerate() {
         let frame = pmon_monitor::Frame {
             timestamp_s: clean.timestamp_s,
             world_from_ego: clean.world_from_ego,
@@ -272,7 +283,7 @@ pub fn bed_table(results: &[BedResult]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pmon_monitor::{ObjectState, PlausibilityMode, Pose2};
+    use pmon_monitor::{PlausibilityMode, Pose2};
     use pmon_recording::RecordedFrame;
 
     fn scene() -> Scene {

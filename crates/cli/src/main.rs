@@ -1,6 +1,7 @@
 //! `pmon`: the command line tool of the pmon perception monitor.
 
 mod bag;
+mod calibrate;
 mod check;
 mod config;
 mod output;
@@ -105,6 +106,9 @@ enum Command {
     /// Run as a live ROS 2 node (DDS, no ROS installation): subscribe to a point cloud and an Autoware object
     /// list, publish verdicts (`pmon_msgs/FrameVerdicts`) and `/diagnostics` until Ctrl-C (docs/ros2.md).
     Ros2(Box<ros2::Ros2Args>),
+    /// Estimate a tracker's per-class noise (position, speed, heading, vs. speed) from its own output and write a
+    /// parameter file for the calibrated plausibility rule, with the expected false-alarm rate.
+    Calibrate(calibrate::CalibrateArgs),
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
         /// A TOML file of parameters to validate and print merged over the defaults.
@@ -187,6 +191,7 @@ fn main() -> ExitCode {
         }
         Command::TrackerBed(args) => tracker_bed::run(&args),
         Command::Ros2(args) => ros2::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
         Command::Params { params } => config::print_params(params.as_deref()).map(|()| ExitCode::SUCCESS),
     };
     match result {

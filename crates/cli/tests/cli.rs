@@ -371,3 +371,32 @@ fn regions_of_interest_reach_check_and_convert() {
     let (out, _) = summary(&["check", &kitti]);
     assert!(out.contains("no map") && out.contains("--roi corridor:"), "{out}");
 }
+
+/// `pmon calibrate`: reads a recording, writes a parameter file that `check` and `params` accept, refuses to
+/// replace a file it did not write, and replaces its own.
+#[test]
+fn calibrate_writes_params_check_accepts_and_never_overwrites_foreign_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("walk");
+    write_walk(&rec, 30, None);
+    let out = dir.path().join("tracker.toml");
+    let o = pmon(&["calibrate", rec.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let written = std::fs::read_to_string(&out).unwrap();
+    assert!(written.contains("plausibility_mode = \"calibrated\""), "{written}");
+    assert!(written.contains("[per_class_noise.pedestrian]"), "{written}");
+    assert!(written.contains("Expected false alarms"), "{written}");
+    let o = pmon(&["params", "--params", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = pmon(&["check", rec.to_str().unwrap(), "--params", out.to_str().unwrap()]);
+    assert!(o.status.code() == Some(0) || o.status.code() == Some(1), "{}", text(&o));
+    // Its own file is replaced; someone else's is not.
+    let o = pmon(&["calibrate", rec.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let foreign = dir.path().join("mine.toml");
+    std::fs::write(&foreign, "tau_tp = 0.9\n").unwrap();
+    let o = pmon(&["calibrate", rec.to_str().unwrap(), "--out", foreign.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("was not written by pmon"), "{}", text(&o));
+    assert_eq!(std::fs::read_to_string(&foreign).unwrap(), "tau_tp = 0.9\n");
+}

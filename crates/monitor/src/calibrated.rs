@@ -8,7 +8,8 @@
 //!    `|D| - z sigma_D > pi / 2` is a *heading flip*; otherwise `|D| / dt - z sigma_D / dt > omega_max` is a
 //!    *turn rate* beyond the limit (`z`: the two-sided normal quantile of `false_alarm_probability`).
 //! 2. **Acceleration** `(v1 - v0) / dt` against `a_acc`, `a_br` with margin `z hypot(sigma_v0, sigma_v1) / dt`
-//!    (skipped when either speed is in its warm-up).
+//!    (skipped while the new speed is in its warm-up; at the first initialised speed after a warm-up the
+//!    warm-up's 0 carries the warm-up sigma, and an alarm names the warm-up's speed error).
 //! 3. **Motion** over a baseline: the start `b` is the oldest state within `baseline_s` that raised no alarm
 //!    and whose speed is initialised (else the oldest initialised one in the window, else the previous state). The displacement predicted by the reported
 //!    velocities, `sum_i dt_i / 2 (v_i u_i + v_(i+1) u_(i+1))` (trapezoid, `u` the heading's unit vector), is
@@ -71,6 +72,8 @@ pub struct Entry {
     pub suspect: bool,
     /// This state's heading was called flipped (its velocity is left out of the baseline).
     pub flipped: bool,
+    /// `(cos, sin)` of `heading_rad`, set by [`History::push`] (computed once per state, not once per use).
+    pub unit: [f32; 2],
 }
 
 impl Entry {
@@ -116,8 +119,10 @@ impl History {
         self.len().checked_sub(1).and_then(|i| self.get(i))
     }
 
-    /// Appends a state, dropping the oldest when full.
-    pub fn push(&mut self, e: Entry) {
+    /// Appends a state (setting its [`Entry::unit`]), dropping the oldest when full.
+    pub fn push(&mut self, mut e: Entry) {
+        let (s, c) = libm::sincos(f64::from(e.heading_rad));
+        e.unit = [c as f32, s as f32];
         if self.len() < HISTORY {
             let idx = (usize::from(self.start) + self.len()) % HISTORY;
             if let Some(slot) = self.items.get_mut(idx) {
@@ -189,6 +194,26 @@ pub struct CalibratedCheck {
     pub allowance: f64,
 }
 
+/// `sqrt(a^2 + b^2)` without `hypot`'s care for overflow (the values here are metres, m/s and radians: far from
+/// it), several times faster.
+fn norm(a: f64, b: f64) -> f64 {
+    libm::sqrt(a * a + b * b)
+}
+
+/// [`wrap_angle`] of a difference of two wrapped angles (within `[-2 pi, 2 pi]`) without `fmod`.
+fn wrap_difference(a: f64) -> f64 {
+    use core::f64::consts::{PI, TAU};
+    if a > PI && a <= 3.0 * PI {
+        a - TAU
+    } else if a <= -PI && a > -3.0 * PI {
+        a + TAU
+    } else if a > -PI && a <= PI {
+        a
+    } else {
+        wrap_angle(a)
+    }
+}
+
 fn shrink(r: f64, by: f64) -> f64 {
     if r > by {
         r - by
@@ -199,9 +224,8 @@ fn shrink(r: f64, by: f64) -> f64 {
     }
 }
 
-/// Residual after the re-fit allowance: `r` in the frame of heading `th`, each axis shrunk.
-fn refit_allowance(r: [f64; 2], th: f64, dl: f64, dw: f64) -> [f64; 2] {
-    let (s, c) = libm::sincos(th);
+/// Residual after the re-fit allowance: `r` in the frame of the heading `(s, c)` = (sin, cos), each axis shrunk.
+fn refit_allowance(r: [f64; 2], (s, c): (f64, f64), dl: f64, dw: f64) -> [f64; 2] {
     let lon = shrink(c * r[0] + s * r[1], 0.5 * dl.abs());
     let lat = shrink(-s * r[0] + c * r[1], 0.5 * dw.abs());
     [c * lon - s * lat, s * lon + c * lat]
@@ -216,9 +240,9 @@ fn mahalanobis2(r: [f64; 2], s: [f64; 3]) -> f64 {
     (s[2] * r[0] * r[0] - 2.0 * s[1] * r[0] * r[1] + s[0] * r[1] * r[1]) / det
 }
 
-/// Adds a velocity's covariance (`sv` along `th`, `sc` across), weighted by `w` seconds.
-fn add_velocity_cov(cov: &mut [f64; 3], w: f64, th: f64, sv: f64, sc: f64) {
-    let (s, c) = libm::sincos(th);
+/// Adds a velocity's covariance (`sv` along the heading `(c, s)` = (cos, sin), `sc` across), weighted by `w`
+/// seconds.
+fn add_velocity_cov(cov: &mut [f64; 3], w: f64, (s, c): (f64, f64), sv: f64, sc: f64) {
     let (a, b) = ((w * sv) * (w * sv), (w * sc) * (w * sc));
     cov[0] += a * c * c + b * s * s;
     cov[1] += (a - b) * s * c;
@@ -248,9 +272,9 @@ pub fn check_calibrated(
     // 1. Heading.
     let mut turn = (0.0, 0.0);
     let heading_defined = !s0.warmup && !s1.warmup && v0.min(v1) >= heading_min_speed_mps;
-    let d_heading = wrap_angle(f64::from(s1.heading_rad) - f64::from(s0.heading_rad));
+    let d_heading = wrap_difference(f64::from(s1.heading_rad) - f64::from(s0.heading_rad));
     if heading_defined {
-        let m = gates.z * libm::hypot(s0.heading_sigma(), s1.heading_sigma());
+        let m = gates.z * norm(s0.heading_sigma(), s1.heading_sigma());
         turn = (d_heading / dt, m / dt);
         let w_max = f64::from(limits.turn_rate_max_radps).abs();
         if libm::fabs(d_heading) - m > core::f64::consts::FRAC_PI_2 {
@@ -268,9 +292,12 @@ pub fn check_calibrated(
 
     // 2. Acceleration.
     let accel = (v1 - v0) / dt;
-    let accel_margin = gates.z * libm::hypot(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt;
-    let accel_fired = !s0.warmup
-        && !s1.warmup
+    let accel_margin = gates.z * norm(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt;
+    // The first initialised speed after a warm-up is checked too: the warm-up's 0 carries the warm-up sigma,
+    // so a step beyond `a_acc dt + z hypot(warmup sigma, sigma_v)` says that the object moved at that speed
+    // while the tracker reported 0 (a speed error of the warm-up, named below).
+    let warmup_end = s0.warmup && !s1.warmup;
+    let accel_fired = (warmup_end || (!s0.warmup && !s1.warmup))
         && (accel - accel_margin > f64::from(limits.accel_max_mps2)
             || accel + accel_margin < f64::from(limits.brake_max_mps2));
 
@@ -279,8 +306,12 @@ pub fn check_calibrated(
     // keeps showing over the whole baseline.
     let within = |e: &Entry| s1.t_s - e.t_s <= baseline_s + 1e-9;
     let oldest_clean = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect && !e.warmup));
+    // A young track whose only initialised states raised alarms (a jump in its second frame) is measured
+    // from its alarm-free warm-up state (whose speed sigma covers the unknown speed) rather than from the
+    // alarmed state, which every later state would echo.
+    let oldest_alarm_free = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect));
     let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup));
-    let b = oldest_clean.or(oldest_any).unwrap_or(n.saturating_sub(1));
+    let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     let mut pred = [0.0f64; 2];
     let mut cov = [
@@ -292,17 +323,18 @@ pub fn check_calibrated(
     // velocity); each velocity weighs half of its two adjacent intervals.
     let mut prev: Option<Entry> = None;
     let mut prev_w = 0.0f64;
+    let u1 = libm::sincos(f64::from(s1.heading_rad));
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
-        let th = f64::from(e.heading_rad);
         let v = f64::from(e.v_mps);
-        let (s, c) = libm::sincos(th);
+        let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
         pred[0] += w * v * c;
         pred[1] += w * v * s;
         let sv = f64::from(e.sv_mps);
-        add_velocity_cov(cov, w, th, sv, v * f64::from(e.sh_rad) + sv);
+        add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
     };
     for j in b..=n {
-        let e = if j < n { h.get(j).copied().unwrap_or(*s1) } else { *s1 };
+        let e =
+            if j < n { h.get(j).copied().unwrap_or(*s1) } else { Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 } };
         if j != b && j < n && e.flipped {
             continue;
         }
@@ -317,19 +349,21 @@ pub fn check_calibrated(
         add(&p, prev_w, &mut pred, &mut cov);
     }
     let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
-    let r = refit_allowance(
-        raw,
-        f64::from(s1.heading_rad),
-        f64::from(s1.length_m - sb.length_m),
-        f64::from(s1.width_m - sb.width_m),
-    );
+    let r = refit_allowance(raw, u1, f64::from(s1.length_m - sb.length_m), f64::from(s1.width_m - sb.width_m));
     let d2 = mahalanobis2(r, cov);
-    let residual = libm::hypot(r[0], r[1]);
-    let allowance = if d2 > 0.0 && d2.is_finite() { residual * libm::sqrt(gates.chi2_2 / d2) } else { f64::INFINITY };
+    let residual = norm(r[0], r[1]);
+    // (A residual of exactly 0, noise-free input, has no direction: the allowance along the wider axis.)
+    let allowance = if d2 > 0.0 && d2.is_finite() {
+        residual * libm::sqrt(gates.chi2_2 / d2)
+    } else if d2 <= 0.0 {
+        libm::sqrt(gates.chi2_2 * cov[0].max(cov[2]))
+    } else {
+        f64::INFINITY
+    };
     let motion_fired = d2 > gates.chi2_2;
     let span = (s1.t_s - sb.t_s).max(1e-9);
-    let observed_speed = libm::hypot(s1.x_m - sb.x_m, s1.y_m - sb.y_m) / span;
-    let reported_speed = libm::hypot(pred[0], pred[1]) / span;
+    let observed_speed = norm(s1.x_m - sb.x_m, s1.y_m - sb.y_m) / span;
+    let reported_speed = norm(pred[0], pred[1]) / span;
 
     if motion_fired {
         fired = fired.union(Conditions::POSITION);
@@ -353,7 +387,7 @@ pub fn check_calibrated(
                     let q = [a.x_m + k * (a.x_m - c2.x_m), a.y_m + k * (a.y_m - c2.y_m)];
                     let rj = refit_allowance(
                         [s1.x_m - q[0], s1.y_m - q[1]],
-                        f64::from(s1.heading_rad),
+                        u1,
                         f64::from(s1.length_m - a.length_m),
                         f64::from(s1.width_m - a.width_m),
                     );
@@ -366,7 +400,7 @@ pub fn check_calibrated(
                         + (1.0 + k) * (1.0 + k) * 0.5 * (sq(a.sx_m) + sq(a.sy_m))
                         + k * k * 0.5 * (sq(c2.sx_m) + sq(c2.sy_m))
                         + acc * acc;
-                    let dj = libm::hypot(rj[0], rj[1]);
+                    let dj = norm(rj[0], rj[1]);
                     // A jump if the positions alone are off, or if they explain most of the residual (a speed
                     // error leaves the positions on their straight line).
                     Some((dj, dj * dj / var > gates.chi2_2 || dj >= 0.7 * residual))
@@ -385,8 +419,11 @@ pub fn check_calibrated(
                     severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
                 }
                 None => {
-                    // A young track: a speed that is 0 or not yet initialised is the suspect, else the box.
-                    if s0.warmup || s1.warmup || v0 < 1e-3 || v1 < 1e-3 {
+                    // A young track: the speed is the suspect when the new one is 0 or not yet initialised, or
+                    // when the old one was and the new one agrees with the observed motion (the end of a
+                    // warm-up); else the box (a 0.2 m/s car whose box moved 3 m jumped).
+                    let new_speed_agrees = libm::fabs(v1 - observed_speed) <= 0.5 * observed_speed;
+                    if s1.warmup || v1 < 1e-3 || ((s0.warmup || v0 < 1e-3) && new_speed_agrees) {
                         kind = Some(ImplausibilityKind::SpeedInconsistent);
                         error_size = reported_speed - observed_speed;
                         severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
@@ -402,8 +439,13 @@ pub fn check_calibrated(
     if accel_fired {
         fired = fired.union(Conditions::ACCELERATION);
         if kind.is_none() {
-            // Which speed agrees with the motion observed over the baseline?
-            if libm::fabs(v1 - observed_speed) > libm::fabs(v0 - observed_speed) {
+            // Which speed agrees with the motion observed over the baseline? At the end of a warm-up, the
+            // warm-up's 0 was the error when the new speed agrees with the motion.
+            if warmup_end && libm::fabs(v1 - observed_speed) <= libm::fabs(v0 - observed_speed) {
+                kind = Some(ImplausibilityKind::SpeedInconsistent);
+                error_size = v0 - observed_speed;
+                severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
+            } else if libm::fabs(v1 - observed_speed) > libm::fabs(v0 - observed_speed) {
                 kind = Some(ImplausibilityKind::SpeedInconsistent);
                 error_size = v1 - observed_speed;
                 severity = libm::fabs(error_size) / CRITICAL_SPEED_MPS;
@@ -449,6 +491,7 @@ mod tests {
             warmup: false,
             suspect: false,
             flipped: false,
+            unit: [1.0, 0.0],
         }
     }
 
@@ -462,6 +505,15 @@ mod tests {
 
     fn run(h: &History, s1: &Entry) -> CalibratedCheck {
         check_calibrated(h, s1, &MotionLimits::default(), &Gates::new(1e-4), 1.0, 0.5)
+    }
+
+    #[test]
+    fn fast_helpers_match_the_careful_ones() {
+        for k in -400..=400 {
+            let a = f64::from(k) * 0.0157;
+            assert!((wrap_difference(a) - wrap_angle(a)).abs() < 1e-12, "{a}");
+            assert!((norm(a, 0.3 * a + 1.0) - libm::hypot(a, 0.3 * a + 1.0)).abs() < 1e-12);
+        }
     }
 
     #[test]
@@ -548,5 +600,21 @@ mod tests {
         s1.warmup = true;
         s1.sv_mps = 0.7;
         assert!(run(&h, &s1).fired.is_empty());
+    }
+
+    #[test]
+    fn the_end_of_a_warmup_tells_the_speed_the_tracker_hid() {
+        // Reported 0 (warm-up) then 8 m/s, the box moving 0.8 m per frame: the warm-up hid 8 m/s.
+        let mut s0 = e(0.0, 0.0, 0.0);
+        s0.warmup = true;
+        s0.sv_mps = 0.7;
+        let h = History::with(s0);
+        let c = run(&h, &e(0.1, 0.8, 8.0));
+        assert!(c.fired.contains(Conditions::ACCELERATION), "{c:?}");
+        assert_eq!(c.kind, Some(ImplausibilityKind::SpeedInconsistent), "{c:?}");
+        assert!(c.error_size < -6.0 && c.severity > 2.0, "{c:?}");
+        // A walking pedestrian (1.4 m/s) after its warm-up, or a car starting from standstill: tolerated.
+        assert!(run(&h, &e(0.1, 0.14, 1.4)).fired.is_empty());
+        assert!(run(&h, &e(0.1, 0.03, 0.7)).fired.is_empty());
     }
 }

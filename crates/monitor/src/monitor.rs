@@ -380,16 +380,16 @@ impl Monitor {
                 out.margin_width_m = region.margin_width_m;
                 let bounds = region.grown.aabb();
                 match geometry.cell_range(bounds).filter(|_| geometry.contains_box(bounds)) {
+                    // No sensor data: nothing is judged, wherever the object lies (issue #11: a first frame
+                    // without LiDAR read `outside_grid` for a world-frame object list).
+                    _ if self.sensor_status.is_some() => {
+                        out.verdict =
+                            SensorVerdict::NotMonitored(self.sensor_status.unwrap_or(NotMonitoredReason::NoLidarData));
+                    }
                     None => {
                         out.verdict = SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid);
                         // Not judged, but its evidence inside the grid is explained: no conflict at the edge.
-                        if self.sensor_status.is_none() {
-                            self.explain_cells(i, &region, geometry.cell_range_clipped(bounds));
-                        }
-                    }
-                    Some(_) if self.sensor_status.is_some() => {
-                        out.verdict =
-                            SensorVerdict::NotMonitored(self.sensor_status.unwrap_or(NotMonitoredReason::NoLidarData));
+                        self.explain_cells(i, &region, geometry.cell_range_clipped(bounds));
                     }
                     Some(range) => {
                         let mut eta = self.grid.probability_of_hits(0);

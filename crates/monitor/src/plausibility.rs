@@ -53,6 +53,7 @@ fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> 
         warmup,
         suspect: false,
         flipped: false,
+        unit: [0.0; 2], // set by History::push
     }
 }
 
@@ -173,16 +174,17 @@ impl TrackTable {
             }
             let remaining_current = n - end;
             // Remembered tracks with smaller ids: keep the recent ones while room remains for the current objects.
-            while let Some(tr) = self.tracks.get(prev_i).copied() {
+            // (Tracks are looked at by reference and copied only when kept: a track carries its history.)
+            while let Some(tr) = self.tracks.get(prev_i) {
                 if tr.id >= id {
                     break;
                 }
                 if t_s - tr.state.t_s <= p.max_time_step_s && self.next.len() + remaining_current + 1 < cap {
-                    self.next.push(tr);
+                    self.next.push(*tr);
                 }
                 prev_i += 1;
             }
-            let prev = match self.tracks.get(prev_i).copied() {
+            let prev = match self.tracks.get(prev_i) {
                 Some(tr) if tr.id == id => {
                     prev_i += 1;
                     Some(tr)
@@ -192,7 +194,7 @@ impl TrackTable {
             let keep_prev = |next: &mut Vec<Track>| {
                 if let Some(tr) = prev {
                     if next.len() < cap {
-                        next.push(tr);
+                        next.push(*tr);
                     }
                 }
             };
@@ -306,9 +308,9 @@ impl TrackTable {
                             };
                             e1.suspect = matches!(outcome.verdict, MotionVerdict::Implausible(_));
                             e1.flipped = e1.suspect && outcome.kind == Some(ImplausibilityKind::HeadingFlip);
-                            let mut hist = tr.hist;
-                            hist.push(e1);
                             if self.next.len() < cap {
+                                let mut hist = tr.hist;
+                                hist.push(e1);
                                 self.next.push(Track { id, state: s1, hist, age: tr.age.saturating_add(1) });
                             }
                             // No verdict from a NaN: every comparison with NaN is false, so no condition would fire (issue 15: a
@@ -327,9 +329,9 @@ impl TrackTable {
             }
             k = end;
         }
-        while let Some(tr) = self.tracks.get(prev_i).copied() {
+        while let Some(tr) = self.tracks.get(prev_i) {
             if t_s - tr.state.t_s <= p.max_time_step_s && self.next.len() < cap {
-                self.next.push(tr);
+                self.next.push(*tr);
             }
             prev_i += 1;
         }

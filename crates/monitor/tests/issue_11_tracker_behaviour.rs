@@ -76,3 +76,34 @@ fn issue_11_alarms_name_their_kind_and_size() {
     let r = step(&mut m, 0.4, &[car(4.0, 3.0, 0.0, 10.0)]);
     assert!(r[0].1.kind.is_some(), "{:?}", r[0].1);
 }
+
+#[test]
+fn issue_11_first_frame_without_lidar_is_not_monitored_for_the_missing_sensor_data() {
+    // A world-frame object list without LiDAR: the objects lie far outside the grid around the origin. The
+    // sensor checks judge nothing for want of data, not because of the grid: the first frame is
+    // `not_monitored(first_frame_of_track)`, later frames `motion_only_consistent(no_lidar_data)`.
+    use pmon_monitor::{NotMonitoredReason, SensorVerdict};
+    for params in [MonitorParams::default(), calibrated()] {
+        let mut m = Monitor::new(params).unwrap();
+        let far = |x: f32| ObjectState { speed_mps: 10.0, ..object(1, x, 300.0, 0.0, 4.5, 1.8) };
+        let near = |x: f32| ObjectState { speed_mps: 10.0, ..object(2, x, 5.0, 0.0, 4.5, 1.8) };
+        let f = Frame {
+            timestamp_s: 0.0,
+            world_from_ego: Pose2::default(),
+            objects: &[far(500.0), near(10.0)],
+            cloud: None,
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        let rep = m.check(&f).unwrap();
+        for r in rep.objects {
+            assert_eq!(r.sensor.verdict, SensorVerdict::NotMonitored(NotMonitoredReason::NoLidarData), "{r:?}");
+            assert_eq!(r.verdict, Verdict::NotMonitored(NotMonitoredReason::FirstFrameOfTrack), "{r:?}");
+            assert_eq!(r.verdict.to_string(), "not_monitored(first_frame_of_track)");
+        }
+        let r = step(&mut m, 0.1, &[far(501.0), near(11.0)]);
+        for (v, _) in r {
+            assert_eq!(v, Verdict::MotionOnlyConsistent(NotMonitoredReason::NoLidarData));
+        }
+    }
+}
