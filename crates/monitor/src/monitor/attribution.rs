@@ -353,11 +353,7 @@ impl Monitor {
                         && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
                 };
                 // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
-                let n = self.grid.geometry.cells_per_side;
-                let near_own = own(cell)
-                    || [cell.wrapping_sub(1), cell + 1, cell.wrapping_sub(n), cell + n]
-                        .into_iter()
-                        .any(|c| c < n * n && own(c));
+                let near_own = own(cell) || self.grid.geometry.neighbours4(cell).any(own);
                 if clearance > margin && near_own {
                     free += 1;
                 }
