@@ -543,7 +543,7 @@ impl Monitor {
                     let seen = match sight {
                         Some(s) if s.unexplained_shadow == 0 => s,
                         Some(s) if s.occluders_len <= OCCLUDERS => self.without_attributed(s),
-                        _ => self.footprint_sight(j, &region.footprint),
+                        _ => self.footprint_sight(j, &region),
                     };
                     sight = Some(seen);
                     let sight = seen;
@@ -564,6 +564,12 @@ impl Monitor {
                 }
                 let seen_through =
                     cluster.is_none() && eta_own >= tau_tp && own_sum[2] >= 1.0 && self.seen_through(j, &region);
+                // A ghost only when no place within its region hides it.
+                let hidden = cluster.is_none()
+                    && eta_own < tau_tp
+                    && !occluded
+                    && !shared
+                    && self.hidden_within_margin(j, &region);
                 let Some(report) = self.reports.get_mut(j) else { continue };
                 let s = &mut report.sensor;
                 s.eta_own = eta_own;
@@ -587,7 +593,7 @@ impl Monitor {
                     SensorVerdict::PositionError
                 } else if eta_own >= tau_tp || shared {
                     SensorVerdict::Consistent
-                } else if occluded {
+                } else if occluded || hidden {
                     SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
                 } else {
                     SensorVerdict::Ghost

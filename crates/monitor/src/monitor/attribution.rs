@@ -68,7 +68,18 @@ impl Monitor {
     }
 
     /// What the sensor saw of object `j`'s footprint (see [`FootprintSight`]).
-    pub(super) fn footprint_sight(&self, j: usize, footprint: &crate::geometry::OrientedRect) -> FootprintSight {
+    ///
+    /// Each footprint cell is looked at in the point of the footprint nearest to its centre (a cell centre can lie
+    /// up to half a cell diagonal outside the box, in space that says nothing about the object), and that point
+    /// counts as *seen empty* only when it lies in front of the nearest obstacle of its direction by more than the
+    /// region's margin: the object's own surface can stand anywhere within its margin, so space just in front of
+    /// a return may be the object itself (the same rule as [`Monitor::seen_through`]).
+    pub(super) fn footprint_sight(&self, j: usize, region: &Region) -> FootprintSight {
+        self.sight_at(j, &region.footprint, region.margin_length_m.max(region.margin_width_m))
+    }
+
+    /// [`Monitor::footprint_sight`] of a footprint placed anywhere (for the ghost test's shifted boxes).
+    fn sight_at(&self, j: usize, footprint: &crate::geometry::OrientedRect, margin: f32) -> FootprintSight {
         let geometry = self.grid.geometry;
         let mut sight = FootprintSight { occluder: NO_CELL, ..FootprintSight::default() };
         let Some(range) = geometry.cell_range(footprint.aabb()) else { return sight };
@@ -93,8 +104,13 @@ impl Monitor {
                     return;
                 }
             }
-            match visibility.sight(cx, cy) {
-                Sight::Visible => sight.visible += 1,
+            let (px, py) = footprint.nearest_point(cx, cy);
+            match visibility.sight(px, py) {
+                Sight::Visible => {
+                    if visibility.clearance(px, py).is_none_or(|(clearance, _)| clearance > margin) {
+                        sight.visible += 1;
+                    }
+                }
                 // Behind evidence nobody explains, in the region of interest.
                 Sight::Shadowed(c) => {
                     if let Some(k) = self.unexplained_at(c) {
@@ -362,6 +378,37 @@ impl Monitor {
         free as f32 >= self.params.ghost_visible_fraction * 9.0
     }
 
+    /// True when object `j`'s footprint, moved anywhere within its region `A_o` (by its margins along and
+    /// across the box: eight positions), is mostly hidden from the sensor or on another object's evidence in one
+    /// of them: the object may stand there, so the sensor cannot call it a ghost. (A noisy object list puts a hidden pedestrian's box
+    /// half out of the shadow it stands in; its stated uncertainty allows the place in the shadow.)
+    pub(super) fn hidden_within_margin(&self, j: usize, region: &Region) -> bool {
+        let fp = region.footprint;
+        let margin = region.margin_length_m.max(region.margin_width_m);
+        let (ml, mw) = (region.margin_length_m, region.margin_width_m);
+        for (du, dv) in [(-ml, 0.0), (ml, 0.0), (0.0, -mw), (0.0, mw), (-ml, -mw), (-ml, mw), (ml, -mw), (ml, mw)] {
+            let moved = crate::geometry::OrientedRect {
+                cx: fp.cx + du * fp.cos - dv * fp.sin,
+                cy: fp.cy + du * fp.sin + dv * fp.cos,
+                ..fp
+            };
+            let sight = self.sight_at(j, &moved, margin);
+            let sight = if sight.unexplained_shadow > 0 && sight.occluders_len <= OCCLUDERS {
+                self.without_attributed(sight)
+            } else {
+                sight
+            };
+            // Seen empty or behind evidence nobody took: not there. Hidden, or on evidence another object
+            // owns (two objects the sensor cannot tell apart, as in the verdicts' shared case): maybe there.
+            if sight.total > 0
+                && sight.fraction(sight.visible + sight.unexplained_shadow) < self.params.ghost_visible_fraction
+            {
+                return true;
+            }
+        }
+        false
+    }
+
     /// A sight brought up to date after the attribution: shadows cast by evidence now attributed to an object
     /// hide rather than contradict.
     pub(super) fn without_attributed(&self, mut sight: FootprintSight) -> FootprintSight {
@@ -381,7 +428,7 @@ impl Monitor {
         if let Some(sight) = self.scratch.get(j).and_then(|s| s.sight) {
             return sight;
         }
-        let sight = self.footprint_sight(j, &region.footprint);
+        let sight = self.footprint_sight(j, region);
         if let Some(s) = self.scratch.get_mut(j) {
             s.sight = Some(sight);
         }
