@@ -65,6 +65,8 @@ struct ObjectScratch {
     recalled: Option<(EvidenceKind, [f32; 2])>,
     /// Sum of the centres of the occupied cells the object owns, and their number.
     own_sum: [f32; 3],
+    /// The last cluster found where the track's remembered offset puts its evidence (`u32::MAX`: none yet).
+    followed: u32,
 }
 
 /// The perception monitor. Construct once with [`Monitor::new`]; call [`Monitor::check`] every frame.
@@ -289,6 +291,7 @@ impl Monitor {
                 sight: None,
                 recalled,
                 own_sum: [0.0; 3],
+                followed: u32::MAX,
             });
             self.motion.push(MotionOutcome::not_monitored(NotMonitoredReason::InvalidState));
         }

@@ -257,6 +257,10 @@ impl Monitor {
                 let (Some(region), Some((_, r))) = (s.region, s.recalled) else { continue };
                 let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
                 if let Some(d) = self.cluster_point_distance(k, expected, follow) {
+                    // Remembered for the loop below, which then skips this pair (one follow test per pair).
+                    if let Some(s) = self.scratch.get_mut(j) {
+                        s.followed = k as u32;
+                    }
                     if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
                         self.pairs.push((d, k as u32, j as u32));
                     }
@@ -272,11 +276,8 @@ impl Monitor {
                 }
                 let Some(s) = self.scratch.get(j) else { continue };
                 let Some(region) = s.region else { continue };
-                if let (true, Some((_, r))) = (bits & CANDIDATE_DISPLACED != 0, s.recalled) {
-                    let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
-                    if self.cluster_point_distance(k, expected, follow).is_some() {
-                        continue;
-                    }
+                if bits & CANDIDATE_DISPLACED != 0 && s.followed == k as u32 {
+                    continue;
                 }
                 let Some(d) = self.cluster_distance(k, &region.grown, gate) else { continue };
                 // The whole gate for an object the sensor contradicts, or one that claims to stand behind the
