@@ -410,6 +410,51 @@ impl Monitor {
         false
     }
 
+    /// For a track whose evidence stood apart from it last frame (remembered as displaced): the centre of the
+    /// occupied cells outside its region, within `conflict_association_m / 2` of where its offset puts that
+    /// evidence now, that another object explains only through its margin (cell centre outside that object's box), if any. Such
+    /// evidence is no conflict, so no cluster carries it, but no other object stands on it. Bounded: the cells
+    /// of a square of side `conflict_association_m` around the expected place.
+    pub(super) fn followed_evidence(&self, j: usize, region: &Region) -> Option<[f32; 2]> {
+        let s = self.scratch.get(j)?;
+        let Some((EvidenceKind::Displaced, r)) = s.recalled else { return None };
+        let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
+        let reach = 0.5 * self.params.conflict_association_m;
+        let geometry = self.grid.geometry;
+        let (ix0, iy0, ix1, iy1) = geometry.cell_range_clipped([
+            expected[0] - reach,
+            expected[1] - reach,
+            expected[0] + reach,
+            expected[1] + reach,
+        ])?;
+        let (tau, n) = (self.params.tau_fn, geometry.cells_per_side);
+        let mut sum = [0.0f32; 3];
+        for iy in iy0..=iy1 {
+            for ix in ix0..=ix1 {
+                let idx = iy * n + ix;
+                if self.grid.hits(idx) == 0
+                    || self.grid.probability(idx) <= tau
+                    || self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC | FLAG_ATTRIBUTED) != FLAG_EXPLAINED
+                {
+                    continue;
+                }
+                let (x, y) = geometry.cell_center(idx);
+                // Displaced evidence lies outside the object's own region (inside it, it would confirm the object
+                // or lie where its stated uncertainty allows).
+                if libm::hypotf(x - expected[0], y - expected[1]) > reach || region.grown.contains(x, y) {
+                    continue;
+                }
+                let owner = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
+                let in_box = self.scratch.get(owner).and_then(|o| o.region).is_some_and(|o| o.footprint.contains(x, y));
+                if owner == j || in_box {
+                    continue;
+                }
+                sum = [sum[0] + x, sum[1] + y, sum[2] + 1.0];
+            }
+        }
+        (sum[2] >= 1.0).then(|| [sum[0] / sum[2], sum[1] / sum[2]])
+    }
+
     /// A sight brought up to date after the attribution: shadows cast by evidence now attributed to an object
     /// hide rather than contradict.
     pub(super) fn without_attributed(&self, mut sight: FootprintSight) -> FootprintSight {
