@@ -138,6 +138,46 @@ fn a_hidden_object_is_no_ghost_while_its_uncertainty_allows_the_shadow() {
     assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "stated exact, mostly seen empty: {:?}", r[1].sensor);
 }
 
+/// A track found displaced in one frame keeps its evidence in the next although a neighbour, arriving beside
+/// that evidence with a wide margin (0.3 m sigma), now explains it: the evidence is no conflict any more, but it
+/// lies outside the neighbour's box, where the track's remembered offset puts it, so it still follows the track
+/// (`position_error`). A monitor that sees the second frame alone calls the track hidden.
+#[test]
+fn displaced_evidence_in_a_neighbours_margin_still_follows_its_track() {
+    let truth = object(2, 14.0, 0.0, 0.0, 0.6, 0.6);
+    let mut reported = truth;
+    reported.x_m += 1.5;
+    let wide =
+        pmon_monitor::Uncertainty { x_m: 0.3, y_m: 0.3, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 };
+    let neighbour = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(1, 13.9, 0.8, 0.0, 0.6, 0.6) };
+    let mut first = visible_face_points(&truth, 0.05);
+    first.extend(ground_points(45.0));
+    let mut second = first.clone();
+    second.extend(visible_face_points(&neighbour, 0.05));
+    let run_at = |m: &mut Monitor, t: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
+        let pts = to_sensor(points);
+        let frame = Frame {
+            timestamp_s: t,
+            world_from_ego: Pose2::default(),
+            objects,
+            cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        m.check(&frame).unwrap().objects.to_vec()
+    };
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run_at(&mut m, 0.0, &[reported], &first);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "first frame: {:?}", r[0].sensor);
+    let r = run_at(&mut m, 0.1, &[neighbour, reported], &second);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "neighbour: {:?}", r[0].sensor);
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "followed: {:?}", r[1].sensor);
+    assert!(r[1].sensor.offset_m[0] > 0.5, "from its evidence back to the box: {:?}", r[1].sensor.offset_m);
+    let mut alone = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run_at(&mut alone, 0.1, &[neighbour, reported], &second);
+    assert_ne!(r[1].sensor.verdict, SensorVerdict::PositionError, "without the memory: {:?}", r[1].sensor);
+}
+
 mod guarantee {
     use super::*;
     use pmon_monitor::theory::dx_min_m;
