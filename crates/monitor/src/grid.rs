@@ -113,6 +113,23 @@ impl GridGeometry {
             .flat_map(move |y| (cx.saturating_sub(1)..=(cx + 1).min(n - 1)).map(move |x| y * n + x))
     }
 
+    /// The 4-neighbours of a cell inside the grid (left, right, below, above; at most 4 cells). A neighbour
+    /// across the grid's edge does not exist: `index +- 1` would wrap to the other end of the neighbouring row.
+    pub fn neighbours4(self, index: u32) -> impl Iterator<Item = u32> {
+        let n = self.cells_per_side.max(1);
+        let (cx, cy) = (index % n, index / n);
+        let inside = index < n.saturating_mul(n);
+        [
+            (cx > 0).then(|| index - 1),
+            (cx + 1 < n).then(|| index + 1),
+            (cy > 0).then(|| index - n),
+            (cy + 1 < n).then(|| index + n),
+        ]
+        .into_iter()
+        .flatten()
+        .filter(move |_| inside)
+    }
+
     /// Centre of a cell, ego frame, metres.
     #[must_use]
     pub fn cell_center(&self, index: u32) -> (f32, f32) {
@@ -442,6 +459,35 @@ impl OccupancyGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    proptest::proptest! {
+        /// `neighbours4` gives exactly the cells one row or one column away inside the grid: at an edge, no
+        /// neighbour wraps to the other end of the neighbouring row (the earlier `index +- 1` did).
+        #[test]
+        fn neighbours4_never_wrap(n in 1u32..300, at in 0.0f64..1.0) {
+            let g = GridGeometry::new(n, 0.5);
+            let index = ((f64::from(n * n) * at) as u32).min(n * n - 1);
+            let (cx, cy) = (index % n, index / n);
+            let got: Vec<u32> = g.neighbours4(index).collect();
+            let mut want = Vec::new();
+            for (dx, dy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+                let (x, y) = (i64::from(cx) + dx, i64::from(cy) + dy);
+                if (0..i64::from(n)).contains(&x) && (0..i64::from(n)).contains(&y) {
+                    want.push((y * i64::from(n) + x) as u32);
+                }
+            }
+            proptest::prop_assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn neighbours4_at_the_row_ends() {
+        let g = GridGeometry::new(4, 0.5);
+        // Cell 3 ends row 0: its right neighbour does not exist (3 + 1 = 4 starts row 1).
+        assert_eq!(g.neighbours4(3).collect::<Vec<_>>(), vec![2, 7]);
+        assert_eq!(g.neighbours4(4).collect::<Vec<_>>(), vec![5, 0, 8]);
+        assert_eq!(g.neighbours4(16).count(), 0, "outside the grid");
+    }
 
     #[test]
     fn world_to_cell_and_back() {

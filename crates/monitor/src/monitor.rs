@@ -65,6 +65,8 @@ struct ObjectScratch {
     recalled: Option<(EvidenceKind, [f32; 2])>,
     /// Sum of the centres of the occupied cells the object owns, and their number.
     own_sum: [f32; 3],
+    /// The last cluster found where the track's remembered offset puts its evidence (`u32::MAX`: none yet).
+    followed: u32,
 }
 
 /// The perception monitor. Construct once with [`Monitor::new`]; call [`Monitor::check`] every frame.
@@ -289,6 +291,7 @@ impl Monitor {
                 sight: None,
                 recalled,
                 own_sum: [0.0; 3],
+                followed: u32::MAX,
             });
             self.motion.push(MotionOutcome::not_monitored(NotMonitoredReason::InvalidState));
         }
@@ -536,6 +539,7 @@ impl Monitor {
                 let mut cluster = cluster.map(|(k, _)| usize::from(k));
                 let mut occluded = false;
                 let mut shared = false;
+                let mut followed: Option<[f32; 2]> = None;
                 let mut sight = sight;
                 if cluster.is_none() && eta_own < tau_tp {
                     // Seen again now that the displaced evidence has its objects, if unexplained evidence shadowed
@@ -543,13 +547,20 @@ impl Monitor {
                     let seen = match sight {
                         Some(s) if s.unexplained_shadow == 0 => s,
                         Some(s) if s.occluders_len <= OCCLUDERS => self.without_attributed(s),
-                        _ => self.footprint_sight(j, &region.footprint),
+                        _ => self.footprint_sight(j, &region),
                     };
                     sight = Some(seen);
                     let sight = seen;
                     let open = sight.fraction(sight.visible + sight.unexplained_shadow);
                     if sight.contradicted() < self.params.ghost_visible_fraction {
                         occluded = true;
+                        // Hidden, but a track whose evidence stood apart from it last frame finds that evidence
+                        // again where its offset puts it, inside a neighbour's margin only: the evidence still
+                        // follows it (the neighbour's margin hid it from the clusters).
+                        if let Some(at) = self.followed_evidence(j, &region) {
+                            followed = Some(at);
+                            occluded = false;
+                        }
                     } else if open < self.params.ghost_visible_fraction && s_eta(&self.reports, j) >= tau_tp {
                         // Its place is taken by evidence another object owns and no displaced evidence came its
                         // way: the two cannot be told apart (objects standing in one place, or one box on its
@@ -564,6 +575,12 @@ impl Monitor {
                 }
                 let seen_through =
                     cluster.is_none() && eta_own >= tau_tp && own_sum[2] >= 1.0 && self.seen_through(j, &region);
+                // A ghost only when no place within its region hides it.
+                let hidden = cluster.is_none()
+                    && eta_own < tau_tp
+                    && !occluded
+                    && !shared
+                    && self.hidden_within_margin(j, &region);
                 let Some(report) = self.reports.get_mut(j) else { continue };
                 let s = &mut report.sensor;
                 s.eta_own = eta_own;
@@ -577,6 +594,10 @@ impl Monitor {
                         s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
                     }
                     SensorVerdict::PositionError
+                } else if let Some(c) = followed {
+                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
+                    s.offset_m = [nx - c[0], ny - c[1]];
+                    SensorVerdict::PositionError
                 } else if seen_through {
                     // Confirmed by evidence in its margin, but the rays prove its footprint empty: the object
                     // stands in front of its evidence, displaced towards the sensor (beyond the paper, whose
@@ -587,7 +608,7 @@ impl Monitor {
                     SensorVerdict::PositionError
                 } else if eta_own >= tau_tp || shared {
                     SensorVerdict::Consistent
-                } else if occluded {
+                } else if occluded || hidden {
                     SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
                 } else {
                     SensorVerdict::Ghost
@@ -597,6 +618,7 @@ impl Monitor {
                 let evidence = match s.verdict {
                     SensorVerdict::PositionError => match s.cluster.and_then(|k| self.clusters.get(usize::from(k))) {
                         Some(c) => Some((EvidenceKind::Displaced, c.centroid_m)),
+                        None if followed.is_some() => followed.map(|at| (EvidenceKind::Displaced, at)),
                         // Seen through: its own evidence, behind it, is where it stands apart.
                         None if own_sum[2] >= 1.0 => {
                             Some((EvidenceKind::Displaced, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))

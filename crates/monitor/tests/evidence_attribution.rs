@@ -99,6 +99,85 @@ fn a_wall_is_too_large_to_be_a_pedestrians_evidence() {
     assert_ne!(r[1].sensor.verdict, SensorVerdict::PositionError, "{:?}", r[1].sensor);
 }
 
+/// A pedestrian hidden behind a car, whose noisy box pokes half out of the car's shadow: its stated uncertainty
+/// allows it to stand in the shadow, so the sensor cannot call it a ghost (`not_monitored(occluded)`). The same
+/// box stated exact (no uncertainty, margin `delta_safe` only), and a box with nothing in open space whatever
+/// its uncertainty, stay ghosts.
+#[test]
+fn a_hidden_object_is_no_ghost_while_its_uncertainty_allows_the_shadow() {
+    let car = object(1, 10.0, 0.0, 0.0, 4.5, 1.9);
+    let mut pts = visible_face_points(&car, 0.05);
+    pts.extend(ground_points(45.0));
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    // The car's shadow at 14 m reaches about 0.95 * 14 / 7.75 = 1.7 m to each side: the box (y from 1.65 to
+    // 2.25 m) is mostly out of it. Stated exact, its margin is `delta_safe` (0.1 m): moved by it, the box stays
+    // mostly in sight. With a 0.3 m sigma (margin 1 m), its place may be in the shadow.
+    let hidden = object(2, 14.0, 1.95, 0.0, 0.6, 0.6);
+    let sigma = |s: f32| pmon_monitor::Uncertainty {
+        x_m: s,
+        y_m: s,
+        length_m: 0.0,
+        width_m: 0.0,
+        heading_rad: 0.1,
+        speed_mps: 0.5,
+    };
+    let noisy = pmon_monitor::ObjectState { uncertainty: Some(sigma(0.3)), ..hidden };
+    let exact = pmon_monitor::ObjectState { uncertainty: Some(sigma(0.0)), ..hidden };
+    let open = pmon_monitor::ObjectState { id: 3, x_m: 14.0, y_m: -8.0, uncertainty: Some(sigma(0.3)), ..hidden };
+    let r = run(&mut m, &[car, noisy, open], &pts);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
+    assert_eq!(
+        r[1].sensor.verdict,
+        SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded),
+        "{:?}",
+        r[1].sensor
+    );
+    assert_eq!(r[2].sensor.verdict, SensorVerdict::Ghost, "nothing in open space: {:?}", r[2].sensor);
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run(&mut m, &[car, exact], &pts);
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "stated exact, mostly seen empty: {:?}", r[1].sensor);
+}
+
+/// A track found displaced in one frame keeps its evidence in the next although a neighbour, arriving beside
+/// that evidence with a wide margin (0.3 m sigma), now explains it: the evidence is no conflict any more, but it
+/// lies outside the neighbour's box, where the track's remembered offset puts it, so it still follows the track
+/// (`position_error`). A monitor that sees the second frame alone calls the track hidden.
+#[test]
+fn displaced_evidence_in_a_neighbours_margin_still_follows_its_track() {
+    let truth = object(2, 14.0, 0.0, 0.0, 0.6, 0.6);
+    let mut reported = truth;
+    reported.x_m += 1.5;
+    let wide =
+        pmon_monitor::Uncertainty { x_m: 0.3, y_m: 0.3, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 };
+    let neighbour = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(1, 13.9, 0.8, 0.0, 0.6, 0.6) };
+    let mut first = visible_face_points(&truth, 0.05);
+    first.extend(ground_points(45.0));
+    let mut second = first.clone();
+    second.extend(visible_face_points(&neighbour, 0.05));
+    let run_at = |m: &mut Monitor, t: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
+        let pts = to_sensor(points);
+        let frame = Frame {
+            timestamp_s: t,
+            world_from_ego: Pose2::default(),
+            objects,
+            cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        m.check(&frame).unwrap().objects.to_vec()
+    };
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run_at(&mut m, 0.0, &[reported], &first);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "first frame: {:?}", r[0].sensor);
+    let r = run_at(&mut m, 0.1, &[neighbour, reported], &second);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "neighbour: {:?}", r[0].sensor);
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "followed: {:?}", r[1].sensor);
+    assert!(r[1].sensor.offset_m[0] > 0.5, "from its evidence back to the box: {:?}", r[1].sensor.offset_m);
+    let mut alone = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run_at(&mut alone, 0.1, &[neighbour, reported], &second);
+    assert_ne!(r[1].sensor.verdict, SensorVerdict::PositionError, "without the memory: {:?}", r[1].sensor);
+}
+
 mod guarantee {
     use super::*;
     use pmon_monitor::theory::dx_min_m;
@@ -176,6 +255,13 @@ mod guarantee {
                 ..truth
             };
             prop_assume!(reported.x_m.hypot(reported.y_m) > 0.5 * length.hypot(width) + 2.0);
+            // The rays through the box must end on its evidence: the box's sideways offset from the ray to the
+            // object, `d |sin(spread)|`, leaves the rays through its central sample points (0.6 of its half
+            // extent across the ray) on the evidence. (A 3.7 m x 0.4 m box along the ray, moved 3.4 m towards the
+            // sensor 0.15 rad off the ray, stands 0.5 m beside it: its rays pass beside the 0.4 m face and prove
+            // nothing. This assumption was added when proptest found that case; the rule is unchanged.)
+            let across = (length * (bearing - heading).sin()).abs() + (width * (bearing - heading).cos()).abs();
+            prop_assume!(d * spread.sin().abs() <= 0.2 * across);
             let mut pts = visible_face_points(&truth, 0.05);
             pts.extend(ground_points(45.0));
             let r = run(&mut m, &[reported], &pts)[0];

@@ -68,7 +68,18 @@ impl Monitor {
     }
 
     /// What the sensor saw of object `j`'s footprint (see [`FootprintSight`]).
-    pub(super) fn footprint_sight(&self, j: usize, footprint: &crate::geometry::OrientedRect) -> FootprintSight {
+    ///
+    /// Each footprint cell is looked at in the point of the footprint nearest to its centre (a cell centre can lie
+    /// up to half a cell diagonal outside the box, in space that says nothing about the object), and that point
+    /// counts as *seen empty* only when it lies in front of the nearest obstacle of its direction by more than the
+    /// region's margin: the object's own surface can stand anywhere within its margin, so space just in front of
+    /// a return may be the object itself (the same rule as [`Monitor::seen_through`]).
+    pub(super) fn footprint_sight(&self, j: usize, region: &Region) -> FootprintSight {
+        self.sight_at(j, &region.footprint, region.margin_length_m.max(region.margin_width_m))
+    }
+
+    /// [`Monitor::footprint_sight`] of a footprint placed anywhere (for the ghost test's shifted boxes).
+    fn sight_at(&self, j: usize, footprint: &crate::geometry::OrientedRect, margin: f32) -> FootprintSight {
         let geometry = self.grid.geometry;
         let mut sight = FootprintSight { occluder: NO_CELL, ..FootprintSight::default() };
         let Some(range) = geometry.cell_range(footprint.aabb()) else { return sight };
@@ -93,8 +104,13 @@ impl Monitor {
                     return;
                 }
             }
-            match visibility.sight(cx, cy) {
-                Sight::Visible => sight.visible += 1,
+            let (px, py) = footprint.nearest_point(cx, cy);
+            match visibility.sight(px, py) {
+                Sight::Visible => {
+                    if visibility.clearance(px, py).is_none_or(|(clearance, _)| clearance > margin) {
+                        sight.visible += 1;
+                    }
+                }
                 // Behind evidence nobody explains, in the region of interest.
                 Sight::Shadowed(c) => {
                     if let Some(k) = self.unexplained_at(c) {
@@ -241,6 +257,10 @@ impl Monitor {
                 let (Some(region), Some((_, r))) = (s.region, s.recalled) else { continue };
                 let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
                 if let Some(d) = self.cluster_point_distance(k, expected, follow) {
+                    // Remembered for the loop below, which then skips this pair (one follow test per pair).
+                    if let Some(s) = self.scratch.get_mut(j) {
+                        s.followed = k as u32;
+                    }
                     if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
                         self.pairs.push((d, k as u32, j as u32));
                     }
@@ -256,11 +276,8 @@ impl Monitor {
                 }
                 let Some(s) = self.scratch.get(j) else { continue };
                 let Some(region) = s.region else { continue };
-                if let (true, Some((_, r))) = (bits & CANDIDATE_DISPLACED != 0, s.recalled) {
-                    let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
-                    if self.cluster_point_distance(k, expected, follow).is_some() {
-                        continue;
-                    }
+                if bits & CANDIDATE_DISPLACED != 0 && s.followed == k as u32 {
+                    continue;
                 }
                 let Some(d) = self.cluster_distance(k, &region.grown, gate) else { continue };
                 // The whole gate for an object the sensor contradicts, or one that claims to stand behind the
@@ -353,17 +370,89 @@ impl Monitor {
                         && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
                 };
                 // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
-                let n = self.grid.geometry.cells_per_side;
-                let near_own = own(cell)
-                    || [cell.wrapping_sub(1), cell + 1, cell.wrapping_sub(n), cell + n]
-                        .into_iter()
-                        .any(|c| c < n * n && own(c));
+                let near_own = own(cell) || self.grid.geometry.neighbours4(cell).any(own);
                 if clearance > margin && near_own {
                     free += 1;
                 }
             }
         }
         free as f32 >= self.params.ghost_visible_fraction * 9.0
+    }
+
+    /// True when object `j`'s footprint, moved anywhere within its region `A_o` (by its margins along and
+    /// across the box: eight positions), is mostly hidden from the sensor or on another object's evidence in one
+    /// of them: the object may stand there, so the sensor cannot call it a ghost. (A noisy object list puts a hidden pedestrian's box
+    /// half out of the shadow it stands in; its stated uncertainty allows the place in the shadow.)
+    pub(super) fn hidden_within_margin(&self, j: usize, region: &Region) -> bool {
+        let fp = region.footprint;
+        let margin = region.margin_length_m.max(region.margin_width_m);
+        let (ml, mw) = (region.margin_length_m, region.margin_width_m);
+        for (du, dv) in [(-ml, 0.0), (ml, 0.0), (0.0, -mw), (0.0, mw), (-ml, -mw), (-ml, mw), (ml, -mw), (ml, mw)] {
+            let moved = crate::geometry::OrientedRect {
+                cx: fp.cx + du * fp.cos - dv * fp.sin,
+                cy: fp.cy + du * fp.sin + dv * fp.cos,
+                ..fp
+            };
+            let sight = self.sight_at(j, &moved, margin);
+            let sight = if sight.unexplained_shadow > 0 && sight.occluders_len <= OCCLUDERS {
+                self.without_attributed(sight)
+            } else {
+                sight
+            };
+            // Seen empty or behind evidence nobody took: not there. Hidden, or on evidence another object
+            // owns (two objects the sensor cannot tell apart, as in the verdicts' shared case): maybe there.
+            if sight.total > 0
+                && sight.fraction(sight.visible + sight.unexplained_shadow) < self.params.ghost_visible_fraction
+            {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// For a track whose evidence stood apart from it last frame (remembered as displaced): the centre of the
+    /// occupied cells outside its region, within `conflict_association_m / 2` of where its offset puts that
+    /// evidence now, that another object explains only through its margin (cell centre outside that object's box), if any. Such
+    /// evidence is no conflict, so no cluster carries it, but no other object stands on it. Bounded: the cells
+    /// of a square of side `conflict_association_m` around the expected place.
+    pub(super) fn followed_evidence(&self, j: usize, region: &Region) -> Option<[f32; 2]> {
+        let s = self.scratch.get(j)?;
+        let Some((EvidenceKind::Displaced, r)) = s.recalled else { return None };
+        let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
+        let reach = 0.5 * self.params.conflict_association_m;
+        let geometry = self.grid.geometry;
+        let (ix0, iy0, ix1, iy1) = geometry.cell_range_clipped([
+            expected[0] - reach,
+            expected[1] - reach,
+            expected[0] + reach,
+            expected[1] + reach,
+        ])?;
+        let (tau, n) = (self.params.tau_fn, geometry.cells_per_side);
+        let mut sum = [0.0f32; 3];
+        for iy in iy0..=iy1 {
+            for ix in ix0..=ix1 {
+                let idx = iy * n + ix;
+                if self.grid.hits(idx) == 0
+                    || self.grid.probability(idx) <= tau
+                    || self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC | FLAG_ATTRIBUTED) != FLAG_EXPLAINED
+                {
+                    continue;
+                }
+                let (x, y) = geometry.cell_center(idx);
+                // Displaced evidence lies outside the object's own region (inside it, it would confirm the object
+                // or lie where its stated uncertainty allows).
+                if libm::hypotf(x - expected[0], y - expected[1]) > reach || region.grown.contains(x, y) {
+                    continue;
+                }
+                let owner = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
+                let in_box = self.scratch.get(owner).and_then(|o| o.region).is_some_and(|o| o.footprint.contains(x, y));
+                if owner == j || in_box {
+                    continue;
+                }
+                sum = [sum[0] + x, sum[1] + y, sum[2] + 1.0];
+            }
+        }
+        (sum[2] >= 1.0).then(|| [sum[0] / sum[2], sum[1] / sum[2]])
     }
 
     /// A sight brought up to date after the attribution: shadows cast by evidence now attributed to an object
@@ -385,7 +474,7 @@ impl Monitor {
         if let Some(sight) = self.scratch.get(j).and_then(|s| s.sight) {
             return sight;
         }
-        let sight = self.footprint_sight(j, &region.footprint);
+        let sight = self.footprint_sight(j, region);
         if let Some(s) = self.scratch.get_mut(j) {
             s.sight = Some(sight);
         }

@@ -1,0 +1,243 @@
+//! Counts the sensor checks' misses and false alarms by cause on the `pmon reproduce --quick` runs (a
+//! development aid for the evidence attribution, docs/attribution.md):
+//!
+//! `cargo run --release -p pmon-campaign --example attribution_diag -- SEED [summary|causes] [FILTER]`
+//!
+//! `summary` runs the quick plan's sensor runs (false alarms up to 0.3 m noise, permanent errors under paper
+//! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
+//! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
+//! keeps only the runs whose curve label contains it (for example `towards` or `paper`).
+use std::collections::BTreeMap;
+
+use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
+use pmon_campaign::{run_one, Injector, Scene};
+use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
+use pmon_scenario::{ScenarioConfig, Simulator};
+use rayon::prelude::*;
+
+/// The scenes of `pmon reproduce --quick` that the sensor runs use (the same configuration as
+/// `crates/cli/src/reproduce.rs`), with empty stand-ins for the others so that the plan's indices hold.
+fn scenes(seed: u64) -> Result<Vec<Scene>, Box<dyn std::error::Error>> {
+    let mut out = Vec::new();
+    for name in ["pedestrians", "intersection", "pedestrians_20hz", "pedestrians_paper"] {
+        if name == "intersection" || name == "pedestrians_20hz" {
+            out.push(Scene { name: name.into(), source: String::new(), frames: Vec::new() });
+            continue;
+        }
+        let mut cfg = ScenarioConfig::builtin("pedestrians").ok_or("no built-in pedestrians")?;
+        cfg.seed = seed;
+        if name == "pedestrians_paper" {
+            cfg.name = name.into();
+            cfg.noise.position_sigma_m = 0.0;
+            cfg.noise.size_sigma_m = 0.0;
+            cfg.noise.report_sigma = true;
+            cfg.agents.parked_as_scenery = true;
+            cfg.agents.pedestrians /= 2;
+        }
+        cfg.duration_s = cfg.duration_s.min(15.0);
+        let mut sim = Simulator::new(&cfg).map_err(|e| format!("{name}: {e}"))?;
+        let mut frames = Vec::new();
+        while let Some(f) = sim.step() {
+            frames.push(f.frame);
+        }
+        out.push(Scene { name: name.into(), source: String::new(), frames });
+    }
+    Ok(out)
+}
+
+/// The sensor runs of the quick plan worth watching.
+fn wanted(run: &PlannedRun) -> bool {
+    run.probes.iter().any(|p| {
+        (p.figure == "false_alarms" && p.curve == "sensor checks, white noise" && p.x <= 0.3 + 1e-9)
+            || ((p.figure == "permanent_position" || p.figure == "permanent_position_paper")
+                && p.measure == Measure::SensorRecallVerifiable)
+            || (p.figure == "position_direction" && p.curve.starts_with("towards"))
+    })
+}
+
+fn label(run: &PlannedRun) -> String {
+    run.probes
+        .iter()
+        .find(|p| p.measure != Measure::PlausibilityRecall)
+        .map_or(String::new(), |p| format!("{} / {} @ {:.1}", p.figure, p.curve, p.x))
+}
+
+/// Why a clean object state raised an alarm, or why an injected, verifiable one did not.
+fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
+    let spec = &run.spec;
+    let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
+    let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
+    let mut injector = Injector::new(spec.injection);
+    let mut out = BTreeMap::new();
+    let tau = spec.params.tau_tp;
+    for (k, clean) in scene.frames.iter().enumerate() {
+        let mut objects = clean.objects.clone();
+        let injections = injector.apply_at(k as u64, clean.timestamp_s, &mut objects);
+        let mut roi = Vec::new();
+        let mut view = clean.as_frame(&mut roi);
+        let confirmed: Vec<bool> = clean_monitor
+            .check(&view)
+            .map_err(|e| e.to_string())?
+            .objects
+            .iter()
+            .map(|r| !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_)) && r.sensor.eta_own >= tau)
+            .collect();
+        view.objects = &objects;
+        let (objects_out, clusters_out) = {
+            let report = monitor.check(&view).map_err(|e| e.to_string())?;
+            (report.objects.to_vec(), report.clusters.to_vec())
+        };
+        for (i, r) in objects_out.iter().enumerate() {
+            if matches!(
+                r.sensor.verdict,
+                SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid | NotMonitoredReason::InvalidState)
+            ) {
+                continue;
+            }
+            let injected = injections.iter().any(|x| x.index as usize == i);
+            let alarm = matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+            let (Some(truth), Some(o)) = (clean.objects.get(i), objects.get(i)) else { continue };
+            let d = (o.x_m - truth.x_m).hypot(o.y_m - truth.y_m);
+            let region = clean_monitor.region_of(o);
+            let margin = region.map_or(0.0, |g| g.margin_length_m.min(g.margin_width_m));
+            // The cluster's relation to the object's true place and to other objects.
+            let truth_region = clean_monitor.region_of(truth);
+            let cluster_at_truth = |c: &pmon_monitor::ClusterReport| {
+                truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
+            };
+            // Range and whether the displacement points away from the sensor.
+            let away = (o.x_m.hypot(o.y_m) - truth.x_m.hypot(truth.y_m)) / d.max(1e-6);
+            let dir = if away > 0.5 {
+                "away"
+            } else if away < -0.5 {
+                "towards"
+            } else {
+                "across"
+            };
+            if !injected && alarm {
+                let how = match (r.sensor.verdict, r.sensor.cluster) {
+                    (SensorVerdict::Ghost, _) => "ghost".to_string(),
+                    (_, None) => "seen_through".to_string(),
+                    (_, Some(c)) => {
+                        let c = clusters_out.get(usize::from(c));
+                        format!("cluster {}", if c.is_some_and(cluster_at_truth) { "own(at truth)" } else { "foreign" })
+                    }
+                };
+                let key = format!(
+                    "FA {how:<20} noise/margin {:.1} {dir:<7} clean-confirmed {}",
+                    (d / margin.max(1e-3) * 2.0).round() / 2.0,
+                    u8::from(confirmed.get(i).copied().unwrap_or(false)),
+                );
+                *out.entry(key).or_default() += 1;
+                if std::env::var("DETAIL").is_ok() {
+                    // Hits in the object's region (any count, occupied or not).
+                    let (mut cells, mut hits) = (0u32, 0u32);
+                    if let Some(g) = region {
+                        let geo = monitor.grid().geometry;
+                        if let Some(range) = geo.cell_range(g.grown.aabb()) {
+                            geo.for_each_cell_overlapping(&g.grown, range, |idx, _, _| {
+                                let h = u32::from(monitor.grid().hits(idx));
+                                cells += u32::from(h > 0);
+                                hits += h;
+                            });
+                        }
+                    }
+                    eprintln!(
+                        "FA frame {k} id {} range {:.1} d {d:.2} {how} eta {:.2} own {:.2} vis {:.2} hit-cells {cells} hits {hits} size {:.1}x{:.1}",
+                        o.id,
+                        o.x_m.hypot(o.y_m),
+                        r.sensor.eta,
+                        r.sensor.eta_own,
+                        r.sensor.visible_fraction,
+                        o.length_m,
+                        o.width_m
+                    );
+                }
+            }
+            if injected && confirmed.get(i).copied().unwrap_or(false) && !alarm {
+                // Where did the evidence at its true place go?
+                let mut at_truth: Vec<String> = clusters_out
+                    .iter()
+                    .filter(|c| cluster_at_truth(c))
+                    .map(|c| match c.object {
+                        None => "free".to_string(),
+                        Some(m) if m as usize == i => "self".to_string(),
+                        Some(m) => {
+                            let other_inj = injections.iter().any(|x| x.index == m);
+                            format!("other-{}", if other_inj { "displaced" } else { "clean" })
+                        }
+                    })
+                    .collect();
+                at_truth.sort();
+                at_truth.dedup();
+                let own = if r.sensor.eta_own >= tau { "own-in-region" } else { "no-own" };
+                let key = format!(
+                    "MISS {:<24} {own:<13} cluster-at-truth [{}]",
+                    format!("{:?}", r.sensor.verdict),
+                    at_truth.join(",")
+                );
+                *out.entry(key).or_default() += 1;
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let seed: u64 = args.get(1).map_or(Ok(7), |s| s.parse())?;
+    let mode = args.get(2).map_or("summary", String::as_str);
+    let filter = args.get(3).cloned().unwrap_or_default();
+    let scenes = scenes(seed)?;
+    let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: Some(2), pedestrians_paper: Some(3) };
+    let planned = experiments::plan(Scale::Quick, ids, &MonitorParams::default(), seed);
+    let chosen: Vec<&PlannedRun> = planned.iter().filter(|r| wanted(r) && label(r).contains(&filter)).collect();
+    let results: Vec<_> = chosen
+        .par_iter()
+        .map(|r| {
+            let scene = scenes.get(r.spec.scene).ok_or("no scene")?;
+            let res = run_one(scene, &r.spec)?;
+            let c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
+            Ok::<_, String>((res, c))
+        })
+        .collect::<Result<_, _>>()?;
+    let mut fa_total = (0u64, 0u64);
+    let mut all_causes: BTreeMap<String, BTreeMap<String, u64>> = BTreeMap::new();
+    for (r, (res, c)) in chosen.iter().zip(&results) {
+        let m = &res.metrics;
+        let l = label(r);
+        if l.starts_with("false_alarms") {
+            fa_total.0 += m.sensor.false_alarms();
+            fa_total.1 += m.clean_states_in_scope;
+            println!("{l:<70} FA {} / {}", m.sensor.false_alarms(), m.clean_states_in_scope);
+        } else {
+            println!(
+                "{l:<70} recall(verifiable) {:5.1} % ({}/{})  precision {:5.1} % ({}/{})",
+                100.0 * m.sensor_verifiable.recall().value,
+                m.sensor_verifiable.detected,
+                m.sensor_verifiable.injected,
+                100.0 * m.sensor.precision().value,
+                m.sensor.true_alarms,
+                m.sensor.alarms
+            );
+        }
+        let group = l.split(" @ ").next().unwrap_or_default().to_string();
+        let g = all_causes.entry(group).or_default();
+        for (k, v) in c {
+            *g.entry(k.clone()).or_default() += v;
+        }
+    }
+    println!("sensor false alarms up to 0.3 m noise: {} in {}", fa_total.0, fa_total.1);
+    for (group, c) in &all_causes {
+        if c.is_empty() {
+            continue;
+        }
+        println!("== {group}");
+        let mut v: Vec<_> = c.iter().collect();
+        v.sort_by(|a, b| b.1.cmp(a.1).then(a.0.cmp(b.0)));
+        for (k, n) in v {
+            println!("{n:>6}  {k}");
+        }
+    }
+    Ok(())
+}
