@@ -25,7 +25,7 @@ import os
 import time
 from dataclasses import dataclass, field
 from itertools import product
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
 
 from ._params import Params
 from ._pmon import run_campaign_task
@@ -175,6 +175,7 @@ class CampaignResult:
     workers: int
     wall_s: float
     task_s: list[float] = field(default_factory=list)
+    worker_pids: list[int] = field(default_factory=list)
 
     @property
     def totals(self) -> dict[str, Any]:
@@ -196,30 +197,59 @@ class CampaignResult:
             f.write(self.to_json())
 
 
-def run(tasks: Sequence[Mapping[str, Any]], engine: Any = "local") -> CampaignResult:
+def run(
+    tasks: Sequence[Mapping[str, Any]],
+    engine: Any = "local",
+    progress: Optional[Callable[[int, int], None]] = None,
+) -> CampaignResult:
     """Runs the tasks and merges their results.
 
     ``engine``: ``"local"`` (this process, one task after the other), a ``dask.distributed.Client`` (each task
     a Dask task keyed by its identity; tasks lost with a worker are rerun by Dask's scheduler), or ``"ray"``
     (``ray.remote`` on the cluster ``ray.init`` connected to). The content is the same for every engine.
+    ``progress(done, total)`` is called in this thread after every finished task.
     """
     tasks = [dict(t) for t in tasks]
+    total = len(tasks)
+    results: list[dict[str, Any]] = []
+
+    def done(r: dict[str, Any]) -> None:
+        results.append(r)
+        if progress is not None:
+            progress(len(results), total)
+
     t0 = time.perf_counter()
     if isinstance(engine, str) and engine == "local":
-        results = [run_task(t) for t in tasks]
+        for t in tasks:
+            done(run_task(t))
         name, workers = "local", 1
     elif isinstance(engine, str) and engine == "ray":
         import ray  # optional
 
         remote = ray.remote(run_task)
-        results = ray.get([remote.remote(t) for t in tasks])
+        pending = [remote.remote(t) for t in tasks]
+        while pending:
+            ready, pending = ray.wait(pending)
+            for r in ray.get(ready):
+                done(r)
         name, workers = "ray", int(ray.cluster_resources().get("CPU", 0))
     elif hasattr(engine, "map") and hasattr(engine, "gather"):
+        from dask.distributed import as_completed
+
         keys = ["pmon-task-" + hashlib.blake2b(task_id(t).encode(), digest_size=16).hexdigest() for t in tasks]
         futures = engine.map(run_task, tasks, key=keys, pure=False, retries=2)
-        results = engine.gather(futures)
+        for fut in as_completed(futures):
+            done(fut.result())
+            fut.release()
         name, workers = "dask", len(engine.scheduler_info()["workers"])
     else:
         raise ValueError(f"run: unknown engine {engine!r} (\"local\", \"ray\" or a dask.distributed.Client)")
     wall = time.perf_counter() - t0
-    return CampaignResult(merge(results), name, workers, wall, [r["elapsed_s"] for r in results])
+    return CampaignResult(
+        merge(results),
+        name,
+        workers,
+        wall,
+        [r["elapsed_s"] for r in results],
+        sorted({r["worker"] for r in results}),
+    )
