@@ -2,7 +2,8 @@
 # CI part for the Python package (docs/python.md): a venv under target/ with maturin, numpy, pytest and pandas
 # (pinned major versions), the abi3 wheel built by maturin from python/pyproject.toml, installed into the venv,
 # and the pytest suite (python/tests: bad input, the same records as `pmon check --format jsonl` on a simulated
-# recording and on KITTI when ../shared/data exists). Called from .ci/run.
+# recording and on KITTI when ../shared/data exists; pmon.campaign in-process vs. a 2-worker Dask LocalCluster,
+# byte for byte, also with a worker killed). Called from .ci/run.
 # The wheel is built with the workspace's dev profile into the workspace's target/: the pmon crates compiled by
 # the test stage are reused; only the pyo3 crates and the extension are compiled again (maturin sets
 # PYO3_BUILD_EXTENSION_MODULE and the interpreter, which pyo3's build script depends on). About 30 s.
@@ -14,7 +15,8 @@ venv="${PMON_PY_VENV:-target/py-venv}"
 if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
 fi
-"$venv/bin/pip" install --quiet --disable-pip-version-check "maturin==1.*" "numpy==2.*" "pytest==9.*" "pandas==2.*"
+"$venv/bin/pip" install --quiet --disable-pip-version-check "maturin==1.*" "numpy==2.*" "pytest==9.*" "pandas==2.*" \
+    "dask[distributed]==2026.*"   # pmon.campaign on a LocalCluster (docs/campaigns.md)
 echo "== python: the pmon command (the oracle of the comparisons)"
 cargo build --workspace --locked   # the feature set of the test run: nothing is compiled twice
 echo "== python: build the wheel (maturin, dev profile) and install it"

@@ -8,9 +8,10 @@ import pytest
 import pmon
 import pmon._inputs
 import pmon._params
+import pmon.campaign
 
 
-@pytest.mark.parametrize("module", [pmon, pmon._params])
+@pytest.mark.parametrize("module", [pmon, pmon._params, pmon.campaign])
 def test_docstring_examples(module):
     failed, attempted = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert attempted > 0 and failed == 0

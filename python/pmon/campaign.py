@@ -1,0 +1,255 @@
+"""Campaigns split into independent tasks, run in-process, on Dask or on Ray, merged to the same bytes.
+
+A *task* is one run of the monitor over one scene with one fault setting and one set of parameters: the Rust
+extension simulates the scene, injects the fault, checks every frame and scores the run
+(``pmon_campaign::run_one``, the code of ``pmon reproduce``), and returns counts (injected, detected, alarms,
+true alarms, states in scope, ...), never rates. Merging adds integers: exact, associative, and the same in any
+order. Tasks are seeded by their identity: the injection seed is a hash of the campaign seed and the task's
+canonical description, never its position in the plan or the worker that runs it.
+
+>>> from pmon import campaign
+>>> tasks = campaign.plan(["pedestrians"], scene_seeds=[7], duration_s=1.0,
+...                       faults=[{"kind": "permanent_position", "magnitude_m": 1.0, "direction": "away"}])
+>>> result = campaign.run(tasks)                      # in-process; or run(tasks, client) with a Dask client
+>>> result.totals["sensor"]["injected"] > 0
+True
+
+See ``docs/campaigns.md`` ("Sharded campaigns") in the repository.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from itertools import product
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
+
+from ._params import Params
+from ._pmon import run_campaign_task
+
+__all__ = ["CampaignResult", "plan", "run", "run_task", "merge", "task_id"]
+
+FORMAT = "pmon-campaign/1"
+
+# The keys of a task description that identify the *setting* (summed over scenes and seeds in `groups`).
+_SCENE_KEYS = ("scenario", "scene_seed", "duration_s")
+
+
+def _canonical(value: Any) -> str:
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def task_id(task: Mapping[str, Any]) -> str:
+    """The identity of a task: its description as canonical JSON (sorted keys, no spaces)."""
+    return _canonical(dict(task))
+
+
+def _seed_of(campaign_seed: int, ident: str) -> int:
+    digest = hashlib.blake2b(f"{campaign_seed}\n{ident}".encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "little")
+
+
+def plan(
+    scenarios: Sequence[str],
+    *,
+    faults: Sequence[Mapping[str, Any]],
+    scene_seeds: Sequence[int] = (1,),
+    params: Sequence[Mapping[str, Any] | Params | None] = (None,),
+    duration_s: float | None = None,
+    position_noise_m: float = 0.0,
+    permanent_track_fraction: float = 0.5,
+    window: int = 2,
+    seed: int = 1,
+) -> list[dict[str, Any]]:
+    """Every combination of scenario x scene seed x fault x parameter set, as task descriptions.
+
+    ``faults`` are the fault settings of ``pmon reproduce`` as JSON objects, e.g. ``{"kind": "none"}``,
+    ``{"kind": "permanent_position", "magnitude_m": 1.0, "direction": "away"}`` (or ``towards``, ``random``),
+    ``{"kind": "random_position", "magnitude_m": 1.0, "rate": 0.1, "direction": "random"}``,
+    ``{"kind": "permanent_speed", "magnitude_mps": 2.0}``, ``{"kind": "transient_speed", "magnitude_mps": 2.0,
+    "rate": 0.1}``. ``params`` are overrides of the defaults (a dict with any subset of keys, or a
+    :class:`pmon.Params`, whose non-default values are kept). Each task gets ``injection_seed`` derived from
+    ``seed`` and the rest of its description. The list is sorted by task identity.
+    """
+    if not scenarios or not faults or not scene_seeds or not params:
+        raise ValueError("plan: scenarios, faults, scene_seeds and params must not be empty")
+    defaults = Params().to_dict()
+    tasks: dict[str, dict[str, Any]] = {}
+    for scenario, scene_seed, fault, p in product(scenarios, scene_seeds, faults, params):
+        if isinstance(p, Params):
+            p = {k: v for k, v in p.to_dict().items() if defaults.get(k) != v}
+        elif p is not None:
+            Params(**p)  # validated now, by the Rust side, rather than on a worker later
+        desc: dict[str, Any] = {
+            "scenario": str(scenario),
+            "scene_seed": int(scene_seed),
+            "fault": dict(fault),
+            "params": dict(p) if p else None,
+            "position_noise_m": float(position_noise_m),
+            "permanent_track_fraction": float(permanent_track_fraction),
+            "window": int(window),
+        }
+        if duration_s is not None:
+            desc["duration_s"] = float(duration_s)
+        ident = task_id(desc)
+        if ident in tasks:
+            raise ValueError(f"plan: duplicate task {ident}")
+        desc["injection_seed"] = _seed_of(seed, ident)
+        tasks[ident] = desc
+    return [tasks[k] for k in sorted(tasks)]
+
+
+def run_task(task: Mapping[str, Any]) -> dict[str, Any]:
+    """Runs one task in this process (the Rust extension, without the GIL).
+
+    Returns ``{"id", "task", "metrics"}`` (counts), or ``{"id", "task", "error"}`` when the task is refused
+    (unknown scenario, parameters out of range): a failing task is reported, it does not stop the campaign.
+    ``elapsed_s`` (wall time) and ``worker`` are informative and never written to the results file.
+    """
+    task = dict(task)
+    ident = task_id(task)
+    t0 = time.perf_counter()
+    out: dict[str, Any] = {"id": ident, "task": task}
+    try:
+        out["metrics"] = json.loads(run_campaign_task(_canonical(task)))["metrics"]
+    except ValueError as e:
+        out["error"] = str(e)
+    out["elapsed_s"] = time.perf_counter() - t0
+    out["worker"] = os.getpid()
+    return out
+
+
+def _add(a: Any, b: Any) -> Any:
+    if isinstance(a, dict):
+        if a.keys() != b.keys():
+            raise ValueError(f"merge: results with different fields: {sorted(a)} vs {sorted(b)}")
+        return {k: _add(a[k], b[k]) for k in a}
+    if isinstance(a, int) and isinstance(b, int):
+        return a + b
+    raise ValueError(f"merge: not a count: {a!r}")
+
+
+def merge(results: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+    """The merged, timing-free content of a campaign: per task (sorted by identity), per setting (summed over
+    scenes and seeds) and in total. Only integers are added, so any order and any grouping of the same task
+    results give the same dict. A task id seen twice is an error (a result would be counted twice)."""
+    by_id: dict[str, Mapping[str, Any]] = {}
+    for r in results:
+        if r["id"] in by_id:
+            raise ValueError(f"merge: task {r['id']} reported twice")
+        by_id[r["id"]] = r
+    tasks, failed = [], []
+    groups: dict[str, dict[str, Any]] = {}
+    total: dict[str, Any] | None = None
+    for ident in sorted(by_id):
+        r = by_id[ident]
+        if "error" in r:
+            failed.append({"id": ident, "task": r["task"], "error": r["error"]})
+            continue
+        m = r["metrics"]
+        tasks.append({"id": ident, "task": r["task"], "metrics": m})
+        setting = {k: v for k, v in r["task"].items() if k not in _SCENE_KEYS and k != "injection_seed"}
+        gid = _canonical(setting)
+        g = groups.get(gid)
+        groups[gid] = {"setting": setting, "tasks": 1, "metrics": m} if g is None else {
+            "setting": setting, "tasks": g["tasks"] + 1, "metrics": _add(g["metrics"], m)}
+        total = m if total is None else _add(total, m)
+    return {
+        "format": FORMAT,
+        "tasks": tasks,
+        "failed": failed,
+        "settings": [groups[k] for k in sorted(groups)],
+        "total": total,
+    }
+
+
+@dataclass
+class CampaignResult:
+    """A merged campaign: ``content`` is what :meth:`write` saves; timings are kept apart."""
+
+    content: dict[str, Any]
+    engine: str
+    workers: int
+    wall_s: float
+    task_s: list[float] = field(default_factory=list)
+    worker_pids: list[int] = field(default_factory=list)
+
+    @property
+    def totals(self) -> dict[str, Any]:
+        """The counts summed over every task that succeeded."""
+        return self.content["total"]
+
+    @property
+    def failed(self) -> list[dict[str, Any]]:
+        """Tasks refused by the Rust side, with their error."""
+        return self.content["failed"]
+
+    def to_json(self) -> str:
+        """The results file's text: sorted keys, two-space indent, a final newline. No timing fields."""
+        return json.dumps(self.content, sort_keys=True, indent=2, allow_nan=False) + "\n"
+
+    def write(self, path: str | os.PathLike[str]) -> None:
+        """Writes :meth:`to_json` to ``path``; an existing file is never overwritten (``FileExistsError``)."""
+        with open(path, "x", encoding="utf-8", newline="\n") as f:
+            f.write(self.to_json())
+
+
+def run(
+    tasks: Sequence[Mapping[str, Any]],
+    engine: Any = "local",
+    progress: Optional[Callable[[int, int], None]] = None,
+) -> CampaignResult:
+    """Runs the tasks and merges their results.
+
+    ``engine``: ``"local"`` (this process, one task after the other), a ``dask.distributed.Client`` (each task
+    a Dask task keyed by its identity; tasks lost with a worker are rerun by Dask's scheduler), or ``"ray"``
+    (``ray.remote`` on the cluster ``ray.init`` connected to). The content is the same for every engine.
+    ``progress(done, total)`` is called in this thread after every finished task.
+    """
+    tasks = [dict(t) for t in tasks]
+    total = len(tasks)
+    results: list[dict[str, Any]] = []
+
+    def done(r: dict[str, Any]) -> None:
+        results.append(r)
+        if progress is not None:
+            progress(len(results), total)
+
+    t0 = time.perf_counter()
+    if isinstance(engine, str) and engine == "local":
+        for t in tasks:
+            done(run_task(t))
+        name, workers = "local", 1
+    elif isinstance(engine, str) and engine == "ray":
+        import ray  # optional
+
+        remote = ray.remote(run_task)
+        pending = [remote.remote(t) for t in tasks]
+        while pending:
+            ready, pending = ray.wait(pending)
+            for r in ray.get(ready):
+                done(r)
+        name, workers = "ray", int(ray.cluster_resources().get("CPU", 0))
+    elif hasattr(engine, "map") and hasattr(engine, "gather"):
+        from dask.distributed import as_completed
+
+        keys = ["pmon-task-" + hashlib.blake2b(task_id(t).encode(), digest_size=16).hexdigest() for t in tasks]
+        futures = engine.map(run_task, tasks, key=keys, pure=False, retries=2)
+        for fut in as_completed(futures):
+            done(fut.result())
+            fut.release()
+        name, workers = "dask", len(engine.scheduler_info()["workers"])
+    else:
+        raise ValueError(f"run: unknown engine {engine!r} (\"local\", \"ray\" or a dask.distributed.Client)")
+    wall = time.perf_counter() - t0
+    return CampaignResult(
+        merge(results),
+        name,
+        workers,
+        wall,
+        [r["elapsed_s"] for r in results],
+        sorted({r["worker"] for r in results}),
+    )
