@@ -157,7 +157,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!("{spec} {magnitude_m} m: detected {detected} of {verifiable} boxes consistent on the clean frame");
     let mut v: Vec<_> = causes.into_iter().collect();
-    v.sort_by(|a, b| b.1.cmp(&a.1));
+    v.sort_by_key(|e| std::cmp::Reverse(e.1));
     for (k, n) in v {
         println!("{n:>5}  {k}");
     }
