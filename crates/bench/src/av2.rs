@@ -122,8 +122,11 @@ fn read_log(dir: &Path) -> Result<Av2Log, String> {
             Some((seconds_of_ns(ns), name.to_string()))
         })
         .collect();
-    let dataset = av2::open_log(dir, &ReadOptions { load_clouds: true, ..ReadOptions::default() })
-        .map_err(|e| format!("Argoverse 2 log {}: {e}", dir.display()))?;
+    let dataset = av2::open_log(
+        dir,
+        &ReadOptions { load_clouds: true, ground: pmon_datasets::ground::GroundMode::Auto, ..ReadOptions::default() },
+    )
+    .map_err(|e| format!("Argoverse 2 log {}: {e}", dir.display()))?;
     let ground_z_m = dataset.info.ground_z_m;
     if !ground_z_m.is_finite() {
         return Err(format!("Argoverse 2 log {}: ground height {ground_z_m} is not finite", dir.display()));

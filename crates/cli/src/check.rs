@@ -115,6 +115,7 @@ pub fn parse_width(s: &str) -> Result<f64, String> {
 pub fn read_options(roi: RoiMode, sidewalk_m: f64, grid_size_m: f32) -> ReadOptions {
     ReadOptions {
         roi: RoiOptions { mode: roi, sidewalk_width_m: sidewalk_m, grid_half_extent_m: 0.5 * f64::from(grid_size_m) },
+        ground: pmon_datasets::ground::GroundMode::Auto,
         ..ReadOptions::default()
     }
 }

@@ -38,7 +38,13 @@ pub struct ViewArgs {
     /// Replace `--out` even when it is a file pmon did not write.
     #[arg(long)]
     pub force: bool,
+    /// Side of a PNG picture, pixels (small pictures for documents: 500-700).
+    #[arg(long, default_value_t = PNG_SIDE_PX, value_parser = clap::value_parser!(u32).range(200..=4000))]
+    pub size_px: u32,
 }
+
+/// Side of a PNG top view, pixels, unless `--size-px` says otherwise.
+pub const PNG_SIDE_PX: u32 = 1400;
 
 fn box_kind(r: &ObjectReport) -> BoxKind {
     match r.verdict {
@@ -177,6 +183,11 @@ pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (
 
 /// Writes a view as PNG or SVG by the file's extension, tagged as pmon's output (see [`crate::output`]).
 pub fn write_view(view: &TopView, path: &std::path::Path) -> Result<()> {
+    write_view_sized(view, path, PNG_SIDE_PX)
+}
+
+/// [`write_view`] with the side of a PNG in pixels.
+pub fn write_view_sized(view: &TopView, path: &std::path::Path, side_px: u32) -> Result<()> {
     let read = |p: &std::path::Path| std::fs::read(p).with_context(|| format!("cannot read back {}", p.display()));
     match path.extension().and_then(|e| e.to_str()) {
         Some("svg") => {
@@ -185,7 +196,7 @@ pub fn write_view(view: &TopView, path: &std::path::Path) -> Result<()> {
             std::fs::write(path, tag_svg(&text)).with_context(|| format!("cannot write {}", path.display()))?;
         }
         Some("png") | None => {
-            view.render_png(path, 1400, 1400)?;
+            view.render_png(path, side_px, side_px)?;
             let bytes = tag_png(&read(path)?);
             std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
         }
@@ -228,7 +239,7 @@ pub fn run(args: &ViewArgs) -> Result<ExitCode> {
         let title = format!("{} frame {} (t = {:.2} s)", args.recording.display(), frame.index, frame.timestamp_s);
         let checked = Checked { frame: &frame, objects: &objects, clusters: &clusters, injections: &[] };
         let picture = top_view(&title, &monitor, &checked, centre, args.radius_m);
-        write_view(&picture, out.path())?;
+        write_view_sized(&picture, out.path(), args.size_px)?;
         out.commit()?;
         eprintln!("wrote {}", args.out.display());
         return Ok(ExitCode::SUCCESS);

@@ -30,6 +30,7 @@ use serde::Deserialize;
 
 use crate::av2_map::{find_vector_map, MapRoiOptions, VectorMap};
 use crate::geometry::{wrap_angle, Rigid3};
+use crate::ground::{level_cloud, GroundMode, GROUND_NOTE_PREFIX};
 use crate::roi::{RoiMode, ROI_NOTE_PREFIX};
 use crate::util::{f32_of, finite_difference_speeds, list_dir, read_bytes, read_text};
 use crate::WARNING_PREFIX;
@@ -851,6 +852,7 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
     let ground_z_m = ground.get(ground.len() / 2).map_or(NOMINAL_GROUND_Z_M, |g| f32_of(*g));
 
     let mut frames = Vec::new();
+    let mut levelled = (0usize, 0usize, 0usize);
     let mut no_speed = 0usize;
     let mut sweeps_used = 0usize;
     for (ts, list) in &by_time {
@@ -900,6 +902,23 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
                 ego_from_sensor: Isometry3::from_translation(ox, oy, oz),
             });
             sweeps_used += 1;
+            // The ground raster per return (the height of each return over the city-frame ground under it), the
+            // local estimate where the raster has no value.
+            if let (Some(r), Some(cloud), GroundMode::Auto) = (&raster, frame.cloud.as_mut(), opts.ground) {
+                let known = |q: [f32; 3]| {
+                    let c = pose.apply([f64::from(q[0]), f64::from(q[1]), f64::from(q[2])]);
+                    let h = r.height_at_city(c[0], c[1])?;
+                    Some(q[2] - f32_of(c[2] - f64::from(h)))
+                };
+                let s = level_cloud(
+                    cloud,
+                    ground_z_m,
+                    DatasetFormat::Argoverse2.ego_footprint_m(),
+                    Default::default(),
+                    &known,
+                );
+                levelled = (levelled.0 + s.from_dataset, levelled.1 + s.from_estimate, levelled.2 + 1);
+            }
         }
         frames.push(DatasetFrame { frame, extras });
     }
@@ -943,6 +962,14 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
             } else {
                 String::new()
             }
+        ));
+    }
+    if levelled.2 > 0 {
+        notes.push(format!(
+            "{GROUND_NOTE_PREFIX}{} sweeps levelled to the log's ground raster per return ({:.1} % of the returns; \
+             the local estimate for the rest, where the raster has no value)",
+            levelled.2,
+            100.0 * levelled.0 as f64 / (levelled.0 + levelled.1).max(1) as f64
         ));
     }
     if ego_rows > 0 {

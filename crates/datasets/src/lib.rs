@@ -23,6 +23,7 @@ pub mod av2_map;
 pub mod commonroad;
 mod error;
 pub mod geometry;
+pub mod ground;
 pub mod kitti;
 pub mod motion;
 pub mod nuscenes;
@@ -212,11 +213,13 @@ pub struct ReadOptions {
     pub load_clouds: bool,
     /// Where the frames' region of interest (`roi_in_ego`) comes from.
     pub roi: roi::RoiOptions,
+    /// Whether the sweeps are levelled to the local ground ([`ground`]); the default keeps them as recorded.
+    pub ground: ground::GroundMode,
 }
 
 impl Default for ReadOptions {
     fn default() -> Self {
-        Self { load_clouds: true, roi: roi::RoiOptions::default() }
+        Self { load_clouds: true, roi: roi::RoiOptions::default(), ground: ground::GroundMode::AsRecorded }
     }
 }
 
@@ -256,6 +259,7 @@ pub fn open_with(spec: &str, opts: &ReadOptions) -> Result<Dataset, DatasetError
         other => Err(spec_err(format!("unknown scheme `{other}`, expected one of: {}", SCHEMES.join(", ")))),
     }?;
     roi::finish(&mut ds, &opts.roi);
+    ground::finish(&mut ds, opts.ground);
     check_finite(&ds)?;
     Ok(ds)
 }

@@ -201,7 +201,7 @@ fn the_map_reaches_the_frames_and_other_modes_replace_it() {
     let spec = format!("av2:{}", dir.display());
     let read = |mode| {
         let roi = RoiOptions { mode, ..RoiOptions::default() };
-        open_with(&spec, &ReadOptions { load_clouds: false, roi }).unwrap()
+        open_with(&spec, &ReadOptions { load_clouds: false, roi, ..ReadOptions::default() }).unwrap()
     };
     let with_map = read(RoiMode::Auto);
     assert!(with_map.roi_note().is_some_and(|n| n.contains("vector map")), "{:?}", with_map.roi_note());

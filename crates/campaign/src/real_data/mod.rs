@@ -16,6 +16,7 @@
 
 use std::path::Path;
 
+use pmon_datasets::ground::GroundMode;
 use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{open_with, Dataset, DatasetFrame, ReadOptions};
 use pmon_monitor::{
@@ -232,7 +233,8 @@ fn load(
     let spec = format!("{scheme}:{}", path.display());
     // The dataset's own map, where it has one, is the frames' ROI, clipped to the monitor's grid.
     let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(grid_size_m), ..RoiOptions::default() };
-    let ds = open_with(&spec, &ReadOptions { load_clouds, roi }).map_err(|e| format!("{what}: {e}"))?;
+    let ds = open_with(&spec, &ReadOptions { load_clouds, roi, ground: GroundMode::Auto })
+        .map_err(|e| format!("{what}: {e}"))?;
     if load_clouds {
         notes.push(format!("{what}: region of interest: {}", ds.roi_note().unwrap_or("none")));
     }

@@ -1,0 +1,165 @@
+//! Counts the misses of the real-sensor experiment by cause (a development aid):
+//! `cargo run --release -p pmon-campaign --example real_misses -- SPEC MAGNITUDE_M [OUT_DIR]`, e.g.
+//! `av2:../shared/data/av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede 1.0`.
+//!
+//! Every box is displaced away from the ego by MAGNITUDE_M (as the experiment's "every box displaced" run). For
+//! each box that the monitor confirms on the clean frame and does not flag once displaced, prints the verdict and
+//! where its own evidence went: the conflict cluster that holds the clean box's band returns (in the region of
+//! interest or not, taken by another object or left as a missed object, whether it fits the box) or, when no
+//! cluster holds it, that it is still explained (by the displaced box itself or a neighbour). With OUT_DIR, the
+//! displaced frames are written as a recording for `pmon view` (with the dataset's parameters as params.toml).
+use std::collections::BTreeMap;
+
+use pmon_campaign::{Direction, Fault, InjectionConfig, Injector};
+use pmon_datasets::roi::RoiOptions;
+use pmon_datasets::{open_with, ReadOptions};
+use pmon_monitor::geometry::OrientedRect;
+use pmon_monitor::{Monitor, MonitorParams, SensorVerdict};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let spec = args.get(1).ok_or("usage: real_misses SPEC MAGNITUDE_M [OUT_DIR]")?;
+    let magnitude_m: f32 = args.get(2).map_or(Ok(1.0), |s| s.parse())?;
+    let base = MonitorParams::default();
+    let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(base.grid_size_m), ..RoiOptions::default() };
+    let ground = pmon_datasets::ground::GroundMode::parse(&std::env::var("GROUND").unwrap_or_else(|_| "auto".into()))?;
+    let ds = open_with(spec, &ReadOptions { load_clouds: true, roi, ground })?;
+    let params =
+        MonitorParams { ground_z_m: ds.info.ground_z_m, ego_footprint_m: ds.info.format.ego_footprint_m(), ..base };
+    let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();
+    let mut monitor = Monitor::new(params)?;
+    let mut clean_monitor = Monitor::new(params)?;
+    let fault = Fault::PermanentPosition { magnitude_m, direction: Direction::Away };
+    let mut cfg = InjectionConfig::new(fault, 7);
+    cfg.permanent_track_fraction = 1.0;
+    let mut injector = Injector::new(cfg);
+    let mut writer = match args.get(3) {
+        Some(dir) => {
+            let meta = pmon_recording::RecordingMeta::new("real_misses", spec.as_str());
+            Some(pmon_recording::RecordingWriter::create(std::path::Path::new(dir), meta)?)
+        }
+        None => None,
+    };
+    let (lo, hi) = params.obstacle_band_m();
+    let geometry = pmon_monitor::GridGeometry::new(params.grid_cells_per_side(), params.cell_size_m);
+    let mut causes: BTreeMap<String, u64> = BTreeMap::new();
+    let (mut verifiable, mut detected) = (0u64, 0u64);
+    for (k, df) in frames.iter().enumerate() {
+        let mut croi = Vec::new();
+        let cview = df.frame.as_frame(&mut croi);
+        let clean_report = clean_monitor.check(&cview)?;
+        for c in clean_report.clusters.iter().filter(|c| c.is_missed_object()) {
+            println!(
+                "clean frame {k} missed object: {} cells at ({:.1}, {:.1}), bounds x {:.1}..{:.1} y {:.1}..{:.1}",
+                c.cells, c.centroid_m[0], c.centroid_m[1], c.bounds_m[0], c.bounds_m[2], c.bounds_m[1], c.bounds_m[3]
+            );
+        }
+        for (r, o) in clean_report.objects.iter().zip(&df.frame.objects) {
+            if matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost) {
+                println!(
+                    "clean frame {k} flagged: id {} {} at ({:.1}, {:.1}) L{:.1} W{:.1} {:?} eta {:.2} own {:.2} vis {:.2} offset ({:.1}, {:.1})",
+                    o.id, o.class.name(), o.x_m, o.y_m, o.length_m, o.width_m, r.sensor.verdict, r.sensor.eta,
+                    r.sensor.eta_own, r.sensor.visible_fraction, r.sensor.offset_m[0], r.sensor.offset_m[1]
+                );
+            }
+        }
+        let confirmed: Vec<bool> =
+            clean_report.objects.iter().map(|r| matches!(r.sensor.verdict, SensorVerdict::Consistent)).collect();
+        let mut f = df.frame.clone();
+        let inj = injector.apply(k as u64, &mut f.objects);
+        let mut roi = Vec::new();
+        let view = f.as_frame(&mut roi);
+        let rep = monitor.check(&view)?;
+        let band: Vec<[f32; 3]> = df.points_in_ego().into_iter().filter(|q| q[2] >= lo && q[2] <= hi).collect();
+        for (i, r) in rep.objects.iter().enumerate() {
+            let injected = inj.iter().any(|x| x.index as usize == i);
+            if !injected || !confirmed.get(i).copied().unwrap_or(false) {
+                continue;
+            }
+            if matches!(r.sensor.verdict, SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::OutsideGrid)) {
+                continue;
+            }
+            verifiable += 1;
+            if matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost) {
+                detected += 1;
+                continue;
+            }
+            let clean = &df.frame.objects[i];
+            let moved = &f.objects[i];
+            let fp =
+                OrientedRect::new(clean.x_m, clean.y_m, clean.heading_rad, 0.5 * clean.length_m, 0.5 * clean.width_m);
+            // Cells of the clean box's band returns.
+            let mut cells: Vec<u32> = band
+                .iter()
+                .filter(|q| fp.contains(q[0], q[1]))
+                .filter_map(|q| geometry.point_to_cell(q[0], q[1]))
+                .collect();
+            cells.sort_unstable();
+            cells.dedup();
+            let half = 0.5 * params.cell_size_m;
+            let hit_cluster = rep.clusters.iter().enumerate().find(|(_, c)| {
+                cells.iter().any(|&cell| {
+                    let (x, y) = geometry.cell_center(cell);
+                    x >= c.bounds_m[0] - half
+                        && x <= c.bounds_m[2] + half
+                        && y >= c.bounds_m[1] - half
+                        && y <= c.bounds_m[3] + half
+                })
+            });
+            let range = clean.x_m.hypot(clean.y_m);
+            let where_ev = match hit_cluster {
+                None => "evidence explained (no cluster)".to_string(),
+                Some((_, c)) => {
+                    let ext = (c.bounds_m[2] - c.bounds_m[0]).max(c.bounds_m[3] - c.bounds_m[1]);
+                    let diag = (clean.length_m + 1.5).hypot(clean.width_m + 1.5);
+                    let who = match c.object {
+                        None => "free".to_string(),
+                        Some(o) if o as usize == i => "itself".to_string(),
+                        Some(o) => {
+                            format!("other({})", if inj.iter().any(|x| x.index == o) { "displaced" } else { "clean" })
+                        }
+                    };
+                    format!(
+                        "cluster roi={} {} {}",
+                        u8::from(c.in_roi),
+                        who,
+                        if ext > diag { "too-big" } else { "fits?" }
+                    )
+                }
+            };
+            let key =
+                format!("{:?} own{} | {}", r.sensor.verdict, u8::from(r.sensor.eta_own >= params.tau_tp), where_ev);
+            if std::env::var("PMON_DEBUG").is_ok() {
+                println!(
+                    "frame {k} id {} {} range {range:.1} at ({:.1},{:.1})->({:.1},{:.1}) L{:.1} W{:.1} eta {:.2} own {:.2} vis {:.2} cells {} | {key}",
+                    r.id,
+                    clean.class.name(),
+                    clean.x_m,
+                    clean.y_m,
+                    moved.x_m,
+                    moved.y_m,
+                    clean.length_m,
+                    clean.width_m,
+                    r.sensor.eta,
+                    r.sensor.eta_own,
+                    r.sensor.visible_fraction,
+                    cells.len()
+                );
+            }
+            *causes.entry(key).or_default() += 1;
+        }
+        if let Some(w) = writer.as_mut() {
+            w.write_frame(&f)?;
+        }
+    }
+    if let Some(w) = writer {
+        w.finish()?;
+    }
+    println!("{spec} {magnitude_m} m: detected {detected} of {verifiable} boxes consistent on the clean frame");
+    let mut v: Vec<_> = causes.into_iter().collect();
+    v.sort_by_key(|e| std::cmp::Reverse(e.1));
+    for (k, n) in v {
+        println!("{n:>5}  {k}");
+    }
+    Ok(())
+}
