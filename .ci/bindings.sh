@@ -10,7 +10,7 @@ export CARGO_TERM_COLOR=never
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 echo "== bindings: build pmon and the C API"
-cargo build --workspace --locked   # the feature set of the test run: nothing is compiled twice
+cargo build --workspace --locked --lib --bins --tests   # with --tests: the feature set of `cargo test`, nothing compiled twice
 echo "== bindings: C++ example"
 make -C examples/cpp PMON_LIB_DIR="$PWD/target/debug" --always-make
 compare() { # name recording

@@ -18,7 +18,7 @@ fi
 "$venv/bin/pip" install --quiet --disable-pip-version-check "maturin==1.*" "numpy==2.*" "pytest==9.*" "pandas==2.*" \
     "dask[distributed]==2026.*"   # pmon.campaign on a LocalCluster (docs/campaigns.md)
 echo "== python: the pmon command (the oracle of the comparisons)"
-cargo build --workspace --locked   # the feature set of the test run: nothing is compiled twice
+cargo build --workspace --locked --lib --bins --tests   # with --tests: the feature set of `cargo test`, nothing compiled twice
 echo "== python: build the wheel (maturin, dev profile) and install it"
 wheels="target/py-wheels"
 rm -rf "$wheels"

@@ -128,6 +128,8 @@ impl DatasetFrames {
         }
         let opts = ReadOptions {
             roi: RoiOptions { mode, sidewalk_width_m: sidewalk_m, grid_half_extent_m: 0.5 * f64::from(grid) },
+            // The ground `pmon check` uses: each return levelled to the dataset's ground (docs/datasets.md).
+            ground: pmon_datasets::ground::GroundMode::Auto,
             ..ReadOptions::default()
         };
         let spec_owned = spec.to_string();
