@@ -24,7 +24,9 @@ pub fn load_params_over(base: MonitorParams, path: Option<&Path>) -> Result<Moni
     };
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read parameter file {}", path.display()))?;
-    let params = params_from_str_over(base, &text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let yaml = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("yaml") || e.eq_ignore_ascii_case("yml"));
+    let params = if yaml { params_from_yaml_over(base, &text) } else { params_from_str_over(base, &text) }
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     params.validate().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(params)
 }
@@ -37,6 +39,35 @@ pub fn params_from_str_over(base: MonitorParams, text: &str) -> Result<MonitorPa
     let file: toml::Table = toml::from_str(text).map_err(|e| e.to_string().trim_end().to_string())?;
     let mut merged = toml::Table::try_from(base).map_err(|e| format!("internal: cannot serialise parameters: {e}"))?;
     merge(&mut merged, file);
+    MonitorParams::deserialize(toml::Value::Table(merged)).map_err(|e| e.to_string().trim_end().to_string())
+}
+
+/// Parses YAML parameters over `base` (not validated): a ROS 2 parameter file in Autoware's style, one node
+/// entry (`/**:` or the node's name) holding `ros__parameters:`, or a plain mapping of the same keys as the TOML
+/// file. Keys, nesting (`motion_limits:`), merging and errors are those of the TOML file.
+///
+/// # Errors
+/// YAML syntax (with line and column), a layout that is neither of the two, wrong types, unknown keys.
+pub fn params_from_yaml_over(base: MonitorParams, text: &str) -> Result<MonitorParams, String> {
+    let doc: yaml_serde::Value = yaml_serde::from_str(text).map_err(|e| e.to_string())?;
+    let yaml_serde::Value::Mapping(top) = doc else {
+        return Err("a parameter file must be a mapping (`/**:` / `ros__parameters:` or `key: value` lines)".into());
+    };
+    let ros = yaml_serde::Value::String("ros__parameters".into());
+    let params = if let Some(p) = top.get(&ros) {
+        p.clone()
+    } else if top.len() == 1 && top.values().next().is_some_and(|v| v.get("ros__parameters").is_some()) {
+        let node = top.values().next().and_then(|v| v.get("ros__parameters")).cloned();
+        node.unwrap_or(yaml_serde::Value::Null)
+    } else {
+        yaml_serde::Value::Mapping(top)
+    };
+    if params.is_null() {
+        return Ok(base);
+    }
+    let table = toml::Table::try_from(&params).map_err(|e| format!("cannot use the parameters: {e}"))?;
+    let mut merged = toml::Table::try_from(base).map_err(|e| format!("internal: cannot serialise parameters: {e}"))?;
+    merge(&mut merged, table);
     MonitorParams::deserialize(toml::Value::Table(merged)).map_err(|e| e.to_string().trim_end().to_string())
 }
 
@@ -65,6 +96,35 @@ pub fn print_params(path: Option<&Path>) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn yaml_in_autowares_style_equals_the_same_toml() {
+        let toml = "tau_tp = 0.9\n[motion_limits]\naccel_max_mps2 = 5.0\n";
+        let want = params_from_str_over(MonitorParams::default(), toml).unwrap();
+        for yaml in [
+            "/**:\n  ros__parameters:\n    tau_tp: 0.9\n    motion_limits:\n      accel_max_mps2: 5.0\n",
+            "pmon:\n  ros__parameters:\n    tau_tp: 0.9\n    motion_limits:\n      accel_max_mps2: 5.0\n",
+            "tau_tp: 0.9\nmotion_limits:\n  accel_max_mps2: 5.0\n",
+        ] {
+            assert_eq!(params_from_yaml_over(MonitorParams::default(), yaml).unwrap(), want, "{yaml}");
+        }
+        // An empty ros__parameters keeps the defaults.
+        let empty = params_from_yaml_over(MonitorParams::default(), "/**:\n  ros__parameters:\n").unwrap();
+        assert_eq!(empty, MonitorParams::default());
+    }
+
+    #[test]
+    fn yaml_errors_name_the_key_or_the_line() {
+        let e = params_from_yaml_over(MonitorParams::default(), "/**:\n  ros__parameters:\n    tau_tpp: 0.9\n")
+            .unwrap_err();
+        assert!(e.contains("tau_tpp"), "{e}");
+        let e = params_from_yaml_over(MonitorParams::default(), "tau_tp: 0.9\n  bad: [\n").unwrap_err();
+        assert!(e.contains("line 2"), "{e}");
+        let e = params_from_yaml_over(MonitorParams::default(), "- 1\n- 2\n").unwrap_err();
+        assert!(e.contains("must be a mapping"), "{e}");
+        let e = params_from_yaml_over(MonitorParams::default(), "tau_tp: yes please\n").unwrap_err();
+        assert!(e.contains("tau_tp") || e.contains("invalid type"), "{e}");
+    }
 
     #[test]
     fn issue_10_partial_file_keeps_the_other_defaults() {

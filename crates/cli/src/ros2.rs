@@ -114,7 +114,8 @@ pub struct Ros2Args {
     /// Stop after this many checked object lists (replays, tests); default: run until Ctrl-C.
     #[arg(long)]
     pub max_frames: Option<u64>,
-    /// Monitor parameters (TOML; the same file and validation as everywhere in pmon, `pmon params`).
+    /// Monitor parameters: a ROS 2 parameter file in Autoware's style (`.yaml`: `/**:` -> `ros__parameters:`) or
+    /// pmon's TOML; any subset of `pmon params`' keys, the same validation everywhere.
     #[arg(long)]
     pub params: Option<PathBuf>,
 }
