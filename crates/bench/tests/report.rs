@@ -31,6 +31,7 @@ fn report_has_every_case_stage_and_goal_and_round_trips_through_json() {
             "objects-100/no-cloud",
             "objects-300/no-cloud",
             "objects-1000/no-cloud",
+            "objects-30/no-cloud/calibrated",
         ]
     );
     for c in &report.cases {
@@ -45,7 +46,7 @@ fn report_has_every_case_stage_and_goal_and_round_trips_through_json() {
     assert_eq!((c64.points, c64.objects, c64.grid_cells), (120_000, 100, 40_000));
     assert_eq!(report.cases[2].grid_cells, 1_000_000);
     assert_eq!(report.cases[4].points, 34_720);
-    assert_eq!(report.goals.len(), 6, "{:?}", report.goals);
+    assert_eq!(report.goals.len(), 7, "{:?}", report.goals);
     assert!(report.paper.iter().any(|p| p.paper_us == 12_000.0 && p.case == "synthetic-64/0.5m"));
 
     let json = serde_json::to_string(&report).unwrap();
