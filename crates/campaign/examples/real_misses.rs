@@ -8,6 +8,8 @@
 //! interest or not, taken by another object or left as a missed object, whether it fits the box) or, when no
 //! cluster holds it, that it is still explained (by the displaced box itself or a neighbour). With OUT_DIR, the
 //! displaced frames are written as a recording for `pmon view` (with the dataset's parameters as params.toml).
+//! With `ONE_BOX=1`, each box consistent on its clean frame is displaced alone instead (the other boxes keep their
+//! labels; every check starts with a fresh track memory), as the experiment's one-box curve.
 use std::collections::BTreeMap;
 
 use pmon_campaign::{Direction, Fault, InjectionConfig, Injector};
@@ -47,6 +49,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (k, df) in frames.iter().enumerate() {
         let mut croi = Vec::new();
         let cview = df.frame.as_frame(&mut croi);
+        if std::env::var("ONE_BOX").is_ok() {
+            clean_monitor.reset_tracks();
+        }
         let clean_report = clean_monitor.check(&cview)?;
         for c in clean_report.clusters.iter().filter(|c| c.is_missed_object()) {
             println!(
@@ -65,72 +70,104 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let confirmed: Vec<bool> =
             clean_report.objects.iter().map(|r| matches!(r.sensor.verdict, SensorVerdict::Consistent)).collect();
-        let mut f = df.frame.clone();
-        let inj = injector.apply(k as u64, &mut f.objects);
-        let mut roi = Vec::new();
-        let view = f.as_frame(&mut roi);
-        let rep = monitor.check(&view)?;
-        let band: Vec<[f32; 3]> = df.points_in_ego().into_iter().filter(|q| q[2] >= lo && q[2] <= hi).collect();
-        for (i, r) in rep.objects.iter().enumerate() {
-            let injected = inj.iter().any(|x| x.index as usize == i);
-            if !injected || !confirmed.get(i).copied().unwrap_or(false) {
-                continue;
-            }
-            if matches!(r.sensor.verdict, SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::OutsideGrid)) {
-                continue;
-            }
-            verifiable += 1;
-            if matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost) {
-                detected += 1;
-                continue;
-            }
-            let clean = &df.frame.objects[i];
-            let moved = &f.objects[i];
-            let fp =
-                OrientedRect::new(clean.x_m, clean.y_m, clean.heading_rad, 0.5 * clean.length_m, 0.5 * clean.width_m);
-            // Cells of the clean box's band returns.
-            let mut cells: Vec<u32> = band
-                .iter()
-                .filter(|q| fp.contains(q[0], q[1]))
-                .filter_map(|q| geometry.point_to_cell(q[0], q[1]))
-                .collect();
-            cells.sort_unstable();
-            cells.dedup();
-            let half = 0.5 * params.cell_size_m;
-            let hit_cluster = rep.clusters.iter().enumerate().find(|(_, c)| {
-                cells.iter().any(|&cell| {
-                    let (x, y) = geometry.cell_center(cell);
-                    x >= c.bounds_m[0] - half
-                        && x <= c.bounds_m[2] + half
-                        && y >= c.bounds_m[1] - half
-                        && y <= c.bounds_m[3] + half
-                })
-            });
-            let range = clean.x_m.hypot(clean.y_m);
-            let where_ev = match hit_cluster {
-                None => "evidence explained (no cluster)".to_string(),
-                Some((_, c)) => {
-                    let ext = (c.bounds_m[2] - c.bounds_m[0]).max(c.bounds_m[3] - c.bounds_m[1]);
-                    let diag = (clean.length_m + 1.5).hypot(clean.width_m + 1.5);
-                    let who = match c.object {
-                        None => "free".to_string(),
-                        Some(o) if o as usize == i => "itself".to_string(),
-                        Some(o) => {
-                            format!("other({})", if inj.iter().any(|x| x.index == o) { "displaced" } else { "clean" })
-                        }
-                    };
-                    format!(
-                        "cluster roi={} {} {}",
-                        u8::from(c.in_roi),
-                        who,
-                        if ext > diag { "too-big" } else { "fits?" }
-                    )
+        let one_box = std::env::var("ONE_BOX").is_ok();
+        let mut variants: Vec<(pmon_recording::RecordedFrame, Vec<usize>)> = Vec::new();
+        if one_box {
+            for (i, ok) in confirmed.iter().enumerate() {
+                if !ok {
+                    continue;
                 }
-            };
-            let key =
-                format!("{:?} own{} | {}", r.sensor.verdict, u8::from(r.sensor.eta_own >= params.tau_tp), where_ev);
-            if std::env::var("PMON_DEBUG").is_ok() {
-                println!(
+                let mut f = df.frame.clone();
+                if let Some(o) = f.objects.get_mut(i) {
+                    let r = o.x_m.hypot(o.y_m).max(1e-3);
+                    let (ux, uy) = (o.x_m / r, o.y_m / r);
+                    o.x_m += magnitude_m * ux;
+                    o.y_m += magnitude_m * uy;
+                }
+                variants.push((f, vec![i]));
+            }
+        } else {
+            let mut f = df.frame.clone();
+            let inj = injector.apply(k as u64, &mut f.objects);
+            let idx = inj.iter().map(|x| x.index as usize).collect();
+            variants.push((f, idx));
+        }
+        for (f, inj) in &variants {
+            if one_box {
+                monitor.reset_tracks();
+            }
+            let mut roi = Vec::new();
+            let view = f.as_frame(&mut roi);
+            let rep = monitor.check(&view)?;
+            let band: Vec<[f32; 3]> = df.points_in_ego().into_iter().filter(|q| q[2] >= lo && q[2] <= hi).collect();
+            for (i, r) in rep.objects.iter().enumerate() {
+                let injected = inj.contains(&i);
+                if !injected || !confirmed.get(i).copied().unwrap_or(false) {
+                    continue;
+                }
+                if matches!(
+                    r.sensor.verdict,
+                    SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::OutsideGrid)
+                ) {
+                    continue;
+                }
+                verifiable += 1;
+                if matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost) {
+                    detected += 1;
+                    continue;
+                }
+                let clean = &df.frame.objects[i];
+                let moved = &f.objects[i];
+                let fp = OrientedRect::new(
+                    clean.x_m,
+                    clean.y_m,
+                    clean.heading_rad,
+                    0.5 * clean.length_m,
+                    0.5 * clean.width_m,
+                );
+                // Cells of the clean box's band returns.
+                let mut cells: Vec<u32> = band
+                    .iter()
+                    .filter(|q| fp.contains(q[0], q[1]))
+                    .filter_map(|q| geometry.point_to_cell(q[0], q[1]))
+                    .collect();
+                cells.sort_unstable();
+                cells.dedup();
+                let half = 0.5 * params.cell_size_m;
+                let hit_cluster = rep.clusters.iter().enumerate().find(|(_, c)| {
+                    cells.iter().any(|&cell| {
+                        let (x, y) = geometry.cell_center(cell);
+                        x >= c.bounds_m[0] - half
+                            && x <= c.bounds_m[2] + half
+                            && y >= c.bounds_m[1] - half
+                            && y <= c.bounds_m[3] + half
+                    })
+                });
+                let range = clean.x_m.hypot(clean.y_m);
+                let where_ev = match hit_cluster {
+                    None => "evidence explained (no cluster)".to_string(),
+                    Some((_, c)) => {
+                        let ext = (c.bounds_m[2] - c.bounds_m[0]).max(c.bounds_m[3] - c.bounds_m[1]);
+                        let diag = (clean.length_m + 1.5).hypot(clean.width_m + 1.5);
+                        let who = match c.object {
+                            None => "free".to_string(),
+                            Some(o) if o as usize == i => "itself".to_string(),
+                            Some(o) => {
+                                format!("other({})", if inj.contains(&(o as usize)) { "displaced" } else { "clean" })
+                            }
+                        };
+                        format!(
+                            "cluster roi={} {} {}",
+                            u8::from(c.in_roi),
+                            who,
+                            if ext > diag { "too-big" } else { "fits?" }
+                        )
+                    }
+                };
+                let key =
+                    format!("{:?} own{} | {}", r.sensor.verdict, u8::from(r.sensor.eta_own >= params.tau_tp), where_ev);
+                if std::env::var("PMON_DEBUG").is_ok() {
+                    println!(
                     "frame {k} id {} {} range {range:.1} at ({:.1},{:.1})->({:.1},{:.1}) L{:.1} W{:.1} eta {:.2} own {:.2} vis {:.2} cells {} | {key}",
                     r.id,
                     clean.class.name(),
@@ -145,11 +182,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     r.sensor.visible_fraction,
                     cells.len()
                 );
+                }
+                *causes.entry(key).or_default() += 1;
             }
-            *causes.entry(key).or_default() += 1;
-        }
-        if let Some(w) = writer.as_mut() {
-            w.write_frame(&f)?;
+            if let Some(w) = writer.as_mut() {
+                w.write_frame(f)?;
+            }
         }
     }
     if let Some(w) = writer {

@@ -30,6 +30,7 @@ use crate::inject::{InjectionConfig, Injector};
 use crate::metrics::{score, Metrics, Outcome, Rate, Score};
 
 mod clean;
+mod one_box;
 mod plausibility;
 mod sensor;
 
