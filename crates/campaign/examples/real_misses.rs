@@ -8,7 +8,8 @@
 //! interest or not, taken by another object or left as a missed object, whether it fits the box) or, when no
 //! cluster holds it, that it is still explained (by the displaced box itself or a neighbour). With OUT_DIR, the
 //! displaced frames are written as a recording for `pmon view` (with the dataset's parameters as params.toml).
-//! With `ONE_BOX=1`, each box consistent on its clean frame is displaced alone instead (the other boxes keep their
+//! `GROUND=auto|local|recorded` and `ROI=auto|none|corridor:W` choose the ground and the region of interest. With
+//! `ONE_BOX=1`, each box consistent on its clean frame is displaced alone instead (the other boxes keep their
 //! labels; every check starts with a fresh track memory), as the experiment's one-box curve.
 use std::collections::BTreeMap;
 
@@ -23,7 +24,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let spec = args.get(1).ok_or("usage: real_misses SPEC MAGNITUDE_M [OUT_DIR]")?;
     let magnitude_m: f32 = args.get(2).map_or(Ok(1.0), |s| s.parse())?;
     let base = MonitorParams::default();
-    let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(base.grid_size_m), ..RoiOptions::default() };
+    let mode = std::env::var("ROI").unwrap_or_else(|_| "auto".into()).parse()?;
+    let roi = RoiOptions { mode, grid_half_extent_m: 0.5 * f64::from(base.grid_size_m), ..RoiOptions::default() };
     let ground = pmon_datasets::ground::GroundMode::parse(&std::env::var("GROUND").unwrap_or_else(|_| "auto".into()))?;
     let ds = open_with(spec, &ReadOptions { load_clouds: true, roi, ground })?;
     let params =
@@ -46,6 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let geometry = pmon_monitor::GridGeometry::new(params.grid_cells_per_side(), params.cell_size_m);
     let mut causes: BTreeMap<String, u64> = BTreeMap::new();
     let (mut verifiable, mut detected) = (0u64, 0u64);
+    let (mut separable_n, mut separable_detected) = (0u64, 0u64);
     for (k, df) in frames.iter().enumerate() {
         let mut croi = Vec::new();
         let cview = df.frame.as_frame(&mut croi);
@@ -112,10 +115,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     continue;
                 }
                 verifiable += 1;
-                if matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost) {
-                    detected += 1;
-                    continue;
-                }
+                let flagged = matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost);
+                detected += u64::from(flagged);
                 let clean = &df.frame.objects[i];
                 let moved = &f.objects[i];
                 let fp = OrientedRect::new(
@@ -134,6 +135,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 cells.sort_unstable();
                 cells.dedup();
                 let half = 0.5 * params.cell_size_m;
+                // Separable: no cell of the clean box's own returns overlaps the displaced box's grown region (the
+                // displacement exceeds the box's evidence along it plus the margins: the paper's dx_min case).
+                let moved_region =
+                    pmon_monitor::Region::of(moved, &moved.uncertainty.unwrap_or(params.default_uncertainty), &params);
+                let separable = !cells.is_empty()
+                    && !cells.iter().any(|&c| {
+                        let (x, y) = geometry.cell_center(c);
+                        moved_region.grown.overlaps_square(x, y, half)
+                    });
+                if separable {
+                    separable_n += 1;
+                    separable_detected += u64::from(flagged);
+                }
+                if flagged {
+                    continue;
+                }
                 let hit_cluster = rep.clusters.iter().enumerate().find(|(_, c)| {
                     cells.iter().any(|&cell| {
                         let (x, y) = geometry.cell_center(cell);
@@ -164,8 +181,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         )
                     }
                 };
-                let key =
-                    format!("{:?} own{} | {}", r.sensor.verdict, u8::from(r.sensor.eta_own >= params.tau_tp), where_ev);
+                let key = format!(
+                    "{:?} own{} sep{} | {}",
+                    r.sensor.verdict,
+                    u8::from(r.sensor.eta_own >= params.tau_tp),
+                    u8::from(separable),
+                    where_ev
+                );
                 if std::env::var("PMON_DEBUG").is_ok() {
                     println!(
                     "frame {k} id {} {} range {range:.1} at ({:.1},{:.1})->({:.1},{:.1}) L{:.1} W{:.1} eta {:.2} own {:.2} vis {:.2} cells {} | {key}",
@@ -194,6 +216,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         w.finish()?;
     }
     println!("{spec} {magnitude_m} m: detected {detected} of {verifiable} boxes consistent on the clean frame");
+    println!(
+        "  of them separable (no cell of the box's own returns in its displaced grown region): detected \
+         {separable_detected} of {separable_n}"
+    );
     let mut v: Vec<_> = causes.into_iter().collect();
     v.sort_by_key(|e| std::cmp::Reverse(e.1));
     for (k, n) in v {

@@ -470,6 +470,14 @@ pub(super) fn sensor_experiments(
          over the boxes consistent on the clean frame shows the detection capability alone."
             .into(),
     );
+    out.notes.push(
+        "Real sensor, one box displaced at a time (a condition beside the paper's, which displaces every box of the \
+         frame at once): each box consistent on its clean frame is moved away from the ego alone, the others keep \
+         their labels, each check starts with a fresh track memory. Its recall says whether misses come from \
+         neighbours displaced together; 'collateral' counts clean neighbours flagged in those checks and not on the \
+         clean frame."
+            .into(),
+    );
     out.notes.push(format!(
         "Real sensor: the half-the-boxes runs repeat the same frames with {} different seeds (different halves) and \
          pool the counts; the samples share boxes, so their 95 % intervals are optimistic.",
