@@ -213,3 +213,82 @@ fn one_box_displaced_at_a_time_is_measured_on_every_lidar_dataset() {
     let sat = r.claims.iter().find(|c| c.paper.starts_with("Real sensor (av2")).expect("av2 claim");
     assert!(sat.pmon.contains("one box displaced at a time"), "{}", sat.pmon);
 }
+
+/// Distance from a point to a segment, metres.
+fn seg_dist(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
+}
+
+/// The AV2 sweeps with the log's map and ground raster (as `pmon check`): no clean box flagged, at most 6
+/// missed-object alarms per sweep (6 and 5 measured; the goal is 5), and every one of them is a structure at the
+/// drivable area's edge: its cells reach less than 1 m into the ROI (docs/datasets.md, "Each of the 11 clusters").
+#[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
+fn av2_missed_object_alarms_with_the_map_are_kerb_side_structures() {
+    use pmon_datasets::roi::RoiOptions;
+    use pmon_datasets::{open_with, ReadOptions};
+    use pmon_monitor::{Monitor, SensorVerdict};
+    let Some(dir) = data() else { return };
+    let log = dir.join(pmon_campaign::real_data::AV2_SWEEP_LOG);
+    if !log.exists() {
+        eprintln!("SKIPPED: {} not found", log.display());
+        return;
+    }
+    let base = MonitorParams::default();
+    let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(base.grid_size_m), ..RoiOptions::default() };
+    let opts = ReadOptions { load_clouds: true, roi, ground: pmon_datasets::ground::GroundMode::Auto };
+    let ds = open_with(&format!("av2:{}", log.display()), &opts).unwrap_or_else(|e| panic!("{e}"));
+    let params =
+        MonitorParams { ground_z_m: ds.info.ground_z_m, ego_footprint_m: ds.info.format.ego_footprint_m(), ..base };
+    let mut monitor = Monitor::new(params).expect("params");
+    let g = pmon_monitor::GridGeometry::new(params.grid_cells_per_side(), params.cell_size_m);
+    let half = 0.5 * params.cell_size_m;
+    let (lo, hi) = params.obstacle_band_m();
+    let mut sweeps = 0;
+    for df in ds.frames.iter().filter(|f| f.frame.cloud.is_some()) {
+        sweeps += 1;
+        let mut polygons = Vec::new();
+        let view = df.frame.as_frame(&mut polygons);
+        let rep = monitor.check(&view).expect("check");
+        let flagged = rep
+            .objects
+            .iter()
+            .filter(|r| matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError))
+            .count();
+        assert_eq!(flagged, 0, "frame {}: clean boxes flagged", df.frame.index);
+        let missed: Vec<_> = rep.clusters.iter().filter(|c| c.is_missed_object()).collect();
+        eprintln!("frame {}: {} missed-object alarms", df.frame.index, missed.len());
+        assert!(missed.len() <= 6, "frame {}: {} missed-object alarms", df.frame.index, missed.len());
+        let pts = df.points_in_ego();
+        for c in missed {
+            // The deepest cell (holding band returns within the cluster's bounds) inside the ROI.
+            let mut depth = 0.0f32;
+            for q in pts.iter().filter(|q| q[2] >= lo && q[2] <= hi) {
+                if q[0] < c.bounds_m[0] - half
+                    || q[0] > c.bounds_m[2] + half
+                    || q[1] < c.bounds_m[1] - half
+                    || q[1] > c.bounds_m[3] + half
+                {
+                    continue;
+                }
+                let Some(cell) = g.point_to_cell(q[0], q[1]) else { continue };
+                let (x, y) = g.cell_center(cell);
+                for p in df.frame.roi_in_ego.iter().filter(|p| pmon_monitor::geometry::polygon_contains(p, x, y)) {
+                    let n = p.len();
+                    let d = (0..n).map(|i| seg_dist([x, y], p[i], p[(i + 1) % n])).fold(f32::INFINITY, f32::min);
+                    depth = depth.max(d);
+                }
+            }
+            assert!(
+                depth > 0.0 && depth < 1.0,
+                "frame {}: cluster at {:?} reaches {depth} m into the ROI",
+                df.frame.index,
+                c.centroid_m
+            );
+        }
+    }
+    assert_eq!(sweeps, 2, "the log has two sweeps");
+}
