@@ -151,6 +151,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 if flagged {
                     continue;
                 }
+                // Where the box's own returns are: cells whose centre lies in the ROI (none: the whole grid).
+                let in_roi = cells
+                    .iter()
+                    .filter(|&&c| {
+                        let (x, y) = geometry.cell_center(c);
+                        f.roi_in_ego.is_empty()
+                            || f.roi_in_ego.iter().any(|p| pmon_monitor::geometry::polygon_contains(p, x, y))
+                    })
+                    .count();
+                let roi_share = match (in_roi, cells.len()) {
+                    (_, 0) => "none",
+                    (0, _) => "out",
+                    (k, n) if k == n => "in",
+                    _ => "part",
+                };
                 let hit_cluster = rep.clusters.iter().enumerate().find(|(_, c)| {
                     cells.iter().any(|&cell| {
                         let (x, y) = geometry.cell_center(cell);
@@ -182,7 +197,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                 };
                 let key = format!(
-                    "{:?} own{} sep{} | {}",
+                    "{:?} own{} sep{} cells-in-roi:{roi_share} | {}",
                     r.sensor.verdict,
                     u8::from(r.sensor.eta_own >= params.tau_tp),
                     u8::from(separable),
