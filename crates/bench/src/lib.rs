@@ -17,6 +17,8 @@
 pub mod av2;
 pub mod frames;
 mod machine;
+pub mod native;
+pub mod peers;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -69,6 +71,8 @@ pub struct BenchOptions {
     pub worst_case: bool,
     /// The rasterize loop to measure (`Blocked`, the monitor's default, picks AVX2 where the processor has it).
     pub rasterizer: Rasterizer,
+    /// Measure only the cases whose name contains one of these (all cases when empty).
+    pub only: Vec<String>,
 }
 
 impl Default for BenchOptions {
@@ -82,6 +86,7 @@ impl Default for BenchOptions {
             real_data: true,
             worst_case: true,
             rasterizer: Rasterizer::Blocked,
+            only: Vec::new(),
         }
     }
 }
@@ -113,7 +118,7 @@ pub enum BenchError {
     Data(String),
 }
 
-/// Median and spread of a duration over the iterations of a case, microseconds.
+/// Median, spread and worst case of a duration over the iterations of a case, microseconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timing {
     /// Median, microseconds.
@@ -122,6 +127,12 @@ pub struct Timing {
     pub p10_us: f64,
     /// 90th percentile, microseconds.
     pub p90_us: f64,
+    /// 99th percentile (nearest rank), microseconds.
+    #[serde(default)]
+    pub p99_us: f64,
+    /// The slowest iteration, microseconds.
+    #[serde(default)]
+    pub max_us: f64,
 }
 
 impl Timing {
@@ -145,7 +156,13 @@ impl Timing {
         };
         // Nanoseconds are the clock's resolution: round to them (short, readable JSON).
         let ns = |v: f64| (v * 1e3).round() / 1e3;
-        Self { median_us: ns(median_us), p10_us: ns(rank(0.1)), p90_us: ns(rank(0.9)) }
+        Self {
+            median_us: ns(median_us),
+            p10_us: ns(rank(0.1)),
+            p90_us: ns(rank(0.9)),
+            p99_us: ns(rank(0.99)),
+            max_us: ns(s.last().copied().unwrap_or(0.0)),
+        }
     }
 }
 
@@ -197,6 +214,13 @@ pub struct CaseReport {
     pub floor: Option<Timing>,
     /// Median sensor checks over median floor.
     pub sensor_over_floor: Option<f64>,
+    /// The native floor: reading every point once at the speed of the processor's widest vector unit
+    /// ([`native::native_sum`]); `None` without a cloud.
+    #[serde(default)]
+    pub native_floor: Option<Timing>,
+    /// Median sensor checks over median native floor.
+    #[serde(default)]
+    pub sensor_over_native_floor: Option<f64>,
 }
 
 /// A figure of the paper's runtime evaluation (Section IV-G): averages, Python plausibility checks.
@@ -383,6 +407,10 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
         });
     }
 
+    if !opts.only.is_empty() {
+        defs.retain(|d| opts.only.iter().any(|o| d.name.contains(o.as_str())));
+        notes.push(format!("only the cases matching {:?}", opts.only));
+    }
     let mut cases = Vec::with_capacity(defs.len());
     for def in &defs {
         cases.push(measure_case(def, opts)?);
@@ -526,14 +554,17 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     }
     let samples = stage_us.len();
 
-    // The floor, cycling through the same sweeps in the same order (same cache behaviour).
-    let mut floor_us = Vec::new();
+    // The floors, cycling through the same sweeps in the same order (same cache behaviour), alternating.
+    let (mut floor_us, mut native_us) = (Vec::new(), Vec::new());
     if seq.max_points() > 0 {
         for i in n..n + samples {
             let Some(cloud) = seq.frame(i, 0.0).and_then(|f| f.cloud) else { continue };
             let t0 = Instant::now();
             std::hint::black_box(frames::coordinate_sum(std::hint::black_box(cloud.points_in_sensor)));
             floor_us.push(us(t0.elapsed()));
+            let t0 = Instant::now();
+            std::hint::black_box(native::native_sum(std::hint::black_box(cloud.points_in_sensor)));
+            native_us.push(us(t0.elapsed()));
         }
     }
 
@@ -551,6 +582,9 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let sensor_checks = Timing::of(&sensor);
     let floor = (!floor_us.is_empty()).then(|| Timing::of(&floor_us));
     let sensor_over_floor = floor.filter(|f| f.median_us > 0.0).map(|f| sensor_checks.median_us / f.median_us);
+    let native_floor = (!native_us.is_empty()).then(|| Timing::of(&native_us));
+    let sensor_over_native_floor =
+        native_floor.filter(|f| f.median_us > 0.0).map(|f| sensor_checks.median_us / f.median_us);
     let geometry_cells = u64::from(p.grid_cells_per_side()) * u64::from(p.grid_cells_per_side());
     Ok(CaseReport {
         name: def.name.clone(),
@@ -571,6 +605,8 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         total: Timing::of(&total_us),
         floor,
         sensor_over_floor,
+        native_floor,
+        sensor_over_native_floor,
     })
 }
 
@@ -651,6 +687,28 @@ fn goals(cases: &[CaseReport]) -> Vec<GoalResult> {
             met: pb <= 1.5 * pa,
         });
     }
+    // Issue #16: at most 10x the native floor, and a p99 within 1.5x of the median, on the sweeps.
+    for c in cases.iter().filter(|c| (c.cell_size_m - 0.5).abs() < 1e-6 && c.points > 0) {
+        if let (Some(f), Some(r)) = (c.native_floor, c.sensor_over_native_floor) {
+            out.push(GoalResult {
+                goal: format!("{}: sensor checks <= 10x the native floor", c.name),
+                measured: format!("{:.1} us / {:.2} us = {r:.1}x", c.sensor_checks.median_us, f.median_us),
+                met: r <= 10.0,
+            });
+        }
+        let t = c.sensor_checks;
+        out.push(GoalResult {
+            goal: format!("{}: sensor checks p99 <= 1.5x median", c.name),
+            measured: format!(
+                "median {:.1} us, p99 {:.1} us ({:.2}x), max {:.1} us",
+                t.median_us,
+                t.p99_us,
+                t.p99_us / t.median_us.max(1e-9),
+                t.max_us
+            ),
+            met: t.p99_us <= 1.5 * t.median_us,
+        });
+    }
     if let (Some(a), Some(b)) = (find(cases, "synthetic-64/0.2m"), find(cases, "synthetic-64/0.2m/200m")) {
         let (ma, mb) = (a.sensor_checks.median_us, b.sensor_checks.median_us);
         out.push(GoalResult {
@@ -681,8 +739,13 @@ impl BenchReport {
         let load = m.load_average_1min.map_or_else(|| "n/a".to_string(), |l| format!("{l:.2}"));
         let _ = writeln!(
             s,
-            "machine: {} | {} logical cores | {} | load average {load} | single thread | rasterize loop: {}",
-            m.cpu_model, m.logical_cores, m.platform, m.rasterizer
+            "machine: {} | {} logical cores | {} | load average {load} | single thread | rasterize loop: {} | native \
+             floor: {}",
+            m.cpu_model,
+            m.logical_cores,
+            m.platform,
+            m.rasterizer,
+            native::native_instruction_set()
         );
         let _ = writeln!(
             s,
@@ -719,27 +782,47 @@ impl BenchReport {
         for st in Stage::ALL {
             let _ = write!(s, " {:>12}", st.name());
         }
-        let _ = writeln!(s, " {:>9} {:>9} {:>8} {:>8}", "sensor", "total", "floor", "sens/flr");
+        let _ = writeln!(
+            s,
+            " {:>9} {:>9} {:>8} {:>8} {:>8} {:>8}",
+            "sensor", "total", "floor", "sens/flr", "native", "sens/nat"
+        );
+        let opt = |t: Option<Timing>| t.map_or_else(|| "-".to_string(), |f| format!("{:.2}", f.median_us));
+        let ratio = |r: Option<f64>| r.map_or_else(|| "-".to_string(), |r| format!("{r:.1}x"));
         for c in &self.cases {
             let _ = write!(s, "{:<w$}", c.name);
             for st in &c.stages {
                 let _ = write!(s, " {:>12.2}", st.timing.median_us);
             }
-            let floor = c.floor.map_or_else(|| "-".to_string(), |f| format!("{:.2}", f.median_us));
-            let ratio = c.sensor_over_floor.map_or_else(|| "-".to_string(), |r| format!("{r:.1}x"));
-            let _ =
-                writeln!(s, " {:>9.2} {:>9.2} {:>8} {:>8}", c.sensor_checks.median_us, c.total.median_us, floor, ratio);
-        }
-
-        let _ = writeln!(s, "\nSpread p10-p90 (us)");
-        let _ = writeln!(s, "{:<w$} {:>19} {:>19} {:>19} {:>7}", "case", "sensor", "plausibility", "total", "samples");
-        let span = |t: &Timing| format!("{:.2}-{:.2}", t.p10_us, t.p90_us);
-        for c in &self.cases {
             let _ = writeln!(
                 s,
-                "{:<w$} {:>19} {:>19} {:>19} {:>7}",
+                " {:>9.2} {:>9.2} {:>8} {:>8} {:>8} {:>8}",
+                c.sensor_checks.median_us,
+                c.total.median_us,
+                opt(c.floor),
+                ratio(c.sensor_over_floor),
+                opt(c.native_floor),
+                ratio(c.sensor_over_native_floor)
+            );
+        }
+
+        let _ = writeln!(s, "\nSpread p10-p90, worst case p99 and max (us)");
+        let _ = writeln!(
+            s,
+            "{:<w$} {:>19} {:>9} {:>9} {:>9} {:>19} {:>19} {:>7}",
+            "case", "sensor", "median", "p99", "max", "plausibility", "total", "samples"
+        );
+        let span = |t: &Timing| format!("{:.2}-{:.2}", t.p10_us, t.p90_us);
+        for c in &self.cases {
+            let t = &c.sensor_checks;
+            let _ = writeln!(
+                s,
+                "{:<w$} {:>19} {:>9.2} {:>9.2} {:>9.2} {:>19} {:>19} {:>7}",
                 c.name,
-                span(&c.sensor_checks),
+                span(t),
+                t.median_us,
+                t.p99_us,
+                t.max_us,
                 span(&c.plausibility),
                 span(&c.total),
                 c.samples

@@ -12,6 +12,7 @@ fn quick() -> BenchOptions {
         real_data: false,
         worst_case: false,
         rasterizer: pmon_monitor::Rasterizer::Blocked,
+        only: Vec::new(),
     }
 }
 
@@ -41,12 +42,18 @@ fn report_has_every_case_stage_and_goal_and_round_trips_through_json() {
         assert_eq!(stages, expected);
         assert!(c.total.median_us > 0.0 && c.total.p10_us <= c.total.median_us && c.total.median_us <= c.total.p90_us);
         assert_eq!(c.floor.is_some(), c.points > 0, "{}", c.name);
+        assert_eq!(c.native_floor.is_some(), c.points > 0, "{}", c.name);
+        assert_eq!(c.sensor_over_native_floor.is_some(), c.points > 0, "{}", c.name);
+        let t = c.sensor_checks;
+        assert!(t.p90_us <= t.p99_us && t.p99_us <= t.max_us, "{}: {t:?}", c.name);
     }
     let c64 = &report.cases[0];
     assert_eq!((c64.points, c64.objects, c64.grid_cells), (120_000, 100, 40_000));
     assert_eq!(report.cases[2].grid_cells, 1_000_000);
     assert_eq!(report.cases[4].points, 34_720);
-    assert_eq!(report.goals.len(), 7, "{:?}", report.goals);
+    // 7, and per 0.5 m case with a cloud (synthetic 64- and 32-beam) the native-floor and p99 goals.
+    assert_eq!(report.goals.len(), 11, "{:?}", report.goals);
+    assert!(report.goals.iter().any(|g| g.goal == "synthetic-64/0.5m: sensor checks <= 10x the native floor"));
     assert!(report.paper.iter().any(|p| p.paper_us == 12_000.0 && p.case == "synthetic-64/0.5m"));
 
     let json = serde_json::to_string(&report).unwrap();
@@ -69,7 +76,9 @@ fn report_has_every_case_stage_and_goal_and_round_trips_through_json() {
     for name in names {
         assert!(table.contains(name), "table lacks {name}");
     }
-    for heading in ["Frames", "Median per stage", "Spread p10-p90", "Paper", "Goals", "i9-7900X", "Atom C3934"] {
+    for heading in
+        ["Frames", "Median per stage", "Spread p10-p90", "p99", "native", "Paper", "Goals", "i9-7900X", "Atom C3934"]
+    {
         assert!(table.contains(heading), "table lacks {heading}:\n{table}");
     }
     assert!(table.is_ascii());
@@ -99,7 +108,17 @@ fn malformed_real_sweep_is_named() {
 fn percentiles_are_nearest_rank() {
     let samples: Vec<f64> = (1..=10).rev().map(f64::from).collect();
     let t = Timing::of(&samples);
-    assert_eq!((t.p10_us, t.median_us, t.p90_us), (1.0, 5.5, 9.0));
+    assert_eq!((t.p10_us, t.median_us, t.p90_us, t.p99_us, t.max_us), (1.0, 5.5, 9.0, 10.0, 10.0));
+    let many: Vec<f64> = (1..=1000).map(f64::from).collect();
+    assert_eq!((Timing::of(&many).p99_us, Timing::of(&many).max_us), (990.0, 1000.0));
     assert_eq!(Timing::of(&[]), Timing::default());
     assert_eq!(Timing::of(&[2.0, 1.0, 3.0]).median_us, 2.0);
+}
+
+#[test]
+fn only_selects_cases_by_name() {
+    let report =
+        run_bench(&BenchOptions { only: vec!["synthetic-32".into(), "objects-30/".into()], ..quick() }).unwrap();
+    let names: Vec<&str> = report.cases.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["synthetic-32/0.5m", "objects-30/no-cloud", "objects-30/no-cloud/calibrated"]);
 }

@@ -74,6 +74,13 @@ enum Command {
         /// same loop on the target's baseline, SSE2 on x86-64) or `scalar` (the reference loop).
         #[arg(long, value_enum, default_value_t = RasterizerArg::Blocked)]
         rasterizer: RasterizerArg,
+        /// Measure only the cases whose name contains this text (repeatable), e.g. `--only kitti`.
+        #[arg(long)]
+        only: Vec<String>,
+        /// Instead of measuring, write the frames of the 0.5 m cases with a cloud and pmon's per-box maxima into
+        /// this folder, for the numpy and PCL peers (crates/bench/peers, docs/performance.md).
+        #[arg(long)]
+        export_peers: Option<std::path::PathBuf>,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -163,7 +170,16 @@ fn main() -> ExitCode {
         Command::Simulate(args) => simulate::run(&args),
         Command::Check(args) => check::run(&args),
         Command::View(args) => view::run(&args),
-        Command::Bench { json, iterations, max_seconds_per_case, worst_case, no_real_data, rasterizer } => {
+        Command::Bench {
+            json,
+            iterations,
+            max_seconds_per_case,
+            worst_case,
+            no_real_data,
+            rasterizer,
+            only,
+            export_peers,
+        } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
                 max_seconds_per_case,
@@ -175,7 +191,22 @@ fn main() -> ExitCode {
                     RasterizerArg::Baseline => pmon_monitor::Rasterizer::BlockedBaseline,
                     RasterizerArg::Scalar => pmon_monitor::Rasterizer::Scalar,
                 },
+                only,
             };
+            if let Some(dir) = export_peers {
+                return match pmon_bench::peers::export_peers(&dir, &opts) {
+                    Ok(cases) => {
+                        for c in cases {
+                            println!("{}\t{}\t{} frames\t{} boxes", c.name, c.dir.display(), c.frames, c.boxes);
+                        }
+                        ExitCode::SUCCESS
+                    }
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        ExitCode::from(2)
+                    }
+                };
+            }
             pmon_bench::run_bench(&opts).map_err(anyhow::Error::from).and_then(|r| {
                 if json {
                     println!("{}", serde_json::to_string_pretty(&r)?);
