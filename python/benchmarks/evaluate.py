@@ -70,11 +70,15 @@ def main() -> None:
             by_part = {}
             for ident, s in r.task_s.items():
                 by_part.setdefault(ident.rsplit("-", 1)[1], []).append(s)
+            cpu_part = {}
+            for ident, s in r.task_cpu_s.items():
+                cpu_part.setdefault(ident.rsplit("-", 1)[1], []).append(s)
             rows.append({
                 "round": rnd + 1, "engine": name, "tasks": len(r.ran), "failed": len(r.failed),
                 "wall_s": round(r.wall_s, 2), "task_sum_s": round(busy, 2),
                 "overhead_ms_per_task": round((r.wall_s * workers - busy) / max(len(r.ran), 1) * 1e3, 1),
                 "median_task_s": {k: round(statistics.median(v), 2) for k, v in sorted(by_part.items())},
+                "median_task_cpu_s": {k: round(statistics.median(v), 2) for k, v in sorted(cpu_part.items())},
                 "identical": files == reference, "exit": p.returncode,
             })
         for row in rows[-3:]:
@@ -84,12 +88,13 @@ def main() -> None:
     print(f"{len(tasks)} tasks ({len(logs)} logs x {args.copies} links x parts), {'smoke' if args.smoke else 'full'} "
           f"sweeps, pmon {args.pmon}, load average {os.getloadavg()[0]:.1f}", file=sys.stderr)
     print("| round | engine | tasks | wall | sum of task times | overhead per task | speed-up vs 1 worker "
-          "| median task time per part | identical |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| median task time per part | median CPU time per part | identical |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         med = ", ".join(f"{k} {v} s" for k, v in r["median_task_s"].items())
+        cpu = ", ".join(f"{k} {v} s" for k, v in r["median_task_cpu_s"].items())
         print(f"| {r['round']} | {r['engine']} | {r['tasks']} | {r['wall_s']} s | {r['task_sum_s']} s "
-              f"| {r['overhead_ms_per_task']} ms | {r['speedup_vs_1_worker']} | {med} | "
+              f"| {r['overhead_ms_per_task']} ms | {r['speedup_vs_1_worker']} | {med} | {cpu} | "
               f"{'yes' if r['identical'] else 'NO'} |")
     shutil.rmtree(tmp, ignore_errors=True)
 

@@ -260,16 +260,17 @@ def run(
 # ---------------------------------------------------------------------------------------------------------------
 
 
-def _evaluate_task(task_json: str) -> tuple[str, float, int, str]:
-    """Runs one `pmon evaluate` task in this process: (result JSON, seconds, pid, host). The result holds no
-    timing; an error on the log's data is inside the result, not raised."""
+def _evaluate_task(task_json: str) -> tuple[str, float, int, str, float]:
+    """Runs one `pmon evaluate` task in this process: (result JSON, seconds, pid, host, CPU seconds of the
+    process meanwhile). The result holds no timing; an error on the log's data is inside the result, not
+    raised."""
     import socket
 
     from pmon._pmon import run_evaluation_task  # absolute: also when this file runs as __main__
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     text = run_evaluation_task(task_json)
-    return text, time.perf_counter() - t0, os.getpid(), socket.gethostname()
+    return text, time.perf_counter() - t0, os.getpid(), socket.gethostname(), time.process_time() - c0
 
 
 def _write_atomic(path: str, text: str) -> None:
@@ -296,6 +297,7 @@ class EvaluationRun:
     failed: list[str]
     wall_s: float
     task_s: dict[str, float] = field(default_factory=dict)
+    task_cpu_s: dict[str, float] = field(default_factory=dict)
     workers: list[str] = field(default_factory=list)
 
 
@@ -358,11 +360,12 @@ def evaluate_run(run_dir: str | os.PathLike[str], engine: Any = "local",
     engine, close = _engine(engine)
     t0 = time.perf_counter()
 
-    def done(ident: str, r: tuple[str, float, int, str]) -> None:
-        text, seconds, pid, host = r
+    def done(ident: str, r: tuple[str, float, int, str, float]) -> None:
+        text, seconds, pid, host, cpu = r
         _write_atomic(os.path.join(results, f"{ident}.json"), text)
         out.ran.append(ident)
         out.task_s[ident] = seconds
+        out.task_cpu_s[ident] = cpu
         where = f"{host}:{pid}"
         if where not in out.workers:
             out.workers.append(where)

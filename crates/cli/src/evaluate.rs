@@ -305,7 +305,10 @@ pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
         args.out.with_file_name(name)
     });
     let run = RunDir::prepare(&run_dir, &plan.tasks, args.force)?;
+    // The report folder is checked before anything runs (it is written under a temporary name at the end).
+    let out_dir = OutputDir::prepare(&args.out, "evaluate", false)?;
     if args.plan_only {
+        drop(out_dir);
         eprintln!("pmon evaluate: {} tasks planned in {}", plan.tasks.len(), run_dir.join("tasks.json").display());
         return Ok(ExitCode::SUCCESS);
     }
@@ -344,7 +347,6 @@ pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
     for n in plan.notes.iter().rev() {
         ev.real_data.notes.insert(0, n.clone());
     }
-    let out_dir = OutputDir::prepare(&args.out, "evaluate", false)?;
     write_report(out_dir.path(), args, &ev)?;
     out_dir.commit()?;
     for f in &ev.failed {
