@@ -35,9 +35,9 @@ def recordings(pmon_bin, tmp_path_factory):
     return root
 
 
-def evaluate(pmon_bin, src, out, *extra):
+def evaluate(pmon_bin, src, out, *extra, **kw):
     return _run([pmon_bin, "evaluate", src, "--smoke", "--seed", "3", "--out", out, "--python", sys.executable,
-                 *extra])
+                 *extra], **kw)
 
 
 def report_bytes(out):
