@@ -711,3 +711,66 @@ pub fn merge(tasks: &[LogTask], results: &BTreeMap<String, TaskResult>) -> Evalu
         real_data: RealDataResults { figures, claims, notes, tables },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn folder_of(names: &[&str], tag: &str) -> PathBuf {
+        let root = std::env::temp_dir().join(format!("pmon-eval-plan-{tag}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&root);
+        for n in names {
+            fs::create_dir_all(root.join(n)).unwrap_or_else(|e| panic!("{e}"));
+        }
+        root
+    }
+
+    #[test]
+    fn tasks_are_seeded_by_identity_not_by_position() {
+        let opts = RealDataOptions::smoke();
+        let p = MonitorParams::PAPER;
+        let two = folder_of(&["a", "zz"], "two");
+        let one = folder_of(&["zz"], "one");
+        let plan2 = plan(two.to_str().unwrap_or_default(), None, 9, &opts, &p).unwrap_or_else(|e| panic!("{e}"));
+        let plan1 = plan(one.to_str().unwrap_or_default(), None, 9, &opts, &p).unwrap_or_else(|e| panic!("{e}"));
+        let seeds = |pl: &Plan| pl.tasks.iter().map(|t| (t.id.clone(), t.seed)).collect::<BTreeMap<_, _>>();
+        let (s1, s2) = (seeds(&plan1), seeds(&plan2));
+        assert_eq!(plan2.tasks.len(), 4);
+        assert_eq!(s1.len(), 2);
+        for (id, seed) in &s1 {
+            assert_eq!(s2.get(id), Some(seed), "{id}");
+        }
+        // Another campaign seed, other task seeds; parts of one log have different seeds.
+        let other = plan(one.to_str().unwrap_or_default(), None, 10, &opts, &p).unwrap_or_else(|e| panic!("{e}"));
+        assert!(other.tasks.iter().all(|t| s1.get(&t.id) != Some(&t.seed)));
+        assert_ne!(plan1.tasks.first().map(|t| t.seed), plan1.tasks.get(1).map(|t| t.seed));
+        let _ = fs::remove_dir_all(two);
+        let _ = fs::remove_dir_all(one);
+    }
+
+    #[test]
+    fn a_missing_result_or_a_foreign_one_is_a_failure_not_dropped() {
+        let root = folder_of(&["a", "b"], "merge");
+        let pl = plan(root.to_str().unwrap_or_default(), None, 1, &RealDataOptions::smoke(), &MonitorParams::PAPER)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut results = BTreeMap::new();
+        let first = pl.tasks.first().map(|t| t.id.clone()).unwrap_or_default();
+        let second = pl.tasks.get(1).map(|t| t.id.clone()).unwrap_or_default();
+        results.insert(
+            first.clone(),
+            TaskResult {
+                format: RESULT_FORMAT.into(),
+                id: second,
+                log: "a".into(),
+                part: Part::Sensor,
+                outcome: Outcome::Ok(LogOutput::default()),
+            },
+        );
+        let ev = merge(&pl.tasks, &results);
+        assert_eq!(ev.tasks.len(), 4);
+        assert_eq!(ev.failed.len(), 4, "{:?}", ev.failed);
+        assert!(ev.failed.iter().any(|f| f.id == first && f.error.contains("holds task")));
+        assert!(ev.real_data.notes.first().is_some_and(|n| n.contains("4 of 4 tasks FAILED")));
+        let _ = fs::remove_dir_all(root);
+    }
+}
