@@ -30,7 +30,7 @@ from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
 from ._params import Params
 from ._pmon import run_campaign_task
 
-__all__ = ["CampaignResult", "plan", "run", "run_task", "merge", "task_id"]
+__all__ = ["CampaignResult", "EvaluationRun", "evaluate_run", "plan", "run", "run_task", "merge", "task_id"]
 
 FORMAT = "pmon-campaign/1"
 
@@ -253,3 +253,184 @@ def run(
         [r["elapsed_s"] for r in results],
         sorted({r["worker"] for r in results}),
     )
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Dataset-scale evaluation: the run folder of `pmon evaluate` (docs/campaigns.md, "Dataset-scale evaluation")
+# ---------------------------------------------------------------------------------------------------------------
+
+
+def _evaluate_task(task_json: str) -> tuple[str, float, int, str, float]:
+    """Runs one `pmon evaluate` task in this process: (result JSON, seconds, pid, host, CPU seconds of the
+    process meanwhile). The result holds no timing; an error on the log's data is inside the result, not
+    raised."""
+    import socket
+
+    from pmon._pmon import run_evaluation_task  # absolute: also when this file runs as __main__
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    text = run_evaluation_task(task_json)
+    return text, time.perf_counter() - t0, os.getpid(), socket.gethostname(), time.process_time() - c0
+
+
+def _write_atomic(path: str, text: str) -> None:
+    tmp = f"{path}.tmp-{os.getpid()}"
+    with open(tmp, "w", encoding="utf-8", newline="\n") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def _finished(path: str) -> bool:
+    try:
+        with open(path, encoding="utf-8") as f:
+            return "ok" in json.load(f)["outcome"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+
+
+@dataclass
+class EvaluationRun:
+    """What :func:`evaluate_run` did: the tasks it ran (the others had a result already) and their timings."""
+
+    total: int
+    ran: list[str]
+    failed: list[str]
+    wall_s: float
+    task_s: dict[str, float] = field(default_factory=dict)
+    task_cpu_s: dict[str, float] = field(default_factory=dict)
+    workers: list[str] = field(default_factory=list)
+
+
+def _engine(scheduler: Any) -> tuple[Any, Callable[[], None]]:
+    """A scheduler string (``local``, ``dask://HOST:PORT``, ``dask-local:N``, ``ray``, ``ray://HOST:PORT``,
+    ``ray-local:N``) as an engine for :func:`evaluate_run`, and what closes it. Other values pass through."""
+    if not isinstance(scheduler, str):
+        return scheduler, lambda: None
+    if scheduler == "local":
+        return "local", lambda: None
+    if scheduler.startswith("dask://") or scheduler.startswith("dask-local:"):
+        from dask.distributed import Client, LocalCluster
+
+        if scheduler.startswith("dask://"):
+            client = Client("tcp://" + scheduler[len("dask://"):])
+            return client, client.close
+        cluster = LocalCluster(n_workers=int(scheduler.split(":", 1)[1]), threads_per_worker=1,
+                               dashboard_address=None)
+        client = Client(cluster)
+
+        def close() -> None:
+            client.close()
+            cluster.close()
+
+        return client, close
+    if scheduler == "ray" or scheduler.startswith("ray://") or scheduler.startswith("ray-local:"):
+        try:
+            import ray
+        except ImportError as e:
+            raise RuntimeError(f"--scheduler {scheduler}: ray is not installed (pip install ray)") from e
+        if scheduler.startswith("ray-local:"):
+            ray.init(num_cpus=int(scheduler.split(":", 1)[1]), include_dashboard=False)
+        elif scheduler == "ray":
+            ray.init()
+        else:
+            ray.init(scheduler)
+        return "ray", ray.shutdown
+    raise ValueError(f"unknown scheduler {scheduler!r}: local, dask://HOST:PORT, dask-local:N, ray, ray://HOST:PORT, "
+                     "ray-local:N")
+
+
+def evaluate_run(run_dir: str | os.PathLike[str], engine: Any = "local",
+                 progress: Optional[Callable[[int, int, str, str, float], None]] = None) -> EvaluationRun:
+    """Runs the tasks of a `pmon evaluate` run folder that have no finished result yet.
+
+    ``run_dir`` holds ``tasks.json`` (written by ``pmon evaluate``) and ``results/``; each finished task's result
+    (the Rust side's JSON, byte for byte) is written to ``results/ID.json`` as it arrives, through a temporary
+    file and a rename, so a run that stops keeps what finished and a rerun runs only the rest. Tasks whose
+    result is an error are run again. ``engine``: ``"local"``, a ``dask.distributed.Client``, ``"ray"`` (after
+    ``ray.init``) or a scheduler string (see :func:`_engine`). ``progress(done, total, task id, where, seconds)``
+    is called after every finished task. ``pmon evaluate`` merges the results and writes the report.
+    """
+    run_dir = os.fspath(run_dir)
+    with open(os.path.join(run_dir, "tasks.json"), encoding="utf-8") as f:
+        tasks = json.load(f)
+    results = os.path.join(run_dir, "results")
+    os.makedirs(results, exist_ok=True)
+    todo = [t for t in tasks if not _finished(os.path.join(results, f"{t['id']}.json"))]
+    out = EvaluationRun(total=len(tasks), ran=[], failed=[], wall_s=0.0)
+    engine, close = _engine(engine)
+    t0 = time.perf_counter()
+
+    def done(ident: str, r: tuple[str, float, int, str, float]) -> None:
+        text, seconds, pid, host, cpu = r
+        _write_atomic(os.path.join(results, f"{ident}.json"), text)
+        out.ran.append(ident)
+        out.task_s[ident] = seconds
+        out.task_cpu_s[ident] = cpu
+        where = f"{host}:{pid}"
+        if where not in out.workers:
+            out.workers.append(where)
+        if "error" in json.loads(text)["outcome"]:
+            out.failed.append(ident)
+        if progress is not None:
+            progress(len(tasks) - len(todo) + len(out.ran), len(tasks), ident, where, seconds)
+
+    try:
+        payloads = {t["id"]: json.dumps(t) for t in todo}
+        if engine == "local":
+            for ident, p in payloads.items():
+                done(ident, _evaluate_task(p))
+        elif engine == "ray":
+            import ray
+
+            remote = ray.remote(max_retries=2)(_evaluate_task)
+            pending = {remote.remote(p): ident for ident, p in payloads.items()}
+            while pending:
+                ready, _ = ray.wait(list(pending))
+                for ref in ready:
+                    done(pending.pop(ref), ray.get(ref))
+        elif hasattr(engine, "submit"):
+            from dask.distributed import as_completed
+
+            futures = {engine.submit(_evaluate_task, p, key="pmon-eval-" + hashlib.blake2b(
+                p.encode(), digest_size=16).hexdigest(), pure=False, retries=2): ident
+                for ident, p in payloads.items()}
+            for fut in as_completed(list(futures)):
+                done(futures[fut], fut.result())
+                fut.release()
+        else:
+            raise ValueError(f"evaluate_run: unknown engine {engine!r}")
+    finally:
+        out.wall_s = time.perf_counter() - t0
+        close()
+    return out
+
+
+def _main(argv: Optional[Sequence[str]] = None) -> int:
+    import argparse
+    import sys
+
+    ap = argparse.ArgumentParser(prog="python -m pmon.campaign", description=(
+        "Runs the missing tasks of a `pmon evaluate` run folder on a scheduler (pmon evaluate --scheduler calls "
+        "this; then it merges the results and writes the report)."))
+    sub = ap.add_subparsers(dest="command", required=True)
+    ev = sub.add_parser("evaluate-run", help="run the unfinished tasks of RUN_DIR")
+    ev.add_argument("run_dir")
+    ev.add_argument("--scheduler", default="local",
+                    help="local, dask://HOST:PORT, dask-local:N, ray, ray://HOST:PORT or ray-local:N")
+    args = ap.parse_args(argv)
+
+    def show(k: int, n: int, ident: str, where: str, seconds: float) -> None:
+        print(f"[{k}/{n}] {ident} on {where}, {seconds:.1f} s", file=sys.stderr, flush=True)
+
+    r = evaluate_run(args.run_dir, args.scheduler, progress=show)
+    print(f"pmon.campaign: ran {len(r.ran)} of {r.total} tasks in {r.wall_s:.1f} s on {len(r.workers)} worker "
+          f"processes; {len(r.failed)} failed on their data", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    # `python -m pmon.campaign`: run the package's module, so that the task function Dask and Ray ship is
+    # `pmon.campaign._evaluate_task` (pickled by reference), not a copy from __main__.
+    from pmon.campaign import _main as _package_main
+
+    raise SystemExit(_package_main())

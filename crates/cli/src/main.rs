@@ -4,6 +4,7 @@ mod bag;
 mod calibrate;
 mod check;
 mod config;
+mod evaluate;
 mod output;
 mod readme_table;
 mod reproduce;
@@ -44,6 +45,12 @@ enum RasterizerArg {
 enum Command {
     /// Run every experiment of the paper on the built-in scenarios and write a report (the main job).
     Reproduce(reproduce::ReproduceArgs),
+    /// Run the real-data experiments of `reproduce` over every log of a dataset (Argoverse 2, nuScenes, a folder
+    /// of recordings), one task per log, here or on a Dask or Ray cluster; resumable.
+    ///
+    /// Exit status: 0 when every task ran, 1 when some failed on their data (the report lists them), 2 on bad
+    /// input or usage.
+    Evaluate(evaluate::EvaluateArgs),
     /// Simulate a built-in (or your own) scenario with a ray-cast LiDAR and write a pmon recording.
     Simulate(simulate::SimulateArgs),
     /// Check a recording: one verdict per object and frame, and missed objects.
@@ -167,6 +174,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Reproduce(args) => reproduce::run(&args),
+        Command::Evaluate(args) => evaluate::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Check(args) => check::run(&args),
         Command::View(args) => view::run(&args),

@@ -259,7 +259,7 @@ fn series_of(curve: &experiments::Curve, color: usize) -> Series {
     s
 }
 
-fn render_figure(dir: &Path, fig: &Figure) -> Result<()> {
+pub fn render_figure(dir: &Path, fig: &Figure) -> Result<()> {
     let s = &fig.spec;
     let mut chart = LineChart::new(format!("{} ({})", s.title, s.paper_ref), &s.x_label, &s.y_label)
         .with_y_range(s.y_range.0, s.y_range.1);

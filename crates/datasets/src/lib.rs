@@ -51,6 +51,8 @@ pub enum DatasetFormat {
     Argoverse2,
     /// CommonRoad XML scenario.
     CommonRoad,
+    /// A pmon recording (its `params.toml`, when present, says the ground height and ego footprint).
+    Recording,
 }
 
 impl DatasetFormat {
@@ -64,7 +66,7 @@ impl DatasetFormat {
             // Wider than the body: the sensor rack and mirrors return at up to 1.5 m to the side.
             Self::KittiObject => [-2.7, -1.6, 2.6, 1.6],
             Self::NuScenesConverted | Self::NuScenesV1 | Self::Argoverse2 => [-1.2, -1.2, 4.2, 1.2],
-            Self::KittiTracking | Self::CommonRoad => [0.0; 4],
+            Self::KittiTracking | Self::CommonRoad | Self::Recording => [0.0; 4],
         }
     }
 }
@@ -80,6 +82,7 @@ impl DatasetFormat {
             Self::NuScenesV1 => "nuscenes-v1",
             Self::Argoverse2 => "av2",
             Self::CommonRoad => "commonroad",
+            Self::Recording => "recording",
         }
     }
 }

@@ -126,3 +126,12 @@ pub fn run_campaign_task(py: Python<'_>, task_json: &str) -> PyResult<String> {
     let task_json = task_json.to_owned();
     py.detach(move || run_task_json(&task_json)).map_err(PyValueError::new_err)
 }
+
+/// Runs one task of `pmon evaluate` (JSON, `pmon_campaign::real_data::evaluate::LogTask`) and returns its
+/// result file's text (JSON). The GIL is released while it runs. A log that fails on its data gives a result
+/// holding the error; only a task that is not valid JSON raises `ValueError`.
+#[pyfunction]
+pub fn run_evaluation_task(py: Python<'_>, task_json: &str) -> PyResult<String> {
+    let task_json = task_json.to_owned();
+    py.detach(move || pmon_campaign::real_data::evaluate::run_task_json(&task_json)).map_err(PyValueError::new_err)
+}

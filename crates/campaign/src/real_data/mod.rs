@@ -23,13 +23,14 @@ use pmon_monitor::{
     ClusterReport, Monitor, MonitorParams, MotionVerdict, NotMonitoredReason, ObjectClass, ObjectReport, ObjectState,
     SensorVerdict,
 };
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::experiments::{Claim, Curve, Figure, FigureSpec};
 use crate::inject::{InjectionConfig, Injector};
 use crate::metrics::{score, Metrics, Outcome, Rate, Score};
 
 mod clean;
+pub mod evaluate;
 mod one_box;
 mod plausibility;
 mod sensor;
@@ -58,7 +59,8 @@ const LIMIT_QUANTILE: f64 = 0.999;
 const SATURATION_FROM_M: f64 = 1.5;
 
 /// How much to run. [`RealDataOptions::full`] is the experiment; [`RealDataOptions::smoke`] is for tests.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RealDataOptions {
     /// Magnitudes of the permanent position errors (sensor experiment) and of the random position errors
     /// (plausibility experiment), metres.
