@@ -10,6 +10,12 @@ for t in recording kitti nuscenes nuscenes_v1 av2_feather commonroad params moni
   mkdir -p "corpus/$t"
   cp seeds/"$t"/* "corpus/$t/" 2>/dev/null || true
 done
+# Inputs that once crashed a target (fuzz/known/TARGET-what.ext, each with a regression test, docs/fuzzing.md) are
+# seeds too, so that every run replays them first.
+for f in known/*; do
+  t=$(basename "$f"); t=${t%%-*}
+  [ -d "corpus/$t" ] && cp "$f" "corpus/$t/"
+done
 if [ -d "$data" ]; then
   k="$data/kitti/object/training"
   for f in $(ls "$k/label_2" 2>/dev/null | head -5); do cp "$k/label_2/$f" "corpus/kitti/label_$f"; done

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use pmon_ros::bag::{check_bag, read_file, BagConfig, BagSummary};
+use pmon_ros::bag::{check_bag, check_mcap, read_file, BagConfig, BagSummary};
 use pmon_ros::msg::Time;
 
 use crate::check::{CheckArgs, Format};
@@ -102,6 +102,8 @@ pub fn run_check(args: &CheckArgs) -> Result<ExitCode> {
     let cfg = args.bag.config();
     let path = args.recording.as_path();
     let bytes = read_file(path)?;
+    // Before any output is created: every length in the bag fits its record (issue 15).
+    check_mcap(path, &bytes)?;
     let mut text: Box<dyn Write> = match &args.out {
         Some(p) if !is_mcap(p) => {
             Box::new(BufWriter::new(File::create(p).with_context(|| format!("cannot create {}", p.display()))?))

@@ -164,10 +164,22 @@ fn mcap_err(path: &Path, e: &mcap::McapError) -> BagError {
     BagError::Mcap { path: path.to_path_buf(), message: e.to_string() }
 }
 
+/// Checks every length in an MCAP file before the `mcap` crate parses it ([`crate::mcap_check`]): a length
+/// prefix beyond its record, a record beyond its file or chunk, or chunks that would decompress to more than
+/// [`crate::mcap_check::MAX_INFLATION`] times the file's size are an error naming the file and the record's
+/// offset, instead of an allocation of the size they announce. [`check_bag`] calls it first.
+///
+/// # Errors
+/// [`BagError::Mcap`].
+pub fn check_mcap(path: &Path, bytes: &[u8]) -> Result<(), BagError> {
+    crate::mcap_check::check_lengths(bytes)
+        .map_err(|e| BagError::Mcap { path: path.to_path_buf(), message: e.to_string() })
+}
+
 /// Runs the monitor over a bag, calling `sink` for each checked frame in the object lists' order.
 ///
 /// # Errors
-/// [`BagError`] when the file cannot be read as MCAP, has no object topic, or the sink fails. Bad messages
+/// [`BagError`] when the file cannot be read as MCAP (its lengths are checked first: [`check_mcap`]), has no object topic, or the sink fails. Bad messages
 /// inside a readable bag are not errors: they are listed in [`BagSummary::problems`].
 #[allow(clippy::too_many_lines)]
 pub fn check_bag(
@@ -186,6 +198,8 @@ pub fn check_bag(
     let problem = |s: &mut BagSummary, topic: &str, t: u64, m: String| {
         s.problems.push(Problem { topic: topic.into(), log_time_ns: t, message: m });
     };
+
+    check_mcap(path, bytes)?;
 
     // Pass 1: everything but the points.
     let stream = mcap::MessageStream::new(bytes).map_err(|e| mcap_err(path, &e))?;

@@ -6,6 +6,7 @@ pub mod bag;
 pub mod cdr;
 pub mod convert;
 pub mod frame;
+pub mod mcap_check;
 pub mod msg;
 pub mod output;
 pub mod pointcloud;

@@ -41,6 +41,9 @@ pub enum OutputError {
         /// Why.
         message: String,
     },
+    /// The input bag is not readable MCAP (a length beyond its record, file or chunk: [`crate::mcap_check`]).
+    #[error("input bag: not a readable MCAP file: {0}")]
+    Input(String),
     /// The MCAP writer failed.
     #[error("writing MCAP: {0}")]
     Mcap(#[from] mcap::McapError),
@@ -102,8 +105,10 @@ impl ResultWriter {
     /// Creates `out` and copies every message of the input bag into it.
     ///
     /// # Errors
-    /// [`OutputError`] when the file exists or cannot be written, or the input is not MCAP.
+    /// [`OutputError`] when the file exists or cannot be written, or the input is not MCAP (its lengths are
+    /// checked before anything is created: [`crate::mcap_check`]).
     pub fn create(out: &Path, input_bytes: &[u8], params: &MonitorParams) -> Result<Self, OutputError> {
+        crate::mcap_check::check_lengths(input_bytes).map_err(|e| OutputError::Input(e.to_string()))?;
         let mut writer = create_new(out)?;
         let stream = mcap::MessageStream::new(input_bytes)?;
         for msg in stream {
