@@ -62,6 +62,38 @@ fn label(run: &PlannedRun) -> String {
         .map_or(String::new(), |p| format!("{} / {} @ {:.1}", p.figure, p.curve, p.x))
 }
 
+/// Corners of an object's true footprint.
+fn corners(o: &pmon_monitor::ObjectState) -> [[f32; 2]; 4] {
+    let (s, c) = o.heading_rad.sin_cos();
+    let (hl, hw) = (0.5 * o.length_m, 0.5 * o.width_m);
+    [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)].map(|(u, v)| [o.x_m + u * c - v * s, o.y_m + u * s + v * c])
+}
+
+/// Distance from a point to a footprint (0 inside).
+fn rect_distance(o: &pmon_monitor::ObjectState, p: [f32; 2]) -> f32 {
+    let (s, c) = o.heading_rad.sin_cos();
+    let (dx, dy) = (p[0] - o.x_m, p[1] - o.y_m);
+    let (u, v) = (dx * c + dy * s, -dx * s + dy * c);
+    let (eu, ev) = ((u.abs() - 0.5 * o.length_m).max(0.0), (v.abs() - 0.5 * o.width_m).max(0.0));
+    eu.hypot(ev)
+}
+
+/// Footprint-to-footprint distance from object `i` to its nearest other object (true places; 0 when they
+/// overlap; corner-based, exact for convex boxes that do not cross).
+fn nearest_gap(objects: &[pmon_monitor::ObjectState], i: usize) -> f32 {
+    let Some(a) = objects.get(i) else { return f32::INFINITY };
+    let mut best = f32::INFINITY;
+    for (j, b) in objects.iter().enumerate() {
+        if j == i || (a.x_m - b.x_m).hypot(a.y_m - b.y_m) > 10.0 {
+            continue;
+        }
+        let d1 = corners(a).iter().map(|&p| rect_distance(b, p)).fold(f32::INFINITY, f32::min);
+        let d2 = corners(b).iter().map(|&p| rect_distance(a, p)).fold(f32::INFINITY, f32::min);
+        best = best.min(d1.min(d2));
+    }
+    best
+}
+
 /// Why a clean object state raised an alarm, or why an injected, verifiable one did not.
 fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
     let spec = &run.spec;
@@ -154,6 +186,17 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                     );
                 }
             }
+            if injected && confirmed.get(i).copied().unwrap_or(false) {
+                let gap = nearest_gap(&clean.objects, i);
+                let near = if gap <= 0.0 {
+                    "overlap"
+                } else if gap < 0.3 {
+                    "<0.3"
+                } else {
+                    ">=0.3"
+                };
+                *out.entry(format!("VERIFIABLE neighbour {near}")).or_default() += 1;
+            }
             if injected && confirmed.get(i).copied().unwrap_or(false) && !alarm {
                 // Where did the evidence at its true place go?
                 let mut at_truth: Vec<String> = clusters_out
@@ -171,12 +214,66 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                 at_truth.sort();
                 at_truth.dedup();
                 let own = if r.sensor.eta_own >= tau { "own-in-region" } else { "no-own" };
+                let gap = nearest_gap(&clean.objects, i);
+                let near = if gap <= 0.0 {
+                    "overlap"
+                } else if gap < 0.3 {
+                    "<0.3"
+                } else if gap < 0.6 {
+                    "<0.6"
+                } else if gap < 1.2 {
+                    "<1.2"
+                } else {
+                    ">=1.2"
+                };
                 let key = format!(
-                    "MISS {:<24} {own:<13} cluster-at-truth [{}]",
+                    "MISS {:<24} {own:<13} neighbour {near:<7} cluster-at-truth [{}]",
                     format!("{:?}", r.sensor.verdict),
                     at_truth.join(",")
                 );
                 *out.entry(key).or_default() += 1;
+                if std::env::var("MISSES").is_ok() {
+                    // Each cluster at the true place: cells, who took it, whether that object's own true place is
+                    // also under it (merged evidence) and how far its box is from it.
+                    let detail: Vec<String> = clusters_out
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, c)| cluster_at_truth(c))
+                        .map(|(ci, c)| {
+                            let who = c.object.map_or("free".to_string(), |m| {
+                                let m = m as usize;
+                                let (mt, mo) = (clean.objects.get(m), objects.get(m));
+                                let merged = mt
+                                    .and_then(|t| clean_monitor.region_of(t))
+                                    .is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5);
+                                let md = match (mt, mo) {
+                                    (Some(t), Some(o)) => (o.x_m - t.x_m).hypot(o.y_m - t.y_m),
+                                    _ => 0.0,
+                                };
+                                let gap = mt.map_or(0.0, |t| (t.x_m - truth.x_m).hypot(t.y_m - truth.y_m));
+                                format!(
+                                    "id {} disp {md:.1} truth-gap {gap:.2} merged {} its-own-cluster {}",
+                                    mo.map_or(0, |o| o.id),
+                                    u8::from(merged),
+                                    objects_out.get(m).and_then(|r| r.sensor.cluster).map_or(-1, i32::from)
+                                )
+                            });
+                            format!("[c{ci} {} cells -> {who}]", c.cells)
+                        })
+                        .collect();
+                    eprintln!(
+                        "MISS frame {k} id {} range {:.1} {:?} eta {:.2} own {:.2} vis {:.2} size {:.1}x{:.1} {}",
+                        o.id,
+                        truth.x_m.hypot(truth.y_m),
+                        r.sensor.verdict,
+                        r.sensor.eta,
+                        r.sensor.eta_own,
+                        r.sensor.visible_fraction,
+                        o.length_m,
+                        o.width_m,
+                        detail.join(" ")
+                    );
+                }
             }
         }
     }
@@ -221,7 +318,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 m.sensor.alarms
             );
         }
-        let group = l.split(" @ ").next().unwrap_or_default().to_string();
+        let group = if std::env::var("BYMAG").is_ok() {
+            l.clone()
+        } else {
+            l.split(" @ ").next().unwrap_or_default().to_string()
+        };
         let g = all_causes.entry(group).or_default();
         for (k, v) in c {
             *g.entry(k.clone()).or_default() += v;

@@ -16,6 +16,7 @@ use crate::verdict::{
 };
 use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
+mod assignment;
 mod attribution;
 use attribution::{claim, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDERS};
 
@@ -95,8 +96,11 @@ pub struct Monitor {
     displaced: Vec<u32>,
     /// Widest region bounding box of the frame, metres.
     widest_m: f32,
-    /// Candidate (distance, cluster, object) pairs of the evidence assignment.
-    pairs: Vec<(f32, u32, u32)>,
+    /// Candidate (distance, cluster, object, group) pairs of the evidence assignment; the group is the connected
+    /// component of the pair graph the pair belongs to (a node of `groups`).
+    pairs: Vec<(f32, u32, u32, u32)>,
+    /// Union-find parents over the pair graph's nodes: clusters `0..max_clusters`, then objects.
+    groups: Vec<u32>,
     valid: Vec<bool>,
     motion: Vec<MotionOutcome>,
     reports: Vec<ObjectReport>,
@@ -155,6 +159,7 @@ impl Monitor {
             owner: alloc::vec![0; cells],
             owner_depth: alloc::vec![0.0; cells],
             pairs: Vec::with_capacity(max_clusters.saturating_mul(ASSOCIATION_CANDIDATES)),
+            groups: alloc::vec![0; max_clusters.saturating_add(max_objects)],
             valid: Vec::with_capacity(max_objects),
             candidates: Vec::with_capacity(max_objects),
             by_x: Vec::with_capacity(max_objects),

@@ -256,13 +256,16 @@ impl Monitor {
                 let Some(s) = self.scratch.get(j) else { continue };
                 let (Some(region), Some((_, r))) = (s.region, s.recalled) else { continue };
                 let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
-                if let Some(d) = self.cluster_point_distance(k, expected, follow) {
+                // Followed only while the evidence stays within the gate of the box: a remembered offset is updated
+                // every frame, and without this bound a track could follow a neighbour's evidence walking away.
+                let within_gate = |m: &Self| m.cluster_distance(k, &region.grown, gate).is_some();
+                if let Some(d) = self.cluster_point_distance(k, expected, follow).filter(|_| within_gate(self)) {
                     // Remembered for the loop below, which then skips this pair (one follow test per pair).
                     if let Some(s) = self.scratch.get_mut(j) {
                         s.followed = k as u32;
                     }
                     if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
-                        self.pairs.push((d, k as u32, j as u32));
+                        self.pairs.push((d, k as u32, j as u32, 0));
                     }
                 }
             }
@@ -287,19 +290,12 @@ impl Monitor {
                     || self.clusters.get(k).is_some_and(|c| self.behind(&region.footprint, c.centroid_m))
                     || self.sight_of(j, &region).contradicted() >= self.params.ghost_visible_fraction;
                 if reachable && self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
-                    self.pairs.push((d, k as u32, j as u32));
+                    self.pairs.push((d, k as u32, j as u32, 0));
                 }
             }
         }
-        // Nearest first; ties by cluster, then object: deterministic.
-        self.pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
-        for p in 0..self.pairs.len() {
-            let Some(&(_, k, j)) = self.pairs.get(p) else { continue };
-            let free = self.clusters.get(k as usize).is_some_and(|c| c.object.is_none());
-            if free && self.scratch.get(j as usize).is_some_and(|s| s.cluster.is_none()) {
-                self.give(k as usize, j as usize);
-            }
-        }
+        self.assign_pairs();
+        self.share_between_coincident_boxes();
         // Spill-over of the clusters left.
         let adjacent = core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 1e-3;
         for k in 0..self.clusters.len() {
@@ -336,6 +332,143 @@ impl Monitor {
                 self.give(k, j);
             }
         }
+    }
+
+    /// The one-to-one assignment of step 3: the candidate pairs fall into groups (connected components of the
+    /// graph of clusters and objects they join); in each group as many objects as possible get a cluster, with
+    /// the smallest total displacement among those assignments ([`assignment::assign`]). A group with more than
+    /// `MAX_SIDE` objects or clusters is assigned nearest pair first. Deterministic: groups and pairs are sorted.
+    pub(super) fn assign_pairs(&mut self) {
+        let base = self.params.max_clusters;
+        let node = |k: u32, j: u32, object: bool| if object { base.saturating_add(j) } else { k };
+        for &(_, k, j, _) in &self.pairs {
+            for x in [node(k, j, false), node(k, j, true)] {
+                if let Some(g) = self.groups.get_mut(x as usize) {
+                    *g = x;
+                }
+            }
+        }
+        for p in 0..self.pairs.len() {
+            let Some(&(_, k, j, _)) = self.pairs.get(p) else { continue };
+            let (a, b) = (self.group_root(node(k, j, false)), self.group_root(node(k, j, true)));
+            // The lower node is the root: the groups do not depend on the order of the pairs.
+            let (lo, hi) = (a.min(b), a.max(b));
+            if let Some(g) = self.groups.get_mut(hi as usize) {
+                *g = lo;
+            }
+        }
+        for p in 0..self.pairs.len() {
+            let Some(&(_, k, _, _)) = self.pairs.get(p) else { continue };
+            let root = self.group_root(k);
+            if let Some(pair) = self.pairs.get_mut(p) {
+                pair.3 = root;
+            }
+        }
+        // By group; within it nearest first, ties by cluster, then object.
+        self.pairs
+            .sort_unstable_by(|a, b| a.3.cmp(&b.3).then(a.0.total_cmp(&b.0)).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let mut start = 0;
+        while start < self.pairs.len() {
+            let root = self.pairs.get(start).map_or(0, |p| p.3);
+            let end = start + self.pairs.get(start..).map_or(0, |r| r.iter().take_while(|p| p.3 == root).count());
+            let (mut objects, mut clusters) = ([0u32; assignment::MAX_SIDE], [0u32; assignment::MAX_SIDE]);
+            let (mut no, mut nc, mut small) = (0usize, 0usize, true);
+            let mut costs = [[f32::INFINITY; assignment::MAX_SIDE]; assignment::MAX_SIDE];
+            for &(d, k, j, _) in self.pairs.get(start..end).unwrap_or(&[]) {
+                let row = objects.get(..no).and_then(|l| l.iter().position(|&x| x == j)).or_else(|| {
+                    let r = (no < assignment::MAX_SIDE).then_some(no);
+                    if let Some(slot) = r.and_then(|r| objects.get_mut(r)) {
+                        *slot = j;
+                        no += 1;
+                    }
+                    r
+                });
+                let col = clusters.get(..nc).and_then(|l| l.iter().position(|&x| x == k)).or_else(|| {
+                    let c = (nc < assignment::MAX_SIDE).then_some(nc);
+                    if let Some(slot) = c.and_then(|c| clusters.get_mut(c)) {
+                        *slot = k;
+                        nc += 1;
+                    }
+                    c
+                });
+                match (row, col) {
+                    (Some(r), Some(c)) => {
+                        if let Some(x) = costs.get_mut(r).and_then(|row| row.get_mut(c)) {
+                            *x = x.min(d);
+                        }
+                    }
+                    _ => small = false,
+                }
+            }
+            if small {
+                let chosen = assignment::assign(no, nc, &costs);
+                for (r, c) in chosen.iter().enumerate().take(no) {
+                    let (Some(&j), Some(&k)) = (objects.get(r), c.and_then(|c| clusters.get(usize::from(c)))) else {
+                        continue;
+                    };
+                    self.give(k as usize, j as usize);
+                }
+            } else {
+                for p in start..end {
+                    let Some(&(_, k, j, _)) = self.pairs.get(p) else { continue };
+                    let free = self.clusters.get(k as usize).is_some_and(|c| c.object.is_none());
+                    if free && self.scratch.get(j as usize).is_some_and(|s| s.cluster.is_none()) {
+                        self.give(k as usize, j as usize);
+                    }
+                }
+            }
+            start = end.max(start + 1);
+        }
+    }
+
+    /// Evidence of two boxes reported in one place: an unconfirmed object left without a cluster whose box
+    /// overlaps (within a cell) the box of an object that was just given a cluster shares that cluster, if it
+    /// could have taken it itself (within the gate, fitting its box, and it stands behind the cluster or the
+    /// sensor contradicts its footprint). Two boxes in one place leave one blob of evidence; when both stand
+    /// apart from it, the sensor cannot say whose it is, and both are displaced from it.
+    pub(super) fn share_between_coincident_boxes(&mut self) {
+        let tau_tp = self.params.tau_tp;
+        let gate = self.params.conflict_association_m;
+        let tol = self.grid.geometry.cell_size_m;
+        for j in 0..self.scratch.len() {
+            let Some(s) = self.scratch.get(j).copied() else { continue };
+            let Some(region) = s.region.filter(|_| s.cluster.is_none() && s.eta_own < tau_tp) else { continue };
+            for k in 0..self.clusters.len() {
+                let Some((m, centroid, bounds)) =
+                    self.clusters.get(k).and_then(|c| c.object.map(|m| (m as usize, c.centroid_m, c.bounds_m)))
+                else {
+                    continue;
+                };
+                let Some(other) = self.scratch.get(m).and_then(|o| o.region).filter(|_| m != j) else { continue };
+                if self.far_apart(bounds, region.grown.aabb(), gate)
+                    || !footprints_touch(&region.footprint, &other.footprint, tol)
+                    || self.cluster_distance(k, &region.grown, gate).is_none()
+                    || !self.evidence_fits(j, &region, k, false)
+                {
+                    continue;
+                }
+                let reachable = self.behind(&region.footprint, centroid)
+                    || self.sight_of(j, &region).contradicted() >= self.params.ghost_visible_fraction;
+                if reachable {
+                    let cells = self.clusters.get(k).map_or(0, |c| c.cells);
+                    if let Some(s) = self.scratch.get_mut(j) {
+                        s.cluster = u16::try_from(k).ok().map(|k16| (k16, cells));
+                    }
+                    break;
+                }
+            }
+        }
+    }
+
+    /// The root of a node of the pair graph (bounded: at most as many steps as there are nodes).
+    fn group_root(&self, mut x: u32) -> u32 {
+        for _ in 0..self.groups.len() {
+            match self.groups.get(x as usize) {
+                Some(&parent) if parent != x => x = parent,
+                _ => break,
+            }
+        }
+        x
     }
 
     /// The range of `by_x` whose regions' bounding boxes can come within `reach` of a cluster's bounds along x.
@@ -608,6 +741,21 @@ impl Monitor {
             }
         }
     }
+}
+
+/// True when two boxes overlap or come within `tol` of each other (corner-to-box distances; a box inside the
+/// other is caught by its centre).
+fn footprints_touch(a: &crate::geometry::OrientedRect, b: &crate::geometry::OrientedRect, tol: f32) -> bool {
+    let corners = |r: &crate::geometry::OrientedRect| {
+        [(1.0f32, 1.0f32), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)].map(|(su, sv)| {
+            let (u, v) = (su * r.half_length, sv * r.half_width);
+            (r.cx + u * r.cos - v * r.sin, r.cy + u * r.sin + v * r.cos)
+        })
+    };
+    a.contains(b.cx, b.cy)
+        || b.contains(a.cx, a.cy)
+        || corners(a).iter().any(|&(x, y)| b.distance(x, y) <= tol)
+        || corners(b).iter().any(|&(x, y)| a.distance(x, y) <= tol)
 }
 
 /// The paper's consistency `eta` of report `j`.
