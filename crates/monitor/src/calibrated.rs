@@ -36,6 +36,14 @@ use crate::verdict::{Conditions, ImplausibilityKind};
 /// States kept per track (the current one included once pushed).
 pub const HISTORY: usize = 12;
 
+/// Fewest clean increments in a track's history before its own scatter may narrow a margin.
+pub const OWN_SCATTER_MIN_INCREMENTS: u8 = 5;
+/// Smallest own scatter used, as a fraction of the declared sigma (a track whose speeds never change is not
+/// taken to be noise-free: the margin stays at least `t` times this fraction of the declared one).
+pub const OWN_SCATTER_FLOOR: f64 = 0.05;
+/// Both speeds at least this for a heading change to count as a sample of the heading's own scatter, m/s.
+pub const OWN_HEADING_MIN_SPEED_MPS: f32 = 1.0;
+
 /// Safety-critical position error (the paper's Sec. III-A), metres.
 pub const CRITICAL_POSITION_M: f64 = 1.0;
 /// Safety-critical speed error (the paper's Sec. III-A), m/s.
@@ -87,8 +95,41 @@ impl Entry {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct History {
     items: [Entry; HISTORY],
+    /// Per state (same slots as `items`): the speed change from the previous state over its declared sigma
+    /// `hypot(sigma_v0, sigma_v1)`, squared, and the same for the heading change (only where the heading is
+    /// defined at both states: both speeds `>= OWN_HEADING_MIN_SPEED_MPS`); negative when either state is not
+    /// clean (an alarm, a warm-up) or has no kept predecessor.
+    steps: [(f32, f32); HISTORY],
     start: u8,
     len: u8,
+    /// Sum and count of the kept states' clean speed steps (the oldest state's step is not kept).
+    speed_sum: f64,
+    speed_n: u8,
+    /// The same for the heading steps.
+    heading_sum: f64,
+    heading_n: u8,
+}
+
+/// The studentised steps of `e` from `prev` (see `History::steps`).
+fn steps_from(prev: Option<&Entry>, e: &Entry) -> (f32, f32) {
+    let Some(p) = prev.filter(|p| !p.suspect && !p.warmup && !e.suspect && !e.warmup) else { return (-1.0, -1.0) };
+    let sq = |x: f32| f64::from(x) * f64::from(x);
+    let var_v = sq(p.sv_mps) + sq(e.sv_mps);
+    let dv = f64::from(e.v_mps) - f64::from(p.v_mps);
+    let speed = if var_v > 0.0 { (dv * dv / var_v) as f32 } else { -1.0 };
+    let heading = if p.v_mps.min(e.v_mps) >= OWN_HEADING_MIN_SPEED_MPS {
+        let (a, b) = (p.heading_sigma(), e.heading_sigma());
+        let var_h = a * a + b * b;
+        let dh = wrap_difference(f64::from(e.heading_rad) - f64::from(p.heading_rad));
+        if var_h > 0.0 {
+            (dh * dh / var_h) as f32
+        } else {
+            -1.0
+        }
+    } else {
+        -1.0
+    };
+    (if speed.is_finite() { speed } else { -1.0 }, if heading.is_finite() { heading } else { -1.0 })
 }
 
 impl History {
@@ -119,22 +160,57 @@ impl History {
         self.len().checked_sub(1).and_then(|i| self.get(i))
     }
 
-    /// Appends a state (setting its [`Entry::unit`]), dropping the oldest when full.
+    /// Appends a state (setting its [`Entry::unit`] and steps), dropping the oldest when full.
     pub fn push(&mut self, mut e: Entry) {
         let (s, c) = libm::sincos(f64::from(e.heading_rad));
         e.unit = [c as f32, s as f32];
-        if self.len() < HISTORY {
-            let idx = (usize::from(self.start) + self.len()) % HISTORY;
-            if let Some(slot) = self.items.get_mut(idx) {
-                *slot = e;
+        let step = steps_from(self.last(), &e);
+        self.add_steps(step, 1.0);
+        if self.len() >= HISTORY {
+            // The oldest state leaves, and with it the step of the state after it.
+            let next = (usize::from(self.start) + 1) % HISTORY;
+            if let Some(&old) = self.steps.get(next) {
+                self.add_steps(old, -1.0);
             }
-            self.len += 1;
-        } else {
-            if let Some(slot) = self.items.get_mut(usize::from(self.start)) {
-                *slot = e;
+            if let Some(slot) = self.steps.get_mut(next) {
+                *slot = (-1.0, -1.0);
             }
-            self.start = ((usize::from(self.start) + 1) % HISTORY) as u8;
         }
+        let idx = if self.len() < HISTORY {
+            let idx = (usize::from(self.start) + self.len()) % HISTORY;
+            self.len += 1;
+            idx
+        } else {
+            let idx = usize::from(self.start);
+            self.start = ((usize::from(self.start) + 1) % HISTORY) as u8;
+            idx
+        };
+        if let Some(slot) = self.items.get_mut(idx) {
+            *slot = e;
+        }
+        if let Some(slot) = self.steps.get_mut(idx) {
+            *slot = step;
+        }
+    }
+
+    fn add_steps(&mut self, (speed, heading): (f32, f32), sign: f64) {
+        if speed >= 0.0 {
+            self.speed_sum = (self.speed_sum + sign * f64::from(speed)).max(0.0);
+            self.speed_n = if sign > 0.0 { self.speed_n.saturating_add(1) } else { self.speed_n.saturating_sub(1) };
+        }
+        if heading >= 0.0 {
+            self.heading_sum = (self.heading_sum + sign * f64::from(heading)).max(0.0);
+            self.heading_n =
+                if sign > 0.0 { self.heading_n.saturating_add(1) } else { self.heading_n.saturating_sub(1) };
+        }
+    }
+
+    /// The track's own scatter over its declared sigma (root mean square of the kept clean studentised steps)
+    /// and the number of steps, for the speed and for the heading.
+    #[must_use]
+    pub fn own_scatter(&self) -> ((f64, u8), (f64, u8)) {
+        let rms = |sum: f64, n: u8| if n == 0 { 0.0 } else { libm::sqrt(sum / f64::from(n)) };
+        ((rms(self.speed_sum, self.speed_n), self.speed_n), (rms(self.heading_sum, self.heading_n), self.heading_n))
     }
 
     /// A history holding only `e`.
@@ -146,6 +222,55 @@ impl History {
     }
 }
 
+/// `P(|T| <= t)` for Student's t with `nu >= 1` degrees of freedom (Abramowitz and Stegun 26.7.3, 26.7.4: exact
+/// finite sums for integer `nu`).
+fn t_abs_cdf(t: f64, nu: u32) -> f64 {
+    use core::f64::consts::PI;
+    let th = libm::atan(t / libm::sqrt(f64::from(nu)));
+    let (s, c) = libm::sincos(th);
+    let c2 = c * c;
+    let mut sum = 1.0;
+    let mut term = 1.0;
+    if nu.is_multiple_of(2) {
+        for k in 1..nu / 2 {
+            term *= f64::from(2 * k - 1) / f64::from(2 * k) * c2;
+            sum += term;
+        }
+        s * sum
+    } else if nu == 1 {
+        2.0 * th / PI
+    } else {
+        for k in 1..(nu - 1) / 2 {
+            term *= f64::from(2 * k) / f64::from(2 * k + 1) * c2;
+            sum += term;
+        }
+        2.0 / PI * (th + s * c * sum)
+    }
+}
+
+/// The two-sided quantile `t` with `P(|T| > t) = p` of Student's t with `nu` degrees of freedom (bisection on
+/// [`t_abs_cdf`], in the logarithm of `t`).
+fn t_quantile(p: f64, nu: u32) -> f64 {
+    let (mut lo, mut hi) = (libm::log(1e-3), libm::log(1e12));
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if 1.0 - t_abs_cdf(libm::exp(mid), nu.max(1)) > p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    libm::exp(0.5 * (lo + hi))
+}
+
+/// Degrees of freedom of the own-scatter test with `n` kept steps: consecutive steps of white noise share a
+/// state (correlation -1/2), so the mean of `n` squared steps is worth fewer than `n` independent ones; `n - 1`
+/// is conservative (checked by `own_scatter_gate_keeps_its_false_alarm_probability`).
+#[must_use]
+pub fn own_dof(n: u8) -> u32 {
+    u32::from(n).saturating_sub(1).max(1)
+}
+
 /// The gates of a false-alarm probability `p`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Gates {
@@ -153,6 +278,9 @@ pub struct Gates {
     pub chi2_2: f64,
     /// Two-sided normal quantile `z` with `P(|N| > z) = p`.
     pub z: f64,
+    /// `t[n]`: the two-sided Student-t quantile at `p` with [`own_dof`]`(n)` degrees of freedom, for a track's
+    /// own scatter from `n` kept steps.
+    pub t: [f64; HISTORY],
 }
 
 impl Gates {
@@ -165,7 +293,23 @@ impl Gates {
         let z = t
             - (2.515_517 + 0.802_853 * t + 0.010_328 * t * t)
                 / (1.0 + 1.432_788 * t + 0.189_269 * t * t + 0.001_308 * t * t * t);
-        Self { chi2_2: -2.0 * libm::log(p), z }
+        let mut t = [f64::INFINITY; HISTORY];
+        for (n, q) in t.iter_mut().enumerate().skip(usize::from(OWN_SCATTER_MIN_INCREMENTS)) {
+            *q = t_quantile(p, own_dof(n as u8));
+        }
+        Self { chi2_2: -2.0 * libm::log(p), z, t }
+    }
+
+    /// The margin factor (times the declared sigma of the difference): the smaller of `z` and the own-scatter
+    /// test's `t rms`, the latter only with at least [`OWN_SCATTER_MIN_INCREMENTS`] steps (`rms` floored at
+    /// [`OWN_SCATTER_FLOOR`]).
+    #[must_use]
+    pub fn factor(&self, (rms, n): (f64, u8)) -> f64 {
+        if n < OWN_SCATTER_MIN_INCREMENTS {
+            return self.z;
+        }
+        let t = self.t.get(usize::from(n)).copied().unwrap_or(f64::INFINITY);
+        self.z.min(t * rms.max(OWN_SCATTER_FLOOR))
     }
 }
 
@@ -262,6 +406,7 @@ pub fn check_calibrated(
 ) -> CalibratedCheck {
     let n = h.len();
     let s0 = h.last().copied().unwrap_or(*s1);
+    let (own_speed, own_heading) = h.own_scatter();
     let dt = (s1.t_s - s0.t_s).max(1e-9);
     let (v0, v1) = (f64::from(s0.v_mps), f64::from(s1.v_mps));
     let mut fired = Conditions::default();
@@ -274,7 +419,7 @@ pub fn check_calibrated(
     let heading_defined = !s0.warmup && !s1.warmup && v0.min(v1) >= heading_min_speed_mps;
     let d_heading = wrap_difference(f64::from(s1.heading_rad) - f64::from(s0.heading_rad));
     if heading_defined {
-        let m = gates.z * norm(s0.heading_sigma(), s1.heading_sigma());
+        let m = gates.factor(own_heading) * norm(s0.heading_sigma(), s1.heading_sigma());
         turn = (d_heading / dt, m / dt);
         let w_max = f64::from(limits.turn_rate_max_radps).abs();
         if libm::fabs(d_heading) - m > core::f64::consts::FRAC_PI_2 {
@@ -292,7 +437,10 @@ pub fn check_calibrated(
 
     // 2. Acceleration.
     let accel = (v1 - v0) / dt;
-    let accel_margin = gates.z * norm(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt;
+    // (The own scatter narrows the margin only between initialised speeds: at the end of a warm-up the step
+    // is the warm-up's error, judged with the warm-up sigma.)
+    let speed_factor = if s0.warmup || s1.warmup { gates.z } else { gates.factor(own_speed) };
+    let accel_margin = speed_factor * norm(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt;
     // The first initialised speed after a warm-up is checked too: the warm-up's 0 carries the warm-up sigma,
     // so a step beyond `a_acc dt + z hypot(warmup sigma, sigma_v)` says that the object moved at that speed
     // while the tracker reported 0 (a speed error of the warm-up, named below).
@@ -616,5 +764,175 @@ mod tests {
         // A walking pedestrian (1.4 m/s) after its warm-up, or a car starting from standstill: tolerated.
         assert!(run(&h, &e(0.1, 0.14, 1.4)).fired.is_empty());
         assert!(run(&h, &e(0.1, 0.03, 0.7)).fired.is_empty());
+    }
+
+    #[test]
+    fn t_quantiles_match_tables() {
+        for (p, nu, want) in [
+            (0.05, 1, 12.706),
+            (0.05, 4, 2.776),
+            (0.05, 10, 2.228),
+            (0.01, 3, 5.841),
+            (0.01, 5, 4.032),
+            (0.001, 10, 4.587),
+            (0.001, 7, 5.408),
+        ] {
+            let t = t_quantile(p, nu);
+            assert!((t - want).abs() < 2e-3 * want, "p {p} nu {nu}: {t} vs {want}");
+        }
+        // Many degrees of freedom: the normal quantile.
+        assert!((t_quantile(1e-4, 400) - Gates::new(1e-4).z).abs() < 0.05);
+    }
+
+    /// Deterministic standard normal draws (xorshift and Box-Muller).
+    fn normals(seed: u64) -> impl FnMut() -> f64 {
+        let mut x = seed | 1;
+        move || {
+            let mut u = || {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (a, b) = (u(), u());
+            libm::sqrt(-2.0 * libm::log(a)) * libm::cos(core::f64::consts::TAU * b)
+        }
+    }
+
+    /// A track at `v` m/s along x with white speed and heading noise of the given sigmas (the declared ones stay
+    /// 0.5 m/s and 0.1 rad), checked state by state; returns (alarms of the speed step, of the heading, states).
+    fn noisy_run(
+        p: f64,
+        v: f64,
+        sigma_v: f64,
+        sigma_h: f64,
+        dt: f64,
+        states: usize,
+        seed: u64,
+    ) -> (usize, usize, usize) {
+        let gates = Gates::new(p);
+        let mut g = normals(seed);
+        let mut h = History::default();
+        let (mut speed, mut heading, mut judged) = (0, 0, 0);
+        for k in 0..states {
+            let t = k as f64 * dt;
+            let mut s = e(t, v * t, (v + sigma_v * g()) as f32);
+            s.heading_rad = (sigma_h * g()) as f32;
+            if !h.is_empty() {
+                let c = check_calibrated(&h, &s, &MotionLimits::default(), &gates, 1.0, 0.5);
+                judged += 1;
+                speed += usize::from(c.fired.contains(Conditions::ACCELERATION));
+                heading += usize::from(c.fired.contains(Conditions::TURN_RATE));
+                s.suspect = !c.fired.is_empty();
+            }
+            h.push(s);
+        }
+        (speed, heading, judged)
+    }
+
+    #[test]
+    fn own_scatter_gate_keeps_its_false_alarm_probability() {
+        // Honest declared sigmas (0.5 m/s, 0.1 rad at speed: 0.1 + 0.5 / 10): the own scatter never narrows the
+        // margin below z, the rate is the declared gate's. Speeds and headings 10x less noisy than declared: the
+        // own-scatter test sets the margin, and its rate must still be about p (the t-test), not more.
+        let p = 0.01;
+        for (sv, sh, seed) in [(0.05, 0.015, 3u64), (0.5, 0.15, 5), (0.01, 0.002, 7)] {
+            let (speed, heading, n) = noisy_run(p, 10.0, sv, sh, 0.01, 60_000, seed);
+            let (rs, rh) = (speed as f64 / n as f64, heading as f64 / n as f64);
+            #[cfg(feature = "std")]
+            std::println!("noise {sv} m/s, {sh} rad: speed-step rate {rs:.4}, heading rate {rh:.4} (p {p})");
+            assert!(rs < 1.5 * p, "speed {sv}: {rs}");
+            assert!(rh < 1.5 * p, "heading {sh}: {rh}");
+        }
+    }
+
+    #[test]
+    fn a_2_mps_speed_step_on_a_steady_track_is_caught_at_10_and_20_hz() {
+        // Declared 1 m/s speed sigma (the paper's margin) on a track whose speeds scatter by 0.05 m/s: a single
+        // state reported 2 m/s too fast is beyond `a_acc dt` plus the track's own scatter.
+        for dt in [0.1, 0.05] {
+            let mut g = normals(11);
+            let mut h = History::default();
+            for k in 0..HISTORY {
+                let t = k as f64 * dt;
+                let mut s = e(t, 10.0 * t, (10.0 + 0.05 * g()) as f32);
+                s.sv_mps = 1.0;
+                h.push(s);
+            }
+            let t = HISTORY as f64 * dt;
+            let mut s = e(t, 10.0 * t, 12.0);
+            s.sv_mps = 1.0;
+            let c = run(&h, &s);
+            assert!(c.fired.contains(Conditions::ACCELERATION), "dt {dt}: {c:?}");
+            assert_eq!(c.kind, Some(ImplausibilityKind::SpeedInconsistent), "dt {dt}: {c:?}");
+            // A real acceleration at the limit (7 m/s^2) is not a step.
+            let mut s = e(t, 10.0 * t, (10.0 + 6.5 * dt) as f32);
+            s.sv_mps = 1.0;
+            assert!(run(&h, &s).fired.is_empty(), "dt {dt}");
+        }
+        // A track that scatters as much as it declares: the 2 m/s step is within its noise (z margin).
+        let mut g = normals(13);
+        let mut h = History::default();
+        for k in 0..HISTORY {
+            let t = k as f64 * 0.1;
+            let mut s = e(t, 10.0 * t, (10.0 + 1.0 * g()) as f32);
+            s.sv_mps = 1.0;
+            h.push(s);
+        }
+        let mut s = e(1.2, 12.0, 12.0);
+        s.sv_mps = 1.0;
+        assert!(!run(&h, &s).fired.contains(Conditions::ACCELERATION));
+    }
+
+    #[test]
+    fn a_flip_of_a_slow_pedestrian_is_caught_with_a_steady_heading_history() {
+        // 1.6 m/s (a flip changes the velocity by 3.2 m/s): the declared heading sigma 0.1 + 0.5 / 1.6 rad leaves
+        // no room for a flip, the track's steady headings (0.02 rad) do.
+        let mut g = normals(17);
+        let mut h = History::default();
+        for k in 0..HISTORY {
+            let t = k as f64 * 0.1;
+            let mut s = e(t, 1.6 * t, 1.6);
+            s.heading_rad = (0.02 * g()) as f32;
+            h.push(s);
+        }
+        let mut s = e(1.2, 1.92, 1.6);
+        s.heading_rad = 3.1;
+        let c = run(&h, &s);
+        assert_eq!(c.kind, Some(ImplausibilityKind::HeadingFlip), "{c:?}");
+        // Without the history (two states), the declared sigma alone cannot tell.
+        let h2 = track(1.6, 2);
+        let mut s = e(0.2, 0.32, 1.6);
+        s.heading_rad = 3.1;
+        assert!(run(&h2, &s).kind != Some(ImplausibilityKind::HeadingFlip));
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn running_scatter_sums_match_a_recount(
+            steps in proptest::collection::vec((0.0f32..20.0, -3.2f32..3.2, proptest::bool::ANY, proptest::bool::ANY), 1..60)
+        ) {
+            let mut h = History::default();
+            for (k, &(v, th, suspect, warmup)) in steps.iter().enumerate() {
+                let mut s = e(k as f64 * 0.1, k as f64, v);
+                s.heading_rad = th;
+                s.suspect = suspect;
+                s.warmup = warmup;
+                h.push(s);
+                // Recount from the kept states (the oldest one's step is not kept).
+                let (mut sv, mut nv, mut sh, mut nh) = (0.0f64, 0u8, 0.0f64, 0u8);
+                for i in 1..h.len() {
+                    let (a, b) = (h.get(i - 1).copied().unwrap_or_default(), h.get(i).copied().unwrap_or_default());
+                    let (x, y) = steps_from(Some(&a), &b);
+                    if x >= 0.0 { sv += f64::from(x); nv += 1; }
+                    if y >= 0.0 { sh += f64::from(y); nh += 1; }
+                }
+                let rms = |s: f64, n: u8| if n == 0 { 0.0 } else { libm::sqrt(s / f64::from(n)) };
+                let ((a, na), (b, nb)) = h.own_scatter();
+                proptest::prop_assert_eq!((na, nb), (nv, nh));
+                proptest::prop_assert!((a - rms(sv, nv)).abs() < 1e-6 * (1.0 + a));
+                proptest::prop_assert!((b - rms(sh, nh)).abs() < 1e-6 * (1.0 + b));
+            }
+        }
     }
 }

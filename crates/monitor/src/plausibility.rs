@@ -83,6 +83,9 @@ pub struct TrackTable {
     tracks: Vec<Track>,
     next: Vec<Track>,
     order: Vec<u32>,
+    /// The calibrated rule's gates and the false-alarm probability they are for (computed once: the Student-t
+    /// quantiles take a bisection each).
+    gates: Option<(f64, Gates)>,
 }
 
 /// An object's state in the world frame with its margins.
@@ -113,6 +116,7 @@ impl TrackTable {
             tracks: Vec::with_capacity(2 * max_objects),
             next: Vec::with_capacity(2 * max_objects),
             order: Vec::with_capacity(max_objects),
+            gates: None,
         }
     }
 
@@ -154,7 +158,14 @@ impl TrackTable {
             }
             return;
         }
-        let gates = Gates::new(p.false_alarm_probability);
+        let gates = match self.gates {
+            Some((q, g)) if q.to_bits() == p.false_alarm_probability.to_bits() => g,
+            _ => {
+                let g = Gates::new(p.false_alarm_probability);
+                self.gates = Some((p.false_alarm_probability, g));
+                g
+            }
+        };
         self.order.clear();
         self.order.extend(0..n as u32);
         self.order.sort_unstable_by_key(|&i| (objects.get(i as usize).map_or(u64::MAX, |o| o.id), i));
