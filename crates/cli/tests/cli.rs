@@ -1,18 +1,12 @@
 //! End-to-end tests of the `pmon` binary on recordings written here.
 
+mod common;
+use common::{data_dir, pmon, text};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use pmon_monitor::{Isometry3, ObjectClass, ObjectState, Pose2};
 use pmon_recording::{write_recording, OwnedCloud, RecordedFrame, RecordingMeta};
-
-fn pmon(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pmon")).args(args).output().expect("pmon runs")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
 
 /// A pedestrian walking at 1.2 m/s along y, 10 m ahead, seen by a LiDAR 1.8 m up (points on its near face,
 /// ground all around). `displace_from` shifts the reported position 1.5 m away from frame k on.
@@ -262,18 +256,6 @@ fn reproduce_writes_a_report_derived_from_the_runs() {
     // Paper conditions and hard conditions, 0.5 m and 0.2 m cells each.
     assert_eq!(permanent.len(), 4);
     assert!(permanent.iter().all(|c| c["met"] == serde_json::Value::Bool(false)), "{permanent:?}");
-}
-
-fn data_dir() -> Option<std::path::PathBuf> {
-    let dir = std::env::var_os("PMON_DATA_DIR")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    if dir.exists() {
-        Some(dir)
-    } else {
-        eprintln!("SKIPPED: no real data at {} (set PMON_DATA_DIR)", dir.display());
-        None
-    }
 }
 
 #[test]

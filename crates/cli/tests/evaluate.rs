@@ -2,20 +2,14 @@
 //! name without stopping the run, the pooled curves equal to the sums of the per-task counts, the same bytes
 //! with 1 and 2 threads, and a resumed run (results deleted, run again) equal to the whole one.
 
+mod common;
+use common::{data_dir, pmon, text};
 use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use serde_json::Value;
-
-fn pmon(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pmon")).args(args).output().expect("pmon runs")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
 
 /// Two simulated recordings (2 s each) and a broken one (its frames file is not JSON).
 fn recordings(root: &Path) -> PathBuf {
@@ -152,18 +146,6 @@ fn evaluate_refuses_a_source_without_logs() {
     let o = pmon(&["evaluate", "av2:/nonexistent/pmon", "--out", tmp.path().join("o").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("not found"), "{}", text(&o));
-}
-
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("PMON_DATA_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    if dir.exists() {
-        Some(dir)
-    } else {
-        eprintln!("SKIPPED: no real data at {} (set PMON_DATA_DIR)", dir.display());
-        None
-    }
 }
 
 #[test]

@@ -1,16 +1,10 @@
 //! Issue 15: a tool you can trust with your data. End-to-end regression tests of the `pmon` binary, each
 //! named after what broke.
 
+mod common;
+use common::{data_dir, pmon, text};
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
-
-fn pmon(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pmon")).args(args).output().expect("pmon runs")
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
+use std::process::{Command, Stdio};
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
@@ -257,18 +251,6 @@ fn issue_15_dash_reads_standard_input() {
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     assert_eq!(String::from_utf8_lossy(&o.stdout).lines().filter(|l| l.contains("\"id\":1")).count(), 3);
-}
-
-fn data_dir() -> Option<std::path::PathBuf> {
-    let dir = std::env::var_os("PMON_DATA_DIR")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    if dir.exists() {
-        Some(dir)
-    } else {
-        eprintln!("SKIPPED: no real data at {} (set PMON_DATA_DIR)", dir.display());
-        None
-    }
 }
 
 fn copy_tree(from: &Path, to: &Path) {
