@@ -1,5 +1,6 @@
 //! Runs the latency benchmarks and prints the table (or JSON), like `pmon bench`:
-//! `cargo run --release -p pmon-bench --example bench -- [--json] [--iterations N]`.
+//! `cargo run --release -p pmon-bench --example bench -- [--json] [--iterations N] [--max-seconds-per-case S]
+//! [--only TEXT]...` (`--only`: the cases whose name contains one of the texts, as `pmon bench --only`).
 
 use std::process::ExitCode;
 
@@ -19,8 +20,25 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             },
+            "--max-seconds-per-case" => match args.next().and_then(|v| v.parse().ok()) {
+                Some(s) => opts.max_seconds_per_case = s,
+                None => {
+                    eprintln!("--max-seconds-per-case needs a number");
+                    return ExitCode::from(2);
+                }
+            },
+            "--only" => match args.next() {
+                Some(text) => opts.only.push(text),
+                None => {
+                    eprintln!("--only needs a text");
+                    return ExitCode::from(2);
+                }
+            },
             other => {
-                eprintln!("unknown argument `{other}`; usage: bench [--json] [--iterations N]");
+                eprintln!(
+                    "unknown argument `{other}`; usage: bench [--json] [--iterations N] [--max-seconds-per-case S] \
+                     [--only TEXT]..."
+                );
                 return ExitCode::from(2);
             }
         }

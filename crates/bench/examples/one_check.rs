@@ -4,8 +4,11 @@
 //! ```text
 //! cargo build --release -p pmon-bench --example one_check
 //! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Monitor::check_with_stages*' \
-//!     target/release/examples/one_check [CHECKS] [CELL_SIZE_M] [RASTERIZER]
+//!     target/release/examples/one_check [CHECKS] [CELL_SIZE_M] [RASTERIZER] [kitti]
 //! ```
+//!
+//! With `kitti`, the six KITTI sweeps with the 64-beam object lists, as `pmon bench`'s `kitti/0.5m` case (read
+//! from `PMON_DATA_DIR`, default `<workspace>/../shared/data`), instead of the synthetic frame.
 //!
 //! `RASTERIZER` is `blocked` (the default: AVX2 where the processor has it), `baseline` (the blocked loop on SSE2)
 //! or `scalar` (the reference loop); see `pmon_monitor::Rasterizer`.
@@ -47,7 +50,25 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let seq = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
+    let seq = match args.next().as_deref() {
+        None => Sequence::synthetic(&SyntheticSpec::BEAMS_64),
+        Some("kitti") => {
+            match pmon_bench::frames::kitti_sweeps(&pmon_bench::frames::data_dir())
+                .ok()
+                .and_then(|s| Sequence::real("kitti", s, &SyntheticSpec::BEAMS_64))
+            {
+                Some(seq) => seq,
+                None => {
+                    eprintln!("error: no KITTI sweeps under {}", pmon_bench::frames::data_dir().display());
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
+        Some(other) => {
+            eprintln!("unknown case `{other}`; usage: one_check [CHECKS] [CELL_SIZE_M] [RASTERIZER] [kitti]");
+            return ExitCode::from(2);
+        }
+    };
     let mut monitor = match Monitor::new(MonitorParams { cell_size_m, ..MonitorParams::PAPER }) {
         Ok(m) => m,
         Err(e) => {

@@ -11,8 +11,8 @@
 //!   azimuth bin of each. Pass 2 applies the updates in point order, which is what keeps the results identical
 //!   (ties in the nearest obstacle keep the first point; the touched-cell list is in the order of first touch):
 //!   to the visibility map without branches on the data (whether a return is the nearest or farthest so far is
-//!   not predictable; the nearest obstacle is the smallest key `(r^2 bits, point index)`), and to the grid one
-//!   run of consecutive hits of a cell at a time (see `OccupancyGrid::add_hits`).
+//!   not predictable; the nearest obstacle is the first return with the smallest `r^2` bits, compared strictly
+//!   in point order), and to the grid one run of consecutive hits of a cell at a time (see `OccupancyGrid::add_hits`).
 //!
 //! Pass 1 computes the reference's floating-point operations in the reference's order (Rust neither contracts
 //! `a * b + c` into a fused multiply-add nor reassociates, whatever the instruction set), so each lane has the
@@ -267,8 +267,8 @@ impl Block {
 
     /// Pass 2: the updates, in point order.
     #[inline(always)]
-    fn apply(&self, first: u32, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
-        visibility.add_binned(first, &self.bins, &self.far_r2, &self.near_bits, &self.cells);
+    fn apply(&self, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
+        visibility.add_binned(&self.bins, &self.far_r2, &self.near_bits, &self.cells);
         grid.add_hits(&self.cells);
     }
 }
@@ -378,12 +378,9 @@ fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
     let mut block = Block::EMPTY;
     let mut in_band = 0u32;
     let (chunks, rest) = points.as_chunks::<BLOCK>();
-    let mut first = 0u32;
-    visibility.clear_keyed();
     for chunk in chunks {
         in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK>(k, chunk);
-        block.apply(first, grid, visibility);
-        first = first.wrapping_add(BLOCK as u32);
+        block.apply(grid, visibility);
     }
     if !rest.is_empty() {
         // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
@@ -392,9 +389,8 @@ fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
             *d = *s;
         }
         in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK>(k, &padded);
-        block.apply(first, grid, visibility);
+        block.apply(grid, visibility);
     }
-    visibility.finish_keyed();
     in_band
 }
 

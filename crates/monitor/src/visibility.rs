@@ -54,29 +54,11 @@ impl Bin {
         Self { nearest_obstacle_r2: f32::INFINITY, nearest_obstacle_cell: NO_CELL, farthest_return_r2: 0.0 };
 }
 
-/// A bin as the blocked rasterizer keeps it: the nearest obstacle as a key `(r^2 bits << 32) | return index` (the
-/// smallest key is the nearest return, and among equal ranges the first, as in [`VisibilityMap::add_return`];
-/// keys from `u32::MAX << 32` up: none), its grid cell, and the farthest return. (Four copies of each bin, one per
-/// return modulo 4, so that consecutive returns of a bin would not wait for each other's stores, measured no
-/// faster: the larger copies left the first-level cache.)
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct KeyedBin {
-    nearest_key: u64,
-    farthest_return_r2: f32,
-    nearest_obstacle_cell: u32,
-}
-
-impl KeyedBin {
-    const EMPTY: Self = Self { nearest_key: u64::MAX, farthest_return_r2: 0.0, nearest_obstacle_cell: NO_CELL };
-}
-
 /// Nearest-obstacle and farthest-return ranges per azimuth bin.
 #[derive(Clone, Debug)]
 pub struct VisibilityMap {
     /// One record per bin (a single bounds check per update).
     bins: Vec<Bin>,
-    /// The bins as the blocked rasterizer fills them, copied into `bins` by [`VisibilityMap::finish_keyed`].
-    keyed: Vec<KeyedBin>,
     origin: [f32; 2],
     bins_per_unit: f32,
 }
@@ -86,12 +68,7 @@ impl VisibilityMap {
     #[must_use]
     pub fn new(bins: u32) -> Self {
         let n = bins.max(1) as usize;
-        Self {
-            bins: vec![Bin::EMPTY; n],
-            keyed: vec![KeyedBin::EMPTY; n],
-            origin: [0.0, 0.0],
-            bins_per_unit: n as f32 / 4.0,
-        }
+        Self { bins: vec![Bin::EMPTY; n], origin: [0.0, 0.0], bins_per_unit: n as f32 / 4.0 }
     }
 
     /// Clears the map and sets the sensor origin (ego frame, metres).
@@ -110,46 +87,32 @@ impl VisibilityMap {
         }
     }
 
-    /// Clears the keyed bins before a frame's [`VisibilityMap::add_binned`] calls.
-    pub(crate) fn clear_keyed(&mut self) {
-        self.keyed.fill(KeyedBin::EMPTY);
-    }
-
-    /// Records a block of returns already binned (see [`BinParams`]), in order; `first` is the index of the
-    /// block's first return in the frame. Per return: its bin, its squared range as a candidate farthest return
-    /// (`0.0` for a point that is no return: it never wins), the bits of its squared range as a candidate nearest
-    /// obstacle (`u32::MAX` for a point that is no obstacle or an infinite range: it never wins; otherwise a
-    /// finite non-negative float, whose bits order as its value), and the obstacle's grid cell. After
-    /// [`VisibilityMap::finish_keyed`], the same map as [`VisibilityMap::add_return`] on each return in turn.
+    /// Records a block of returns already binned (see [`BinParams`]), in point order: the same map as
+    /// [`VisibilityMap::add_return`] on each return in turn. Per return: its bin, its squared range as a candidate
+    /// farthest return (`0.0` for a point that is no return: it never wins), the bits of its squared range as a
+    /// candidate nearest obstacle (`u32::MAX` for a point that is no obstacle or has an infinite range: it never
+    /// wins; otherwise a finite non-negative float, whose bits order as its value), and the obstacle's grid cell.
+    ///
+    /// The nearest obstacle is compared by its bits, strictly, in point order: the first of equal ranges stays,
+    /// as in [`VisibilityMap::add_return`]. (It used to be a 64-bit key `(r^2 bits << 32) | point index` in a
+    /// second array of bins copied into this one per frame, left from a version that kept four copies of each
+    /// bin and merged them; with one copy the strict comparison in order gives the same bin, with fewer
+    /// instructions per return.)
     #[inline]
-    pub(crate) fn add_binned(&mut self, first: u32, bins: &[u32], far_r2: &[f32], near_bits: &[u32], cells: &[u32]) {
+    pub(crate) fn add_binned(&mut self, bins: &[u32], far_r2: &[f32], near_bits: &[u32], cells: &[u32]) {
         let returns = bins.iter().zip(far_r2).zip(near_bits).zip(cells);
-        for (j, (((&b, &far), &near), &cell)) in returns.enumerate() {
-            if let Some(bin) = self.keyed.get_mut(b as usize) {
+        for (((&b, &far), &near), &cell) in returns {
+            if let Some(bin) = self.bins.get_mut(b as usize) {
                 // The farthest return: a `maxss` (neither range is NaN).
                 bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
-                // The nearest obstacle: the smallest key `(r^2 bits << 32) | index`, the first of equal ranges.
-                // (The index cannot overflow: a frame has at most `max_points` < 2^32 returns.) Whether a return
-                // is the nearest so far is not predictable in real sweeps: no branch.
-                let key = (u64::from(near) << 32) | u64::from(first.wrapping_add(j as u32));
-                let nearer = key < bin.nearest_key;
-                bin.nearest_key = core::hint::select_unpredictable(nearer, key, bin.nearest_key);
+                // The nearest obstacle. An empty bin holds `INFINITY`, whose bits are below `u32::MAX`, so a
+                // point that is no obstacle never wins. Whether a return is the nearest so far is not
+                // predictable in real sweeps: no branch.
+                let old = bin.nearest_obstacle_r2.to_bits();
+                let nearer = near < old;
+                bin.nearest_obstacle_r2 = f32::from_bits(core::hint::select_unpredictable(nearer, near, old));
                 bin.nearest_obstacle_cell = core::hint::select_unpredictable(nearer, cell, bin.nearest_obstacle_cell);
             }
-        }
-    }
-
-    /// Copies the keyed bins into the map (overwriting it).
-    pub(crate) fn finish_keyed(&mut self) {
-        for (bin, keyed) in self.bins.iter_mut().zip(&self.keyed) {
-            // Keys of points that were no obstacle start with `u32::MAX`, above every finite range's bits.
-            let r2_bits = (keyed.nearest_key >> 32) as u32;
-            let found = r2_bits < f32::INFINITY.to_bits();
-            *bin = Bin {
-                nearest_obstacle_r2: if found { f32::from_bits(r2_bits) } else { f32::INFINITY },
-                nearest_obstacle_cell: if found { keyed.nearest_obstacle_cell } else { NO_CELL },
-                farthest_return_r2: keyed.farthest_return_r2,
-            };
         }
     }
 
