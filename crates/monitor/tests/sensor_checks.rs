@@ -140,6 +140,34 @@ fn a_cluster_is_in_the_roi_when_one_of_its_returns_is() {
     }
 }
 
+/// The region of interest decides where evidence nobody owns is a missed object, not whose evidence it is: a car
+/// parked off the road (outside the ROI), reported 2.5 m further away than it stands, is a position error that
+/// takes its own returns, as on the road. (Before, clusters outside the ROI were offered to nobody and the box, its
+/// place hidden behind its own returns, was called occluded.)
+#[test]
+fn displaced_box_off_the_road_takes_its_evidence_outside_the_roi() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let truth = object(1, 0.5, 12.0, 0.0, 4.5, 1.9);
+    let mut pts = visible_face_points(&truth, 0.05);
+    pts.extend(ground_points(45.0));
+    let pts_s = to_sensor(&pts);
+    let road: &[[f32; 2]] = &[[-50.0, -6.0], [50.0, -6.0], [50.0, 6.0], [-50.0, 6.0]];
+    let roi = [road];
+    let clean = [truth];
+    let rep = m.check(&frame_at_origin(&clean, &pts_s, &roi, &[])).unwrap();
+    assert_eq!(rep.objects[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", rep.objects[0].sensor);
+    let mut reported = truth;
+    reported.y_m += 2.5;
+    let displaced = [reported];
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let rep = m.check(&frame_at_origin(&displaced, &pts_s, &roi, &[])).unwrap();
+    let o = rep.objects[0];
+    assert_eq!(o.sensor.verdict, SensorVerdict::PositionError, "{:?} {:?}", o.sensor, rep.clusters);
+    let k = o.sensor.cluster.expect("its returns attributed") as usize;
+    assert!(!rep.clusters[k].in_roi && rep.clusters[k].object == Some(0), "{:?}", rep.clusters[k]);
+    assert_eq!(rep.missed_objects(), 0);
+}
+
 #[test]
 fn reset_between_frames_leaves_no_trace() {
     let mut m = Monitor::new(MonitorParams::default()).unwrap();
