@@ -282,7 +282,7 @@ fn av2_missed_object_alarms_with_the_map_are_kerb_side_structures() {
                 }
             }
             assert!(
-                depth >= 0.0 && depth < 1.0,
+                (0.0..1.0).contains(&depth),
                 "frame {}: cluster at {:?}: its deepest return {depth} m into the ROI",
                 df.frame.index,
                 c.centroid_m
