@@ -196,6 +196,37 @@ pub fn polygon_distance(polygon: &[[f32; 2]], x: f32, y: f32) -> f32 {
     best
 }
 
+/// Where a point lies against a polygon, in one pass over its edges: `(inside (even-odd), squared distance to
+/// the nearest edge)`. A polygon with fewer than 3 vertices: `(false, infinity)`.
+#[must_use]
+pub fn polygon_side_and_edge_distance2(polygon: &[[f32; 2]], x: f32, y: f32) -> (bool, f32) {
+    if polygon.len() < 3 {
+        return (false, f32::INFINITY);
+    }
+    let mut inside = false;
+    let mut best = f32::INFINITY;
+    let mut prev = match polygon.last() {
+        Some(p) => *p,
+        None => return (false, f32::INFINITY),
+    };
+    for &p in polygon {
+        let ([xi, yi], [xj, yj]) = (p, prev);
+        if (yi > y) != (yj > y) {
+            let t = (y - yi) / (yj - yi);
+            if x < xi + t * (xj - xi) {
+                inside = !inside;
+            }
+        }
+        let (ex, ey) = (xi - xj, yi - yj);
+        let len2 = ex * ex + ey * ey;
+        let t = if len2 > 0.0 { (((x - xj) * ex + (y - yj) * ey) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        let (dx, dy) = (x - xj - t * ex, y - yj - t * ey);
+        best = best.min(dx * dx + dy * dy);
+        prev = p;
+    }
+    (inside, best)
+}
+
 /// A monotonic pseudo-angle in `[0, 4)` of the direction `(dx, dy)` (the "diamond angle"): cheaper than
 /// `atan2`, no trigonometry, same ordering. `(0, 0)` maps to 0.
 #[must_use]

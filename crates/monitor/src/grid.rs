@@ -30,6 +30,11 @@ pub const FLAG_ROI_CONFLICT: u8 = 4;
 pub const FLAG_STATIC: u8 = 8;
 /// Cell flag: part of a conflict cluster attributed to an object (that object's evidence, displaced).
 pub const FLAG_ATTRIBUTED: u8 = 16;
+/// Cell flag: a conflict cell whose square straddles the edge of the region of interest (its centre within half
+/// a cell diagonal of a polygon's edge): whether its returns lie inside is decided return by return.
+pub const FLAG_ROI_EDGE: u8 = 32;
+/// Cell flag: a [`FLAG_ROI_EDGE`] cell holding an obstacle-band return inside the region of interest.
+pub const FLAG_RETURN_IN_ROI: u8 = 64;
 
 /// The state of one cell, for display and inspection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -5,7 +5,8 @@ use alloc::vec::Vec;
 use crate::evidence_memory::{EvidenceKind, EvidenceMemory};
 use crate::frame::{Frame, ObjectState, Uncertainty};
 use crate::grid::{
-    GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_ROI_CONFLICT, FLAG_STATIC, FLAG_VISITED,
+    GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_RETURN_IN_ROI, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE,
+    FLAG_STATIC, FLAG_VISITED,
 };
 use crate::params::{MonitorParams, ParamError};
 use crate::plausibility::TrackTable;
@@ -19,6 +20,40 @@ use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 mod assignment;
 mod attribution;
 use attribution::{claim, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDERS};
+
+/// Where a cell's square lies against the region of interest.
+enum RoiSide {
+    /// Its centre lies inside a polygon, at least half a cell diagonal from every edge: the whole square is.
+    Inside,
+    /// Its centre lies within half a cell diagonal of some polygon's edge: its returns decide.
+    Edge,
+    /// No part of the square reaches a polygon.
+    Outside,
+}
+
+/// [`RoiSide`] of the cell centred at `(x, y)`; each polygon's bounding box first (most are far away).
+fn roi_cell_side(roi: &[&[[f32; 2]]], x: f32, y: f32, half_diagonal: f32) -> RoiSide {
+    let mut side = RoiSide::Outside;
+    let r2 = half_diagonal * half_diagonal;
+    for poly in roi {
+        let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+        for p in poly.iter() {
+            b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
+        }
+        if x < b[0] - half_diagonal || x > b[2] + half_diagonal || y < b[1] - half_diagonal || y > b[3] + half_diagonal
+        {
+            continue;
+        }
+        let (inside, d2) = crate::geometry::polygon_side_and_edge_distance2(poly, x, y);
+        if inside && d2 >= r2 {
+            return RoiSide::Inside;
+        }
+        if d2 < r2 {
+            side = RoiSide::Edge;
+        }
+    }
+    side
+}
 
 /// The stages of [`Monitor::check`], in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -320,13 +355,11 @@ impl Monitor {
 
     /// Points -> grid: transform into the ego frame, keep the height band, count hits, fill the visibility map
     /// (the loops are in `crate::rasterize`).
-    fn rasterize(&mut self, frame: &Frame<'_>) {
-        use crate::rasterize::{rasterize_blocked, rasterize_scalar, Band, Rasterizer};
-        let Some(cloud) = frame.cloud.filter(|_| self.sensor_status.is_none()) else { return };
-        let t = cloud.ego_from_sensor;
-        self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
+    /// The obstacle band and the ego footprint, as the rasterizer applies them.
+    fn band(&self) -> crate::rasterize::Band {
+        use crate::rasterize::Band;
         let (lo_m, hi_m) = self.params.obstacle_band_m();
-        let band = Band {
+        Band {
             lo_m,
             hi_m,
             ego_m: if self.params.ego_footprint_m.iter().all(|v| *v == 0.0) {
@@ -334,7 +367,15 @@ impl Monitor {
             } else {
                 self.params.ego_footprint_m
             },
-        };
+        }
+    }
+
+    fn rasterize(&mut self, frame: &Frame<'_>) {
+        use crate::rasterize::{rasterize_blocked, rasterize_scalar, Rasterizer};
+        let Some(cloud) = frame.cloud.filter(|_| self.sensor_status.is_none()) else { return };
+        let t = cloud.ego_from_sensor;
+        self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
+        let band = self.band();
         let (points, grid, visibility) = (cloud.points_in_sensor, &mut self.grid, &mut self.visibility);
         let in_band = match self.rasterizer {
             Rasterizer::Blocked => rasterize_blocked(points, &t, band, grid, visibility, true),
@@ -445,6 +486,8 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let n = geometry.cells_per_side;
         let tau = self.params.tau_fn;
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
+        let mut edge_clusters = false;
         let mut k = 0usize;
         while let Some(&idx) = self.grid.touched().get(k) {
             k += 1;
@@ -501,8 +544,10 @@ impl Monitor {
             }
             let (mut sx, mut sy) = (0.0f32, 0.0f32);
             let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-            // In the region of interest: some cell inside the ROI, or no ROI. (Cells of known scenery are
-            // explained by the map and never part of a cluster.)
+            // In the region of interest: one of its obstacle-band returns inside the ROI, or no ROI. (Cells of
+            // known scenery are explained by the map and never part of a cluster.) A cell whose square lies inside
+            // a polygon decides it at once; cells straddling an edge are marked and decided return by return
+            // below (`roi_by_returns`).
             let mut in_roi = frame.roi_in_ego.is_empty();
             for &c in self.queue.get(start..end).unwrap_or(&[]) {
                 let (x, y) = geometry.cell_center(c);
@@ -510,7 +555,14 @@ impl Monitor {
                 sy += y;
                 b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 if !in_roi {
-                    in_roi = frame.roi_in_ego.iter().any(|p| crate::geometry::polygon_contains(p, x, y));
+                    match roi_cell_side(frame.roi_in_ego, x, y, half_diagonal) {
+                        RoiSide::Inside => in_roi = true,
+                        RoiSide::Edge => {
+                            self.grid.set_flags(c, FLAG_ROI_EDGE);
+                            edge_clusters = true;
+                        }
+                        RoiSide::Outside => {}
+                    }
                 }
             }
             if in_roi {
@@ -529,6 +581,47 @@ impl Monitor {
                 object: None,
             });
             self.cluster_spans.push((start as u32, end as u32));
+        }
+        if edge_clusters {
+            self.roi_by_returns(frame);
+        }
+    }
+
+    /// Decides the clusters left undecided by their cells (every cell centre outside the ROI or within half a
+    /// cell diagonal of its edge): such a cluster is in the ROI when one of the obstacle-band returns in its edge
+    /// cells lies inside a polygon. One pass over the sweep; the polygons are tested only for returns in edge
+    /// cells, once per cell. A cluster whose cells' centres lie inside while all its returns lie outside (a tree
+    /// behind the kerb whose 0.5 m cells straddle the kerb line) is no missed object, and a road user whose returns
+    /// reach into the area is one although its cells' centres lie outside.
+    fn roi_by_returns(&mut self, frame: &Frame<'_>) {
+        let Some(cloud) = frame.cloud else { return };
+        let band = self.band();
+        let t = cloud.ego_from_sensor;
+        let geometry = self.grid.geometry;
+        for p in cloud.points_in_sensor {
+            let q = t.transform(*p);
+            if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
+                continue;
+            }
+            let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
+            if self.grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) == FLAG_ROI_EDGE
+                && frame.roi_in_ego.iter().any(|poly| crate::geometry::polygon_contains(poly, q[0], q[1]))
+            {
+                self.grid.set_flags(cell, FLAG_RETURN_IN_ROI);
+            }
+        }
+        for (k, &(start, end)) in self.cluster_spans.iter().enumerate() {
+            let Some(c) = self.clusters.get_mut(k) else { continue };
+            if c.in_roi {
+                continue;
+            }
+            let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
+            if cells.iter().any(|&cell| self.grid.flags(cell) & FLAG_RETURN_IN_ROI != 0) {
+                c.in_roi = true;
+                for &cell in cells {
+                    self.grid.set_flags(cell, FLAG_ROI_CONFLICT);
+                }
+            }
         }
     }
 

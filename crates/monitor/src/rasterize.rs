@@ -75,7 +75,7 @@ impl Band {
 
     /// True when `(x, y)` lies in the ego footprint (never for NaN).
     #[inline(always)]
-    fn in_ego(&self, x: f32, y: f32) -> bool {
+    pub(crate) fn in_ego(&self, x: f32, y: f32) -> bool {
         let e = self.ego_m;
         (x >= e[0]) & (x <= e[2]) & (y >= e[1]) & (y <= e[3])
     }

@@ -106,6 +106,68 @@ fn unexplained_cluster_in_roi_is_a_missed_object_outside_it_is_not() {
     }
 }
 
+/// A cluster is in the region of interest when one of its returns is, not when a cell centre is: a kerb-side
+/// pole whose 0.5 m cells straddle the kerb line (centres inside the road, every return behind the kerb) raises
+/// no missed-object alarm, and an object whose returns reach into the road raises one although its cells'
+/// centres lie behind the kerb. (Before the rule the two answers were the other way round.)
+#[test]
+fn a_cluster_is_in_the_roi_when_one_of_its_returns_is() {
+    let params = MonitorParams::default();
+    let mut m = Monitor::new(params).unwrap();
+    let g = pmon_monitor::GridGeometry::new(params.grid_cells_per_side(), params.cell_size_m);
+    let (_, yc) = g.cell_center(g.point_to_cell(10.2, 7.7).unwrap());
+    let wall = |y: f32| -> Vec<[f32; 3]> {
+        let mut pts = ground_points(45.0);
+        for i in 0..=18 {
+            for z in [0.5, 1.0, 1.5] {
+                pts.push([10.05 + 0.05 * i as f32, y, z]);
+                pts.push([10.05 + 0.05 * i as f32, y + 0.04, z]);
+            }
+        }
+        pts
+    };
+    let road = |edge: f32| -> [[f32; 2]; 4] { [[0.0, 0.0], [20.0, 0.0], [20.0, edge], [0.0, edge]] };
+    // Every return behind the kerb line, the cells' centres in front of it.
+    let (pole, kerb) = (to_sensor(&wall(yc + 0.18)), road(yc + 0.15));
+    // Returns in front of the kerb line, the cells' centres behind it.
+    let (reaching, kerb_low) = (to_sensor(&wall(yc - 0.22)), road(yc - 0.1));
+    for (pts, roi, missed) in [(&pole, kerb, 0usize), (&reaching, kerb_low, 1)] {
+        let polys: [&[[f32; 2]]; 1] = [&roi];
+        let frame = frame_at_origin(&[], pts, &polys, &[]);
+        let rep = m.check(&frame).unwrap();
+        assert!(rep.grid.cells_conflict >= 2, "{:?}", rep.grid);
+        assert_eq!(rep.missed_objects(), missed, "{:?}", rep.clusters);
+    }
+}
+
+/// The region of interest decides where evidence nobody owns is a missed object, not whose evidence it is: a car
+/// parked off the road (outside the ROI), reported 2.5 m further away than it stands, is a position error that
+/// takes its own returns, as on the road. (Before, clusters outside the ROI were offered to nobody and the box, its
+/// place hidden behind its own returns, was called occluded.)
+#[test]
+fn displaced_box_off_the_road_takes_its_evidence_outside_the_roi() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let truth = object(1, 0.5, 12.0, 0.0, 4.5, 1.9);
+    let mut pts = visible_face_points(&truth, 0.05);
+    pts.extend(ground_points(45.0));
+    let pts_s = to_sensor(&pts);
+    let road: &[[f32; 2]] = &[[-50.0, -6.0], [50.0, -6.0], [50.0, 6.0], [-50.0, 6.0]];
+    let roi = [road];
+    let clean = [truth];
+    let rep = m.check(&frame_at_origin(&clean, &pts_s, &roi, &[])).unwrap();
+    assert_eq!(rep.objects[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", rep.objects[0].sensor);
+    let mut reported = truth;
+    reported.y_m += 2.5;
+    let displaced = [reported];
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let rep = m.check(&frame_at_origin(&displaced, &pts_s, &roi, &[])).unwrap();
+    let o = rep.objects[0];
+    assert_eq!(o.sensor.verdict, SensorVerdict::PositionError, "{:?} {:?}", o.sensor, rep.clusters);
+    let k = o.sensor.cluster.expect("its returns attributed") as usize;
+    assert!(!rep.clusters[k].in_roi && rep.clusters[k].object == Some(0), "{:?}", rep.clusters[k]);
+    assert_eq!(rep.missed_objects(), 0);
+}
+
 #[test]
 fn reset_between_frames_leaves_no_trace() {
     let mut m = Monitor::new(MonitorParams::default()).unwrap();

@@ -248,7 +248,11 @@ impl Monitor {
         self.by_x.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         // Candidate pairs.
         for k in 0..self.clusters.len() {
-            let Some(cb) = self.clusters.get(k).filter(|c| c.in_roi).map(|c| c.bounds_m) else { continue };
+            // Clusters outside the region of interest too: the ROI decides where evidence nobody owns is a missed
+            // object, not whose evidence it is. An object without evidence of its own (unconfirmed: only those are
+            // offered clusters here) standing beside a cluster that fits it, off the drivable area, is a parked car
+            // displaced from its own returns as much as one on the road.
+            let Some(cb) = self.clusters.get(k).map(|c| c.bounds_m) else { continue };
             // A track whose evidence stood apart from it last frame: its evidence is expected where the offset puts
             // it now (the cost is how far the cluster is from there).
             for m in 0..self.displaced.len() {
