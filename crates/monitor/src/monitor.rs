@@ -31,17 +31,33 @@ enum RoiSide {
     Outside,
 }
 
+/// How many region-of-interest polygons have their bounding box kept per frame (memory reserved at
+/// construction); a frame with more tests the others without the box first, with the same result.
+const ROI_BOXES: usize = 512;
+
+/// The bounding box `[min x, min y, max x, max y]` of a polygon.
+fn polygon_box(poly: &[[f32; 2]]) -> [f32; 4] {
+    let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+    for p in poly {
+        b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
+    }
+    b
+}
+
+/// True when `(x, y)` lies within `margin` of the box (false for NaN).
+#[inline]
+fn near_box(b: &[f32; 4], x: f32, y: f32, margin: f32) -> bool {
+    x >= b[0] - margin && x <= b[2] + margin && y >= b[1] - margin && y <= b[3] + margin
+}
+
 /// [`RoiSide`] of the cell centred at `(x, y)`; each polygon's bounding box first (most are far away).
-fn roi_cell_side(roi: &[&[[f32; 2]]], x: f32, y: f32, half_diagonal: f32) -> RoiSide {
+/// `boxes` holds the bounding boxes of the first polygons (see [`ROI_BOXES`]).
+fn roi_cell_side(roi: &[&[[f32; 2]]], boxes: &[[f32; 4]], x: f32, y: f32, half_diagonal: f32) -> RoiSide {
     let mut side = RoiSide::Outside;
     let r2 = half_diagonal * half_diagonal;
-    for poly in roi {
-        let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-        for p in poly.iter() {
-            b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
-        }
-        if x < b[0] - half_diagonal || x > b[2] + half_diagonal || y < b[1] - half_diagonal || y > b[3] + half_diagonal
-        {
+    for (k, poly) in roi.iter().enumerate() {
+        let b = boxes.get(k).copied().unwrap_or_else(|| polygon_box(poly));
+        if !near_box(&b, x, y, half_diagonal) {
             continue;
         }
         let (inside, d2) = crate::geometry::polygon_side_and_edge_distance2(poly, x, y);
@@ -53,6 +69,13 @@ fn roi_cell_side(roi: &[&[[f32; 2]]], x: f32, y: f32, half_diagonal: f32) -> Roi
         }
     }
     side
+}
+
+/// True when `(x, y)` lies inside one of the polygons (even-odd rule each), the bounding boxes first.
+fn roi_contains(roi: &[&[[f32; 2]]], boxes: &[[f32; 4]], x: f32, y: f32) -> bool {
+    roi.iter().enumerate().any(|(k, poly)| {
+        boxes.get(k).is_none_or(|b| near_box(b, x, y, 0.0)) && crate::geometry::polygon_contains(poly, x, y)
+    })
 }
 
 /// The stages of [`Monitor::check`], in order.
@@ -147,6 +170,10 @@ pub struct Monitor {
     stats: GridStats,
     sensor_status: Option<NotMonitoredReason>,
     rasterizer: crate::rasterize::Rasterizer,
+    /// The bounding boxes of this frame's region-of-interest polygons (at most [`ROI_BOXES`]).
+    roi_boxes: Vec<[f32; 4]>,
+    /// The square `[min x, min y, max x, max y]` around this frame's cells that straddle the ROI's edge.
+    roi_edge_box: [f32; 4],
 }
 
 /// Checks an object's state: finite values, sizes in `(0, max]`, speed `>= 0`, valid uncertainties.
@@ -210,6 +237,8 @@ impl Monitor {
             stats: GridStats::default(),
             sensor_status: None,
             rasterizer: crate::rasterize::Rasterizer::default(),
+            roi_boxes: Vec::with_capacity(ROI_BOXES),
+            roi_edge_box: [0.0; 4],
             params,
         })
     }
@@ -488,6 +517,11 @@ impl Monitor {
         let tau = self.params.tau_fn;
         let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         let mut edge_clusters = false;
+        self.roi_boxes.clear();
+        for poly in frame.roi_in_ego.iter().take(ROI_BOXES) {
+            self.roi_boxes.push(polygon_box(poly));
+        }
+        self.roi_edge_box = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
         let mut k = 0usize;
         while let Some(&idx) = self.grid.touched().get(k) {
             k += 1;
@@ -555,10 +589,12 @@ impl Monitor {
                 sy += y;
                 b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 if !in_roi {
-                    match roi_cell_side(frame.roi_in_ego, x, y, half_diagonal) {
+                    match roi_cell_side(frame.roi_in_ego, &self.roi_boxes, x, y, half_diagonal) {
                         RoiSide::Inside => in_roi = true,
                         RoiSide::Edge => {
                             self.grid.set_flags(c, FLAG_ROI_EDGE);
+                            let e = &mut self.roi_edge_box;
+                            *e = [e[0].min(x), e[1].min(y), e[2].max(x), e[3].max(y)];
                             edge_clusters = true;
                         }
                         RoiSide::Outside => {}
@@ -598,14 +634,18 @@ impl Monitor {
         let band = self.band();
         let t = cloud.ego_from_sensor;
         let geometry = self.grid.geometry;
+        // Every return of an edge cell lies within half a cell of its centre: the square around the edge cells'
+        // centres, grown by that (and a quarter cell for rounding), skips most of the sweep before the cell lookup.
+        let (edge, half) = (self.roi_edge_box, 0.75 * geometry.cell_size_m);
         for p in cloud.points_in_sensor {
             let q = t.transform(*p);
-            if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
+            let in_band = q[2] >= band.lo_m && q[2] <= band.hi_m;
+            if !(in_band && near_box(&edge, q[0], q[1], half)) || band.in_ego(q[0], q[1]) {
                 continue;
             }
             let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
             if self.grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) == FLAG_ROI_EDGE
-                && frame.roi_in_ego.iter().any(|poly| crate::geometry::polygon_contains(poly, q[0], q[1]))
+                && roi_contains(frame.roi_in_ego, &self.roi_boxes, q[0], q[1])
             {
                 self.grid.set_flags(cell, FLAG_RETURN_IN_ROI);
             }
