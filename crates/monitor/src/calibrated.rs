@@ -164,6 +164,12 @@ impl History {
     pub fn push(&mut self, mut e: Entry) {
         let (s, c) = libm::sincos(f64::from(e.heading_rad));
         e.unit = [c as f32, s as f32];
+        self.push_with_unit(e);
+    }
+
+    /// [`History::push`] of a state whose [`Entry::unit`] the caller set (to `libm::sincos` of its heading, as
+    /// `push` would: the plausibility checks compute it once per state).
+    pub(crate) fn push_with_unit(&mut self, e: Entry) {
         let step = steps_from(self.last(), &e);
         self.add_steps(step, 1.0);
         if self.len() >= HISTORY {
@@ -404,6 +410,27 @@ pub fn check_calibrated(
     heading_min_speed_mps: f64,
     baseline_s: f64,
 ) -> CalibratedCheck {
+    check_calibrated_sc(
+        h,
+        s1,
+        libm::sincos(f64::from(s1.heading_rad)),
+        limits,
+        gates,
+        heading_min_speed_mps,
+        baseline_s,
+    )
+}
+
+/// [`check_calibrated`] with `u1 = libm::sincos(f64::from(s1.heading_rad))` given (computed once per state).
+pub(crate) fn check_calibrated_sc(
+    h: &History,
+    s1: &Entry,
+    u1: (f64, f64),
+    limits: &MotionLimits,
+    gates: &Gates,
+    heading_min_speed_mps: f64,
+    baseline_s: f64,
+) -> CalibratedCheck {
     let n = h.len();
     let s0 = h.last().copied().unwrap_or(*s1);
     let (own_speed, own_heading) = h.own_scatter();
@@ -453,12 +480,31 @@ pub fn check_calibrated(
     // When every state in the window raised an alarm (a permanent error), the oldest in the window: the error
     // keeps showing over the whole baseline.
     let within = |e: &Entry| s1.t_s - e.t_s <= baseline_s + 1e-9;
-    let oldest_clean = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect && !e.warmup));
     // A young track whose only initialised states raised alarms (a jump in its second frame) is measured
     // from its alarm-free warm-up state (whose speed sigma covers the unknown speed) rather than from the
-    // alarmed state, which every later state would echo.
-    let oldest_alarm_free = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect));
-    let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup));
+    // alarmed state, which every later state would echo. (One scan for the three candidates.)
+    let (mut oldest_clean, mut oldest_alarm_free, mut oldest_any) = (None, None, None);
+    for i in 0..n {
+        let Some(e) = h.get(i) else { break };
+        if !within(e) {
+            continue;
+        }
+        if !e.suspect {
+            if oldest_clean.is_none() && !e.warmup {
+                oldest_clean = Some(i);
+            }
+            if oldest_alarm_free.is_none() {
+                oldest_alarm_free = Some(i);
+            }
+        }
+        if oldest_any.is_none() && !e.warmup {
+            oldest_any = Some(i);
+        }
+        if oldest_clean.is_some() {
+            // The first choice is found; the others are used only without it.
+            break;
+        }
+    }
     let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     let mut pred = [0.0f64; 2];
@@ -471,7 +517,6 @@ pub fn check_calibrated(
     // velocity); each velocity weighs half of its two adjacent intervals.
     let mut prev: Option<Entry> = None;
     let mut prev_w = 0.0f64;
-    let u1 = libm::sincos(f64::from(s1.heading_rad));
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
         let v = f64::from(e.v_mps);
         let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
