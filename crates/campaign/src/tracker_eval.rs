@@ -423,8 +423,10 @@ mod tests {
 
     #[test]
     fn verdicts_unchanged_by_the_speed_ups() {
-        // Pinned on the code before the latency work (docs/plausibility.md): a change of any verdict, kind or
-        // estimate of either rule changes the digest. (Update the pins only for an intended change of the rules.)
+        // Pinned on the code before the latency work (docs/plausibility.md; main's monitor and the faster one gave
+        // the same digests), then re-pinned once for an intended change: a heading that stays flipped is called
+        // flipped in each frame (calibrated verdicts, and the kinds the paper rule borrows from it). A change of any
+        // verdict, kind or estimate of either rule changes the digest: update the pins only for an intended change.
         let paper = verdict_digest(PlausibilityMode::Paper);
         let cal = verdict_digest(PlausibilityMode::Calibrated);
         println!("paper {paper:?} calibrated {cal:?}");
@@ -433,8 +435,8 @@ mod tests {
         assert_eq!(cal.0, CALIBRATED_DIGEST, "calibrated rule: {cal:?}");
     }
 
-    const PAPER_DIGEST: u64 = 13_022_761_925_135_627_192;
-    const CALIBRATED_DIGEST: u64 = 6_516_392_719_718_232_614;
+    const PAPER_DIGEST: u64 = 17_681_111_334_777_388_224;
+    const CALIBRATED_DIGEST: u64 = 3_246_188_819_496_898_076;
 
     /// `pmon tracker-bed --params cal.toml` (seed 7, 120 s per scene) without the release build of the command
     /// line: `cargo test -p pmon-campaign --lib tracker_bed_seed_7 -- --ignored --nocapture`.
