@@ -6,7 +6,9 @@
 //! 1. **Heading** (only where defined: both reported speeds `>= heading_min_speed_mps`, neither speed in its
 //!    warm-up). The heading sigma grows towards standstill as `sigma_th + sigma_v / v`. A change
 //!    `|D| - z sigma_D > pi / 2` is a *heading flip*; otherwise `|D| / dt - z sigma_D / dt > omega_max` is a
-//!    *turn rate* beyond the limit (`z`: the two-sided normal quantile of `false_alarm_probability`).
+//!    *turn rate* beyond the limit (`z`: the two-sided normal quantile of `false_alarm_probability`). After a
+//!    state called flipped, the new heading is also compared with the newest not-flipped state within
+//!    `baseline_s`: a heading that stays flipped is a flip in each frame.
 //! 2. **Acceleration** `(v1 - v0) / dt` against `a_acc`, `a_br` with margin `z hypot(sigma_v0, sigma_v1) / dt`
 //!    (skipped while the new speed is in its warm-up; at the first initialised speed after a warm-up the
 //!    warm-up's 0 carries the warm-up sigma, and an alarm names the warm-up's speed error).
@@ -164,6 +166,12 @@ impl History {
     pub fn push(&mut self, mut e: Entry) {
         let (s, c) = libm::sincos(f64::from(e.heading_rad));
         e.unit = [c as f32, s as f32];
+        self.push_with_unit(e);
+    }
+
+    /// [`History::push`] of a state whose [`Entry::unit`] the caller set (to `libm::sincos` of its heading, as
+    /// `push` would: the plausibility checks compute it once per state).
+    pub(crate) fn push_with_unit(&mut self, e: Entry) {
         let step = steps_from(self.last(), &e);
         self.add_steps(step, 1.0);
         if self.len() >= HISTORY {
@@ -404,6 +412,27 @@ pub fn check_calibrated(
     heading_min_speed_mps: f64,
     baseline_s: f64,
 ) -> CalibratedCheck {
+    check_calibrated_sc(
+        h,
+        s1,
+        libm::sincos(f64::from(s1.heading_rad)),
+        limits,
+        gates,
+        heading_min_speed_mps,
+        baseline_s,
+    )
+}
+
+/// [`check_calibrated`] with `u1 = libm::sincos(f64::from(s1.heading_rad))` given (computed once per state).
+pub(crate) fn check_calibrated_sc(
+    h: &History,
+    s1: &Entry,
+    u1: (f64, f64),
+    limits: &MotionLimits,
+    gates: &Gates,
+    heading_min_speed_mps: f64,
+    baseline_s: f64,
+) -> CalibratedCheck {
     let n = h.len();
     let s0 = h.last().copied().unwrap_or(*s1);
     let (own_speed, own_heading) = h.own_scatter();
@@ -435,6 +464,28 @@ pub fn check_calibrated(
         }
     }
 
+    // 1b. A heading that stays flipped: after a state called flipped, the new heading is compared with the
+    // newest state before it that was not flipped (within the baseline, heading defined there): a tracker that
+    // keeps the flipped heading for several frames reports a flipped heading in each of them, although the
+    // heading is steady from one flipped frame to the next.
+    if kind.is_none() && s0.flipped && !s1.warmup && v1 >= heading_min_speed_mps {
+        let reference = (0..n)
+            .rev()
+            .filter_map(|i| h.get(i))
+            .take_while(|e| s1.t_s - e.t_s <= baseline_s + 1e-9)
+            .find(|e| !e.flipped && !e.warmup);
+        if let Some(r) = reference.filter(|r| f64::from(r.v_mps) >= heading_min_speed_mps) {
+            let d = wrap_difference(f64::from(s1.heading_rad) - f64::from(r.heading_rad));
+            let m = gates.factor(own_heading) * norm(r.heading_sigma(), s1.heading_sigma());
+            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 {
+                fired = fired.union(Conditions::TURN_RATE);
+                kind = Some(ImplausibilityKind::HeadingFlip);
+                error_size = libm::fabs(d);
+                severity = (f64::from(r.v_mps) + v1) * libm::sin(0.5 * libm::fabs(d)) / CRITICAL_SPEED_MPS;
+            }
+        }
+    }
+
     // 2. Acceleration.
     let accel = (v1 - v0) / dt;
     // (The own scatter narrows the margin only between initialised speeds: at the end of a warm-up the step
@@ -453,12 +504,31 @@ pub fn check_calibrated(
     // When every state in the window raised an alarm (a permanent error), the oldest in the window: the error
     // keeps showing over the whole baseline.
     let within = |e: &Entry| s1.t_s - e.t_s <= baseline_s + 1e-9;
-    let oldest_clean = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect && !e.warmup));
     // A young track whose only initialised states raised alarms (a jump in its second frame) is measured
     // from its alarm-free warm-up state (whose speed sigma covers the unknown speed) rather than from the
-    // alarmed state, which every later state would echo.
-    let oldest_alarm_free = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.suspect));
-    let oldest_any = (0..n).find(|&i| h.get(i).is_some_and(|e| within(e) && !e.warmup));
+    // alarmed state, which every later state would echo. (One scan for the three candidates.)
+    let (mut oldest_clean, mut oldest_alarm_free, mut oldest_any) = (None, None, None);
+    for i in 0..n {
+        let Some(e) = h.get(i) else { break };
+        if !within(e) {
+            continue;
+        }
+        if !e.suspect {
+            if oldest_clean.is_none() && !e.warmup {
+                oldest_clean = Some(i);
+            }
+            if oldest_alarm_free.is_none() {
+                oldest_alarm_free = Some(i);
+            }
+        }
+        if oldest_any.is_none() && !e.warmup {
+            oldest_any = Some(i);
+        }
+        if oldest_clean.is_some() {
+            // The first choice is found; the others are used only without it.
+            break;
+        }
+    }
     let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     let mut pred = [0.0f64; 2];
@@ -471,7 +541,6 @@ pub fn check_calibrated(
     // velocity); each velocity weighs half of its two adjacent intervals.
     let mut prev: Option<Entry> = None;
     let mut prev_w = 0.0f64;
-    let u1 = libm::sincos(f64::from(s1.heading_rad));
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
         let v = f64::from(e.v_mps);
         let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
@@ -764,6 +833,27 @@ mod tests {
         // A walking pedestrian (1.4 m/s) after its warm-up, or a car starting from standstill: tolerated.
         assert!(run(&h, &e(0.1, 0.14, 1.4)).fired.is_empty());
         assert!(run(&h, &e(0.1, 0.03, 0.7)).fired.is_empty());
+    }
+
+    #[test]
+    fn a_heading_that_stays_flipped_is_called_flipped_in_each_frame() {
+        // A pedestrian at 2 m/s whose tracker flips the heading for three frames, then flips it back.
+        let mut h = track(2.0, 6);
+        let mut verdicts = [None; 4];
+        for (k, v) in verdicts.iter_mut().enumerate() {
+            let t = (6 + k) as f64 * 0.1;
+            let mut s = e(t, 2.0 * t, 2.0);
+            s.heading_rad = if k < 3 { 3.1 } else { 0.0 };
+            let c = run(&h, &s);
+            *v = c.kind;
+            s.suspect = !c.fired.is_empty();
+            s.flipped = c.kind == Some(ImplausibilityKind::HeadingFlip);
+            h.push(s);
+        }
+        assert_eq!(verdicts, [Some(ImplausibilityKind::HeadingFlip); 4], "{verdicts:?}");
+        // A steady heading after a real alarm-free history stays plausible (no flip without a flipped state).
+        let h = track(2.0, 8);
+        assert!(run(&h, &e(0.8, 1.6, 2.0)).fired.is_empty());
     }
 
     #[test]

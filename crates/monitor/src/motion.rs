@@ -55,7 +55,11 @@ pub struct MeasuredState {
 /// Displacement `(dx, dy)` of eq. (mot_mod), metres.
 #[must_use]
 pub fn ctra_displacement(dt: f64, v: f64, heading: f64, a: f64, w: f64) -> (f64, f64) {
-    let (s, c) = libm::sincos(heading);
+    ctra_displacement_sc(dt, v, libm::sincos(heading), a, w)
+}
+
+/// [`ctra_displacement`] with the heading's `(sin, cos)` given (computed once per check).
+fn ctra_displacement_sc(dt: f64, v: f64, (s, c): (f64, f64), a: f64, w: f64) -> (f64, f64) {
     let h = 0.5 * dt * dt;
     (v * dt * c + h * (a * c - v * w * s), v * dt * s + h * (a * s + v * w * c))
 }
@@ -96,10 +100,10 @@ pub fn check_motion(s0: &MeasuredState, s1: &MeasuredState, limits: &MotionLimit
     let accel = (s1.v_mps - s0.v_mps) / dt;
     let accel_margin = libm::hypot(s0.dv_mps, s1.dv_mps) / dt;
 
-    let (ddx, ddy) = ctra_displacement(dt, s0.v_mps, s0.heading_rad, accel, turn_rate);
+    let (s, c) = libm::sincos(s0.heading_rad);
+    let (ddx, ddy) = ctra_displacement_sc(dt, s0.v_mps, (s, c), accel, turn_rate);
     let predicted = [s0.x_m + ddx, s0.y_m + ddy];
 
-    let (s, c) = libm::sincos(s0.heading_rad);
     let h = 0.5 * dt;
     let (v0, v1) = (s0.v_mps, s1.v_mps);
     let (dv0, dv1, dth0, dth1) = (s0.dv_mps, s1.dv_mps, s0.dheading_rad, s1.dheading_rad);

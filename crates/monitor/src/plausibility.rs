@@ -8,7 +8,7 @@
 use alloc::vec::Vec;
 
 pub use crate::calibrated::HISTORY;
-use crate::calibrated::{check_calibrated, CalibratedCheck, Entry, Gates, History};
+use crate::calibrated::{check_calibrated_sc, CalibratedCheck, Entry, Gates, History};
 use crate::frame::{ObjectState, Pose2, Uncertainty};
 use crate::geometry::wrap_angle;
 use crate::motion::{check_motion, MeasuredState};
@@ -26,8 +26,9 @@ struct Track {
     age: u32,
 }
 
-/// The calibrated rule's view of an object: its own uncertainty when given, else the class's tracker noise.
-fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> Entry {
+/// The calibrated rule's view of an object: its own uncertainty when given, else the class's tracker noise;
+/// with `libm::sincos` of its (`f32`) heading, also set as its [`Entry::unit`] (computed once per state).
+fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> (Entry, (f64, f64)) {
     let v = f64::from(o.speed_mps);
     let warmup = age < p.warmup_frames && o.speed_mps <= 0.0;
     let (sx, sy, sv, sh) = match o.uncertainty {
@@ -38,12 +39,14 @@ fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> 
             (sp, sp, n.speed_mps, n.heading_rad)
         }
     };
-    Entry {
+    let heading_rad = s.heading_rad as f32;
+    let sc = libm::sincos(f64::from(heading_rad));
+    let e = Entry {
         t_s: s.t_s,
         x_m: s.x_m,
         y_m: s.y_m,
         v_mps: o.speed_mps,
-        heading_rad: s.heading_rad as f32,
+        heading_rad,
         sx_m: sx,
         sy_m: sy,
         sv_mps: if warmup { sv.max(p.warmup_speed_sigma_mps) } else { sv },
@@ -53,8 +56,9 @@ fn entry_of(o: &ObjectState, s: &MeasuredState, p: &MonitorParams, age: u32) -> 
         warmup,
         suspect: false,
         flipped: false,
-        unit: [0.0; 2], // set by History::push
-    }
+        unit: [sc.1 as f32, sc.0 as f32],
+    };
+    (e, sc)
 }
 
 /// Kind and size of a paper-mode alarm the calibrated rule did not name: read off the conditions.
@@ -91,8 +95,14 @@ pub struct TrackTable {
 /// An object's state in the world frame with its margins.
 #[must_use]
 pub fn to_world(o: &ObjectState, u: &Uncertainty, pose: &Pose2, t_s: f64) -> MeasuredState {
-    let (x_m, y_m) = pose.transform_point(f64::from(o.x_m), f64::from(o.y_m));
-    let (s, c) = libm::sincos(pose.yaw_rad);
+    to_world_sc(o, u, pose, libm::sincos(pose.yaw_rad), t_s)
+}
+
+/// [`to_world`] with `(s, c) = libm::sincos(pose.yaw_rad)` given (computed once per frame; the same arithmetic
+/// as [`Pose2::transform_point`]).
+fn to_world_sc(o: &ObjectState, u: &Uncertainty, pose: &Pose2, (s, c): (f64, f64), t_s: f64) -> MeasuredState {
+    let (x, y) = (f64::from(o.x_m), f64::from(o.y_m));
+    let (x_m, y_m) = (pose.x_m + c * x - s * y, pose.y_m + s * x + c * y);
     let (sx, sy) = (f64::from(u.x_m), f64::from(u.y_m));
     let (vx, vy) = (sx * sx, sy * sy);
     MeasuredState {
@@ -166,6 +176,7 @@ impl TrackTable {
                 g
             }
         };
+        let pose_sc = libm::sincos(pose.yaw_rad);
         self.order.clear();
         self.order.extend(0..n as u32);
         self.order.sort_unstable_by_key(|&i| (objects.get(i as usize).map_or(u64::MAX, |o| o.id), i));
@@ -225,8 +236,9 @@ impl TrackTable {
                 MotionOutcome::not_monitored(NotMonitoredReason::InvalidState)
             } else {
                 let u = obj.uncertainty.unwrap_or(p.default_uncertainty);
-                let s1 = to_world(obj, &u, pose, t_s);
-                let fresh = |age: u32| Track { id, state: s1, hist: History::with(entry_of(obj, &s1, p, age)), age: 1 };
+                let s1 = to_world_sc(obj, &u, pose, pose_sc, t_s);
+                let fresh =
+                    |age: u32| Track { id, state: s1, hist: History::with(entry_of(obj, &s1, p, age).0), age: 1 };
                 match prev {
                     None => {
                         if self.next.len() < cap {
@@ -245,12 +257,13 @@ impl TrackTable {
                             }
                             MotionOutcome::not_monitored(NotMonitoredReason::TimeStepTooLong)
                         } else {
-                            let mut e1 = entry_of(obj, &s1, p, tr.age);
+                            let (mut e1, u1) = entry_of(obj, &s1, p, tr.age);
                             let limits = p.limits_for(obj.class);
                             let cal = || -> CalibratedCheck {
-                                check_calibrated(
+                                check_calibrated_sc(
                                     &tr.hist,
                                     &e1,
+                                    u1,
                                     &limits,
                                     &gates,
                                     f64::from(p.heading_min_speed_mps),
@@ -319,10 +332,15 @@ impl TrackTable {
                             };
                             e1.suspect = matches!(outcome.verdict, MotionVerdict::Implausible(_));
                             e1.flipped = e1.suspect && outcome.kind == Some(ImplausibilityKind::HeadingFlip);
+                            // The track is copied once, into its new place, and updated there (a track carries its
+                            // history: about 1 kB).
                             if self.next.len() < cap {
-                                let mut hist = tr.hist;
-                                hist.push(e1);
-                                self.next.push(Track { id, state: s1, hist, age: tr.age.saturating_add(1) });
+                                self.next.push(*tr);
+                                if let Some(t) = self.next.last_mut() {
+                                    t.hist.push_with_unit(e1);
+                                    t.state = s1;
+                                    t.age = tr.age.saturating_add(1);
+                                }
                             }
                             // No verdict from a NaN: every comparison with NaN is false, so no condition would fire (issue 15: a
                             // tiny dt made the acceleration infinite and the residual NaN, and a 573 m jump was called plausible).
