@@ -18,7 +18,7 @@ use pmon_report::{HtmlReport, TableCell};
 use rayon::prelude::*;
 
 use crate::config::load_params;
-use crate::output::OutputDir;
+use crate::output::{write_atomic, OutputDir};
 use crate::reproduce::{claims_markdown, render_figure};
 
 /// Arguments of `pmon evaluate`.
@@ -105,13 +105,6 @@ fn split_scenes(args: &EvaluateArgs, split: &str) -> Result<Vec<String>> {
 fn read_scenes(path: &Path) -> Result<Vec<String>> {
     let text = fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     Ok(text.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('#')).map(String::from).collect())
-}
-
-/// Writes `text` to `path` through a temporary file and a rename: a reader never sees half a file.
-fn write_atomic(path: &Path, text: &str) -> Result<()> {
-    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
-    fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
-    fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
 }
 
 /// The run folder: the plan, and the results found in it.

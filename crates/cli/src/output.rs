@@ -116,6 +116,16 @@ impl Drop for OutputDir {
     }
 }
 
+/// Writes `text` to `path` through a temporary file beside it and a rename: a reader never sees half a file.
+///
+/// # Errors
+/// I/O, naming the file.
+pub fn write_atomic(path: &Path, text: &str) -> Result<()> {
+    let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
+    fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
+    fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
+}
+
 /// Moves `temp` to `target`; an existing `target` is moved aside first and removed after.
 fn replace_with(target: &Path, temp: &Path) -> Result<()> {
     let old = if fs::symlink_metadata(target).is_ok() {

@@ -44,12 +44,7 @@ pub fn update(path: &Path, block: &str) -> Result<()> {
         Ok(new) => new,
         Err(e) => bail!("{}: {e}; put the two marker lines where the table belongs:\n{BEGIN}\n{END}", path.display()),
     };
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".pmon-tmp");
-    let tmp = std::path::PathBuf::from(tmp);
-    std::fs::write(&tmp, new).with_context(|| format!("{}: cannot write", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot replace", path.display()))?;
-    Ok(())
+    crate::output::write_atomic(path, &new)
 }
 
 #[cfg(test)]
