@@ -147,84 +147,55 @@ impl OrientedRect {
     }
 }
 
+/// The even-odd rule's step: whether the edge from `prev` to `p` crosses the ray from `(x, y)` towards +x.
+#[inline(always)]
+fn edge_crosses_ray(prev: [f32; 2], p: [f32; 2], x: f32, y: f32) -> bool {
+    let ([xi, yi], [xj, yj]) = (p, prev);
+    (yi > y) != (yj > y) && x < xi + (y - yi) / (yj - yi) * (xj - xi)
+}
+
+/// The offset of `(x, y)` from the nearest point of the segment from `prev` to `p`.
+#[inline(always)]
+fn offset_from_segment(prev: [f32; 2], p: [f32; 2], x: f32, y: f32) -> (f32, f32) {
+    let (ex, ey) = (p[0] - prev[0], p[1] - prev[1]);
+    let len2 = ex * ex + ey * ey;
+    let t = if len2 > 0.0 { (((x - prev[0]) * ex + (y - prev[1]) * ey) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    (x - prev[0] - t * ex, y - prev[1] - t * ey)
+}
+
+/// The polygon's edges as `(previous vertex, vertex)`, the closing edge first; none for fewer than 3 vertices.
+fn polygon_edges(polygon: &[[f32; 2]]) -> impl Iterator<Item = ([f32; 2], [f32; 2])> + '_ {
+    let last = if polygon.len() < 3 { None } else { polygon.last().copied() };
+    polygon.iter().scan(last, |prev, &p| prev.replace(p).map(|q| (q, p)))
+}
+
 /// Even-odd point-in-polygon test. A polygon with fewer than 3 vertices contains nothing.
 #[must_use]
 pub fn polygon_contains(polygon: &[[f32; 2]], x: f32, y: f32) -> bool {
-    if polygon.len() < 3 {
-        return false;
-    }
-    let mut inside = false;
-    let mut prev = match polygon.last() {
-        Some(p) => *p,
-        None => return false,
-    };
-    for &p in polygon {
-        let ([xi, yi], [xj, yj]) = (p, prev);
-        if (yi > y) != (yj > y) {
-            let t = (y - yi) / (yj - yi);
-            if x < xi + t * (xj - xi) {
-                inside = !inside;
-            }
-        }
-        prev = p;
-    }
-    inside
+    polygon_edges(polygon).fold(false, |inside, (prev, p)| inside != edge_crosses_ray(prev, p, x, y))
 }
 
 /// Distance from a point to a polygon: 0 inside (even-odd rule), else the distance to its nearest edge.
 /// A polygon with fewer than 3 vertices is infinitely far.
 #[must_use]
 pub fn polygon_distance(polygon: &[[f32; 2]], x: f32, y: f32) -> f32 {
-    if polygon.len() < 3 {
-        return f32::INFINITY;
-    }
     if polygon_contains(polygon, x, y) {
         return 0.0;
     }
-    let mut best = f32::INFINITY;
-    let mut prev = match polygon.last() {
-        Some(p) => *p,
-        None => return f32::INFINITY,
-    };
-    for &p in polygon {
-        let (ex, ey) = (p[0] - prev[0], p[1] - prev[1]);
-        let len2 = ex * ex + ey * ey;
-        let t = if len2 > 0.0 { (((x - prev[0]) * ex + (y - prev[1]) * ey) / len2).clamp(0.0, 1.0) } else { 0.0 };
-        best = best.min(libm::hypotf(x - prev[0] - t * ex, y - prev[1] - t * ey));
-        prev = p;
-    }
-    best
+    polygon_edges(polygon).fold(f32::INFINITY, |best, (prev, p)| {
+        let (dx, dy) = offset_from_segment(prev, p, x, y);
+        best.min(libm::hypotf(dx, dy))
+    })
 }
 
 /// Where a point lies against a polygon, in one pass over its edges: `(inside (even-odd), squared distance to
 /// the nearest edge)`. A polygon with fewer than 3 vertices: `(false, infinity)`.
 #[must_use]
 pub fn polygon_side_and_edge_distance2(polygon: &[[f32; 2]], x: f32, y: f32) -> (bool, f32) {
-    if polygon.len() < 3 {
-        return (false, f32::INFINITY);
-    }
-    let mut inside = false;
-    let mut best = f32::INFINITY;
-    let mut prev = match polygon.last() {
-        Some(p) => *p,
-        None => return (false, f32::INFINITY),
-    };
-    for &p in polygon {
-        let ([xi, yi], [xj, yj]) = (p, prev);
-        if (yi > y) != (yj > y) {
-            let t = (y - yi) / (yj - yi);
-            if x < xi + t * (xj - xi) {
-                inside = !inside;
-            }
-        }
-        let (ex, ey) = (xi - xj, yi - yj);
-        let len2 = ex * ex + ey * ey;
-        let t = if len2 > 0.0 { (((x - xj) * ex + (y - yj) * ey) / len2).clamp(0.0, 1.0) } else { 0.0 };
-        let (dx, dy) = (x - xj - t * ex, y - yj - t * ey);
-        best = best.min(dx * dx + dy * dy);
-        prev = p;
-    }
-    (inside, best)
+    polygon_edges(polygon).fold((false, f32::INFINITY), |(inside, best), (prev, p)| {
+        let (dx, dy) = offset_from_segment(prev, p, x, y);
+        (inside != edge_crosses_ray(prev, p, x, y), best.min(dx * dx + dy * dy))
+    })
 }
 
 /// A monotonic pseudo-angle in `[0, 4)` of the direction `(dx, dy)` (the "diamond angle"): cheaper than

@@ -426,10 +426,8 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let reach = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         for poly in frame.static_in_ego {
-            let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-            for p in poly.iter() {
-                b = [b[0].min(p[0] - reach), b[1].min(p[1] - reach), b[2].max(p[0] + reach), b[3].max(p[1] + reach)];
-            }
+            let [x0, y0, x1, y1] = polygon_box(poly);
+            let b = [x0 - reach, y0 - reach, x1 + reach, y1 + reach];
             let Some((ix0, iy0, ix1, iy1)) = geometry.cell_range_clipped(b) else { continue };
             for iy in iy0..=iy1 {
                 let cy = geometry.cell_center_axis(iy);
