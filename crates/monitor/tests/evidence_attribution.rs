@@ -349,7 +349,8 @@ fn check_at(
 /// own returns inside its grown region (it is longer than the error), so one frame confirms it (the returns left
 /// outside do not fit the car together with the post its region now covers, so they do not spill over to it). With the previous
 /// sweep, where the car was reported right, its evidence is expected where the car's stated motion puts it; the
-/// box jumped away from it and the evidence did not follow: a position error. The same sweeps with the boxes
+/// box jumped away from it and the evidence did not follow: a position error, and it stays one while the error
+/// persists (the track is then remembered as displaced, step 4). The same sweeps with the boxes
 /// right, or off by less than the two frames' uncertainty allows, raise nothing, and the walking pedestrian,
 /// predicted by its own speed, stays consistent.
 #[test]
@@ -383,6 +384,14 @@ fn a_box_that_jumps_away_from_evidence_that_stayed_is_a_position_error() {
                 // From where the evidence puts the car to the reported box: about the 2 m along the ray.
                 let o = r[0].sensor.offset_m;
                 assert!(o[0] > 1.4 && o[0] < 2.6 && o[1].abs() < 0.6, "{o:?}");
+                // The error persists: the track is remembered as displaced and its evidence followed.
+                for k in 2..5 {
+                    let t = 0.1 * k as f32;
+                    let (objects, pts, pose) = street_at(t, car_error, ped_error);
+                    let r = check_at(&mut m, t, &objects, &pts, pose);
+                    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "{cells} m cells, sweep {k}");
+                    assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "{cells} m cells, sweep {k}");
+                }
             }
         }
     }
