@@ -10,7 +10,9 @@
 //! displaced frames are written as a recording for `pmon view` (with the dataset's parameters as params.toml).
 //! `GROUND=auto|local|recorded` and `ROI=auto|none|corridor:W` choose the ground and the region of interest. With
 //! `ONE_BOX=1`, each box consistent on its clean frame is displaced alone instead (the other boxes keep their
-//! labels; every check starts with a fresh track memory), as the experiment's one-box curve.
+//! labels; every check starts with a fresh track memory), as the experiment's one-box curve. With `ONE_BOX=1
+//! HISTORY=1`, only frames that follow another sweep are used, and the previous sweep, clean, is checked right before
+//! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
 use std::collections::BTreeMap;
 
 use pmon_campaign::{Direction, Fault, InjectionConfig, Injector};
@@ -95,9 +97,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let idx = inj.iter().map(|x| x.index as usize).collect();
             variants.push((f, idx));
         }
+        // With HISTORY=1 (and ONE_BOX=1): only frames that follow another sweep of the log (at most the monitor's
+        // `max_time_step_s` earlier) are used, and each check of a displaced box is preceded by a check of that
+        // previous sweep, clean: the tracker was right one sweep ago and goes wrong now (the onset of the error).
+        let history = std::env::var("HISTORY").is_ok();
+        let previous = k.checked_sub(1).and_then(|p| frames.get(p)).filter(|p| {
+            let dt = df.frame.timestamp_s - p.frame.timestamp_s;
+            dt > 0.0 && dt <= params.max_time_step_s
+        });
+        if history && previous.is_none() {
+            continue;
+        }
         for (f, inj) in &variants {
             if one_box {
                 monitor.reset_tracks();
+                if let Some(p) = previous.filter(|_| history) {
+                    let mut proi = Vec::new();
+                    monitor.check(&p.frame.as_frame(&mut proi))?;
+                }
             }
             let mut roi = Vec::new();
             let view = f.as_frame(&mut roi);

@@ -11,6 +11,8 @@
 
 use alloc::vec::Vec;
 
+use crate::frame::Pose2;
+
 /// What a track's evidence was in the previous frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum EvidenceKind {
@@ -28,8 +30,21 @@ struct Entry {
     t_s: f64,
     offset_world_m: [f32; 2],
     kind: EvidenceKind,
+    /// The object's reported centre (world frame, metres), its velocity over ground as the object list stated it
+    /// (world axes, m/s), and the number of occupied cells of its own evidence: where the evidence of an object
+    /// that moves as it says should stand in the next frame, and how much of it there was.
+    motion: Option<Motion>,
     /// The id appeared more than once in its frame: its entry is not used.
     duplicate: bool,
+}
+
+/// A track's reported centre and velocity (world frame) and how many occupied cells its own evidence held, in the
+/// frame it was recorded in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Motion {
+    pub(crate) centre_world_m: [f64; 2],
+    pub(crate) velocity_world_mps: [f32; 2],
+    pub(crate) cells: f32,
 }
 
 /// The evidence offsets of the previous frame's tracks.
@@ -68,6 +83,33 @@ impl EvidenceMemory {
             .then(|| (e.kind, rotate(e.offset_world_m, -yaw_rad)))
     }
 
+    /// Where track `id`'s centre should stand now (current ego frame, metres) if it moved as the previous frame's
+    /// object list said (its centre then, plus its velocity times the time step), and how many occupied cells its
+    /// own evidence held then; `None` under the same conditions as [`EvidenceMemory::recall`], or when the previous
+    /// frame recorded no motion for it (its evidence was not its own).
+    pub(crate) fn predicted_centre(
+        &self,
+        id: u64,
+        t_s: f64,
+        world_from_ego: &Pose2,
+        max_dt_s: f64,
+    ) -> Option<([f32; 2], f32)> {
+        let i = self.prev.binary_search_by_key(&id, |e| e.id).ok()?;
+        let e = self.prev.get(i)?;
+        let m = e.motion?;
+        let dt = t_s - e.t_s;
+        if e.duplicate || !(dt > 0.0 && dt <= max_dt_s) || !world_from_ego.is_finite() {
+            return None;
+        }
+        let w = [
+            m.centre_world_m[0] + f64::from(m.velocity_world_mps[0]) * dt - world_from_ego.x_m,
+            m.centre_world_m[1] + f64::from(m.velocity_world_mps[1]) * dt - world_from_ego.y_m,
+        ];
+        let (s, c) = libm::sincos(world_from_ego.yaw_rad);
+        let p = [(c * w[0] + s * w[1]) as f32, (-s * w[0] + c * w[1]) as f32];
+        p.iter().all(|v| v.is_finite()).then_some((p, m.cells))
+    }
+
     /// Starts recording a frame.
     pub(crate) fn begin(&mut self) {
         self.next.clear();
@@ -81,8 +123,8 @@ impl EvidenceMemory {
         seq: usize,
         t_s: f64,
         yaw_rad: f64,
-        offset_ego_m: [f32; 2],
-        kind: EvidenceKind,
+        (kind, offset_ego_m): (EvidenceKind, [f32; 2]),
+        motion: Option<Motion>,
     ) {
         let offset_world_m = rotate(offset_ego_m, yaw_rad);
         if !(t_s.is_finite() && offset_world_m.iter().all(|v| v.is_finite())) || self.next.len() >= self.next.capacity()
@@ -90,7 +132,12 @@ impl EvidenceMemory {
             return;
         }
         let seq = u32::try_from(seq).unwrap_or(u32::MAX);
-        self.next.push(Entry { id, seq, t_s, offset_world_m, kind, duplicate: false });
+        let motion = motion.filter(|m| {
+            m.centre_world_m.iter().all(|v| v.is_finite())
+                && m.velocity_world_mps.iter().all(|v| v.is_finite())
+                && m.cells.is_finite()
+        });
+        self.next.push(Entry { id, seq, t_s, offset_world_m, kind, motion, duplicate: false });
     }
 
     /// Ends the frame: its records become the memory the next frame recalls.
@@ -121,7 +168,7 @@ mod tests {
     fn offsets_turn_with_the_ego_and_expire() {
         let mut m = EvidenceMemory::new(4);
         m.begin();
-        m.record(7, 0, 1.0, core::f64::consts::FRAC_PI_2, [1.0, 0.0], EvidenceKind::Displaced);
+        m.record(7, 0, 1.0, core::f64::consts::FRAC_PI_2, (EvidenceKind::Displaced, [1.0, 0.0]), None);
         m.commit();
         // The ego turned back to yaw 0: the offset, along ego y before, is along world y, so ego y now.
         let (kind, o) = m.recall(7, 1.1, 0.0, 0.5).unwrap();
@@ -136,11 +183,30 @@ mod tests {
     fn duplicate_ids_are_not_recalled() {
         let mut m = EvidenceMemory::new(4);
         m.begin();
-        m.record(3, 0, 0.0, 0.0, [1.0, 0.0], EvidenceKind::Own);
-        m.record(3, 1, 0.0, 0.0, [2.0, 0.0], EvidenceKind::Own);
-        m.record(4, 2, 0.0, 0.0, [f32::NAN, 0.0], EvidenceKind::Own);
+        m.record(3, 0, 0.0, 0.0, (EvidenceKind::Own, [1.0, 0.0]), None);
+        m.record(3, 1, 0.0, 0.0, (EvidenceKind::Own, [2.0, 0.0]), None);
+        m.record(4, 2, 0.0, 0.0, (EvidenceKind::Own, [f32::NAN, 0.0]), None);
         m.commit();
         assert!(m.recall(3, 0.1, 0.0, 0.5).is_none());
         assert!(m.recall(4, 0.1, 0.0, 0.5).is_none(), "a NaN offset is never recorded");
+    }
+
+    #[test]
+    fn the_predicted_centre_moves_with_the_object_and_the_ego() {
+        let mut m = EvidenceMemory::new(4);
+        m.begin();
+        let motion = Motion { centre_world_m: [110.0, 50.0], velocity_world_mps: [10.0, 0.0], cells: 6.0 };
+        m.record(5, 0, 2.0, 0.0, (EvidenceKind::Own, [0.5, 0.0]), Some(motion));
+        m.record(6, 1, 2.0, 0.0, (EvidenceKind::Own, [0.5, 0.0]), None);
+        m.commit();
+        // 0.1 s later the object is at (111, 50) in the world; the ego stands at (100, 50), turned by 90 degrees.
+        let pose = Pose2 { x_m: 100.0, y_m: 50.0, yaw_rad: core::f64::consts::FRAC_PI_2 };
+        let (p, cells) = m.predicted_centre(5, 2.1, &pose, 0.5).unwrap();
+        assert!((p[0] - 0.0).abs() < 1e-4 && (p[1] + 11.0).abs() < 1e-4, "{p:?}");
+        assert!((cells - 6.0).abs() < 1e-6);
+        assert!(m.predicted_centre(6, 2.1, &pose, 0.5).is_none(), "no motion recorded");
+        assert!(m.predicted_centre(5, 2.7, &pose, 0.5).is_none(), "too old");
+        let bad = Pose2 { x_m: f64::NAN, ..pose };
+        assert!(m.predicted_centre(5, 2.1, &bad, 0.5).is_none(), "no pose, no prediction");
     }
 }

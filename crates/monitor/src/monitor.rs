@@ -2,7 +2,7 @@
 
 use alloc::vec::Vec;
 
-use crate::evidence_memory::{EvidenceKind, EvidenceMemory};
+use crate::evidence_memory::{EvidenceKind, EvidenceMemory, Motion};
 use crate::frame::{Frame, ObjectState, Uncertainty};
 use crate::grid::{
     GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_RETURN_IN_ROI, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE,
@@ -126,6 +126,9 @@ struct ObjectScratch {
     own_sum: [f32; 3],
     /// The last cluster found where the track's remembered offset puts its evidence (`u32::MAX`: none yet).
     followed: u32,
+    /// Where the track's centre should stand now if it moved as the previous frame's object list said, and how
+    /// many occupied cells its own evidence held then (tracks confirmed by their own evidence last frame only).
+    predicted: Option<([f32; 2], f32)>,
 }
 
 /// The perception monitor. Construct once with [`Monitor::new`]; call [`Monitor::check`] every frame.
@@ -361,6 +364,12 @@ impl Monitor {
                 recalled,
                 own_sum: [0.0; 3],
                 followed: u32::MAX,
+                predicted: self.memory.predicted_centre(
+                    o.id,
+                    frame.timestamp_s,
+                    &frame.world_from_ego,
+                    self.params.max_time_step_s,
+                ),
             });
             self.motion.push(MotionOutcome::not_monitored(NotMonitoredReason::InvalidState));
         }
@@ -711,6 +720,17 @@ impl Monitor {
                 }
                 let seen_through =
                     cluster.is_none() && eta_own >= tau_tp && own_sum[2] >= 1.0 && self.seen_through(j, &region);
+                // Confirmed (or hidden) where it is reported, but its evidence stayed where the previous frame's
+                // evidence, moved by the object's stated motion, predicts it, and the box jumped away from it.
+                let moved = if cluster.is_none()
+                    && followed.is_none()
+                    && !seen_through
+                    && (eta_own >= tau_tp || shared || occluded)
+                {
+                    self.moved_from_evidence(j, &region)
+                } else {
+                    None
+                };
                 // A ghost only when no place within its region hides it.
                 let hidden = cluster.is_none()
                     && eta_own < tau_tp
@@ -734,6 +754,10 @@ impl Monitor {
                     let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
                     s.offset_m = [nx - c[0], ny - c[1]];
                     SensorVerdict::PositionError
+                } else if let Some((_, at)) = moved {
+                    // From where the evidence puts the box (its remembered offset back from the evidence) to the box.
+                    s.offset_m = [region.footprint.cx - at[0], region.footprint.cy - at[1]];
+                    SensorVerdict::PositionError
                 } else if seen_through {
                     // Confirmed by evidence in its margin, but the rays prove its footprint empty: the object
                     // stands in front of its evidence, displaced towards the sensor (beyond the paper, whose
@@ -755,6 +779,7 @@ impl Monitor {
                     SensorVerdict::PositionError => match s.cluster.and_then(|k| self.clusters.get(usize::from(k))) {
                         Some(c) => Some((EvidenceKind::Displaced, c.centroid_m)),
                         None if followed.is_some() => followed.map(|at| (EvidenceKind::Displaced, at)),
+                        None if moved.is_some() => moved.map(|(c, _)| (EvidenceKind::Displaced, c)),
                         // Seen through: its own evidence, behind it, is where it stands apart.
                         None if own_sum[2] >= 1.0 => {
                             Some((EvidenceKind::Displaced, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
@@ -769,7 +794,20 @@ impl Monitor {
                 if let Some((kind, at)) = evidence {
                     let id = report.id;
                     let offset = [at[0] - centre[0], at[1] - centre[1]];
-                    self.memory.record(id, j, frame.timestamp_s, frame.world_from_ego.yaw_rad, offset, kind);
+                    // Where a confirmed track should stand next frame: its centre and stated velocity, world frame.
+                    let motion = (kind == EvidenceKind::Own).then(|| frame.objects.get(j)).flatten().map(|o| {
+                        let pose = &frame.world_from_ego;
+                        let (x, y) = pose.transform_point(f64::from(centre[0]), f64::from(centre[1]));
+                        let heading = f64::from(o.heading_rad) + pose.yaw_rad;
+                        let (s, c) = libm::sincos(heading);
+                        let v = f64::from(o.speed_mps);
+                        Motion {
+                            centre_world_m: [x, y],
+                            velocity_world_mps: [(v * c) as f32, (v * s) as f32],
+                            cells: own_sum[2],
+                        }
+                    });
+                    self.memory.record(id, j, frame.timestamp_s, frame.world_from_ego.yaw_rad, (kind, offset), motion);
                 }
             }
             let Some(report) = self.reports.get_mut(j) else { continue };

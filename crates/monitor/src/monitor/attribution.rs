@@ -592,6 +592,65 @@ impl Monitor {
         (sum[2] >= 1.0).then(|| [sum[0] / sum[2], sum[1] / sum[2]])
     }
 
+    /// The evidence follows its object, also when the box keeps evidence in its region (issue #10): for a track
+    /// confirmed by its own evidence in the previous frame, the centre that frame's object list predicts for now
+    /// (its centre then plus its stated velocity times the time step) and where the box is reported now differ by
+    /// more than the box's uncertainty allows over two frames, along or across the box; the occupied cells within
+    /// the grown region placed at the predicted centre (not standing in another object's box) hold at least half as
+    /// many cells as its own evidence held then; and their centre stands where the previous offset from box to
+    /// evidence, applied at the predicted centre, puts it, not where the same offset puts it from the reported box.
+    /// Then the object jumped away from its evidence, which stayed where a body moving as stated would be: a
+    /// position error: returns that evidence's centre and where it puts the box's centre (the remembered offset
+    /// back from it). The allowance along each axis is
+    /// `2 (margin - delta_safe) + delta_safe + cell size`: the stated uncertainty in each of the two frames, the
+    /// safety margin, and half a cell of rounding of each frame's evidence centre. Bounded: one walk over the cells
+    /// of one region, for objects whose reported centre jumped only.
+    pub(super) fn moved_from_evidence(&self, j: usize, region: &Region) -> Option<([f32; 2], [f32; 2])> {
+        let s = self.scratch.get(j)?;
+        let (p, before) = s.predicted?;
+        let Some((EvidenceKind::Own, r)) = s.recalled else { return None };
+        let fp = &region.footprint;
+        let geometry = self.grid.geometry;
+        let delta = self.params.safety_margin_m;
+        let cell = geometry.cell_size_m;
+        let allow_u = 2.0 * (region.margin_length_m - delta) + delta + cell;
+        let allow_v = 2.0 * (region.margin_width_m - delta) + delta + cell;
+        // `true` when a vector (ego axes) reaches beyond the allowance along or across the box.
+        let beyond = |d: [f32; 2]| {
+            let (u, v) = (d[0] * fp.cos + d[1] * fp.sin, -d[0] * fp.sin + d[1] * fp.cos);
+            !(u.abs() <= allow_u && v.abs() <= allow_v)
+        };
+        if !beyond([fp.cx - p[0], fp.cy - p[1]]) {
+            return None;
+        }
+        let moved = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..region.grown };
+        let range = geometry.cell_range(moved.aabb())?;
+        let tau = self.params.tau_fn;
+        let mut sum = [0.0f32; 3];
+        geometry.for_each_cell_overlapping(&moved, range, |idx, x, y| {
+            if self.grid.hits(idx) == 0 || self.grid.probability(idx) <= tau || self.grid.flags(idx) & FLAG_STATIC != 0
+            {
+                return;
+            }
+            if self.grid.flags(idx) & FLAG_EXPLAINED != 0 {
+                let owner = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
+                if owner != j
+                    && self.scratch.get(owner).and_then(|o| o.region).is_some_and(|o| o.footprint.contains(x, y))
+                {
+                    return;
+                }
+            }
+            sum = [sum[0] + x, sum[1] + y, sum[2] + 1.0];
+        });
+        if sum[2] < (0.5 * before).max(1.0) {
+            return None;
+        }
+        let c = [sum[0] / sum[2], sum[1] / sum[2]];
+        let from_prediction = [c[0] - (p[0] + r[0]), c[1] - (p[1] + r[1])];
+        let from_box = [c[0] - (fp.cx + r[0]), c[1] - (fp.cy + r[1])];
+        (!beyond(from_prediction) && beyond(from_box)).then_some((c, [c[0] - r[0], c[1] - r[1]]))
+    }
+
     /// A sight brought up to date after the attribution: shadows cast by evidence now attributed to an object
     /// hide rather than contradict.
     pub(super) fn without_attributed(&self, mut sight: FootprintSight) -> FootprintSight {
