@@ -4,6 +4,7 @@
 # and the pytest suite (python/tests: bad input, the same records as `pmon check --format jsonl` on a simulated
 # recording and on KITTI when ../shared/data exists; pmon.campaign in-process vs. a 2-worker Dask LocalCluster,
 # byte for byte, also with a worker killed; pmon evaluate over recordings with --scheduler local vs. dask://, resumed;
+# pmon reproduce --quick's simulated runs as tasks on dask:// vs. the single-process run, byte for byte;
 # Ray when PMON_PY_RAY=1). Called from .ci/run.
 # The wheel is built with the workspace's dev profile into the workspace's target/: the pmon crates compiled by
 # the test stage are reused; only the pyo3 crates and the extension are compiled again (maturin sets
@@ -17,7 +18,7 @@ if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
 fi
 "$venv/bin/pip" install --quiet --disable-pip-version-check "maturin==1.*" "numpy==2.*" "pytest==9.*" "pandas==2.*" \
-    "dask[distributed]==2026.*"   # pmon.campaign and pmon evaluate on a LocalCluster (docs/campaigns.md)
+    "dask[distributed]==2026.*" "tqdm==4.*"   # pmon.campaign, pmon evaluate and reproduce on a LocalCluster, the progress bar (docs/campaigns.md)
 # Ray is optional: its test is skipped with a message unless PMON_PY_RAY=1 installs it (docs/campaigns.md).
 if [ "${PMON_PY_RAY:-0}" = 1 ]; then
     "$venv/bin/pip" install --quiet --disable-pip-version-check "ray==2.*"

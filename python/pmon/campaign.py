@@ -256,21 +256,30 @@ def run(
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# Dataset-scale evaluation: the run folder of `pmon evaluate` (docs/campaigns.md, "Dataset-scale evaluation")
+# Run folders of `pmon evaluate` and `pmon reproduce --scheduler` (docs/campaigns.md)
 # ---------------------------------------------------------------------------------------------------------------
 
 
-def _evaluate_task(task_json: str) -> tuple[str, float, int, str, float]:
-    """Runs one `pmon evaluate` task in this process: (result JSON, seconds, pid, host, CPU seconds of the
-    process meanwhile). The result holds no timing; an error on the log's data is inside the result, not
-    raised."""
+def _run_task_json(task_json: str) -> tuple[str, float, int, str, float]:
+    """Runs one task of a run folder in this process: (result JSON, seconds, pid, host, CPU seconds of the
+    process meanwhile). A `pmon reproduce` task (format ``pmon-reproduce-task/1``: one run of the paper's plan on
+    a built-in scene) or a `pmon evaluate` task (one log and part). The result holds no timing; an error on the
+    task's data is inside the result, not raised."""
     import socket
 
-    from pmon._pmon import run_evaluation_task  # absolute: also when this file runs as __main__
+    # absolute: also when this file runs as __main__
+    from pmon._pmon import run_evaluation_task, run_reproduce_task
 
     t0, c0 = time.perf_counter(), time.process_time()
-    text = run_evaluation_task(task_json)
+    if json.loads(task_json).get("format", "").startswith("pmon-reproduce-task/"):
+        text = run_reproduce_task(task_json)
+    else:
+        text = run_evaluation_task(task_json)
     return text, time.perf_counter() - t0, os.getpid(), socket.gethostname(), time.process_time() - c0
+
+
+# The name the first version shipped to workers under.
+_evaluate_task = _run_task_json
 
 
 def _write_atomic(path: str, text: str) -> None:
@@ -341,14 +350,15 @@ def _engine(scheduler: Any) -> tuple[Any, Callable[[], None]]:
 
 def evaluate_run(run_dir: str | os.PathLike[str], engine: Any = "local",
                  progress: Optional[Callable[[int, int, str, str, float], None]] = None) -> EvaluationRun:
-    """Runs the tasks of a `pmon evaluate` run folder that have no finished result yet.
+    """Runs the tasks of a run folder that have no finished result yet: one of `pmon evaluate` (a task per log
+    and part) or of `pmon reproduce --scheduler ...` (a task per run of the paper's plan).
 
-    ``run_dir`` holds ``tasks.json`` (written by ``pmon evaluate``) and ``results/``; each finished task's result
+    ``run_dir`` holds ``tasks.json`` (written by ``pmon evaluate`` or ``pmon reproduce``) and ``results/``; each finished task's result
     (the Rust side's JSON, byte for byte) is written to ``results/ID.json`` as it arrives, through a temporary
     file and a rename, so a run that stops keeps what finished and a rerun runs only the rest. Tasks whose
     result is an error are run again. ``engine``: ``"local"``, a ``dask.distributed.Client``, ``"ray"`` (after
     ``ray.init``) or a scheduler string (see :func:`_engine`). ``progress(done, total, task id, where, seconds)``
-    is called after every finished task. ``pmon evaluate`` merges the results and writes the report.
+    is called after every finished task. ``pmon evaluate`` / ``pmon reproduce`` merge the results and write the report.
     """
     run_dir = os.fspath(run_dir)
     with open(os.path.join(run_dir, "tasks.json"), encoding="utf-8") as f:
@@ -378,11 +388,11 @@ def evaluate_run(run_dir: str | os.PathLike[str], engine: Any = "local",
         payloads = {t["id"]: json.dumps(t) for t in todo}
         if engine == "local":
             for ident, p in payloads.items():
-                done(ident, _evaluate_task(p))
+                done(ident, _run_task_json(p))
         elif engine == "ray":
             import ray
 
-            remote = ray.remote(max_retries=2)(_evaluate_task)
+            remote = ray.remote(max_retries=2)(_run_task_json)
             pending = {remote.remote(p): ident for ident, p in payloads.items()}
             while pending:
                 ready, _ = ray.wait(list(pending))
@@ -391,7 +401,7 @@ def evaluate_run(run_dir: str | os.PathLike[str], engine: Any = "local",
         elif hasattr(engine, "submit"):
             from dask.distributed import as_completed
 
-            futures = {engine.submit(_evaluate_task, p, key="pmon-eval-" + hashlib.blake2b(
+            futures = {engine.submit(_run_task_json, p, key="pmon-task-" + hashlib.blake2b(
                 p.encode(), digest_size=16).hexdigest(), pure=False, retries=2): ident
                 for ident, p in payloads.items()}
             for fut in as_completed(list(futures)):
@@ -405,26 +415,82 @@ def evaluate_run(run_dir: str | os.PathLike[str], engine: Any = "local",
     return out
 
 
+class _Progress:
+    """What ``python -m pmon.campaign run`` shows: a bar across the cluster (tasks done / total, failures, ETA;
+    tqdm) on a terminal, a line per finished task (with the worker that ran it) otherwise, nothing with
+    ``--quiet``."""
+
+    def __init__(self, quiet: bool, stream: Any = None) -> None:
+        import sys
+
+        self.stream = stream if stream is not None else sys.stderr
+        self.quiet = quiet
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.bar: Any = None
+        self.failed = 0
+
+    def start(self, done: int, total: int) -> None:
+        """Before the first task: ``done`` of ``total`` finished before this run."""
+        if self.tty and not self.quiet:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, initial=done, unit="task", file=self.stream, dynamic_ncols=True,
+                            smoothing=0.1, desc="pmon tasks")
+            self.bar.set_postfix(failed=0)
+
+    def __call__(self, done: int, total: int, ident: str, where: str, seconds: float, failed: bool = False) -> None:
+        if self.quiet:
+            return
+        self.failed += int(failed)
+        if self.bar is not None:
+            if failed:
+                self.bar.write(f"FAILED {ident} on {where}", file=self.stream)
+            self.bar.set_postfix(failed=self.failed, refresh=False)
+            self.bar.update(1)
+        else:
+            status = ", FAILED" if failed else ""
+            print(f"[{done}/{total}] {ident} on {where}, {seconds:.1f} s{status}", file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
 def _main(argv: Optional[Sequence[str]] = None) -> int:
     import argparse
     import sys
 
     ap = argparse.ArgumentParser(prog="python -m pmon.campaign", description=(
-        "Runs the missing tasks of a `pmon evaluate` run folder on a scheduler (pmon evaluate --scheduler calls "
-        "this; then it merges the results and writes the report)."))
+        "Runs the missing tasks of a run folder of `pmon evaluate` or `pmon reproduce --scheduler` on a scheduler "
+        "(those commands call this; then they merge the results and write the report)."))
     sub = ap.add_subparsers(dest="command", required=True)
-    ev = sub.add_parser("evaluate-run", help="run the unfinished tasks of RUN_DIR")
+    ev = sub.add_parser("run", aliases=["evaluate-run"], help="run the unfinished tasks of RUN_DIR")
     ev.add_argument("run_dir")
     ev.add_argument("--scheduler", default="local",
                     help="local, dask://HOST:PORT, dask-local:N, ray, ray://HOST:PORT or ray-local:N")
+    ev.add_argument("--quiet", "-q", action="store_true", help="no progress bar or lines")
     args = ap.parse_args(argv)
+    show = _Progress(args.quiet)
+    results = os.path.join(args.run_dir, "results")
+    try:
+        with open(os.path.join(args.run_dir, "tasks.json"), encoding="utf-8") as f:
+            ids = [t["id"] for t in json.load(f)]
+        show.start(sum(_finished(os.path.join(results, f"{i}.json")) for i in ids), len(ids))
+    except (OSError, ValueError, KeyError, TypeError):
+        pass  # evaluate_run says what is wrong with the folder
 
-    def show(k: int, n: int, ident: str, where: str, seconds: float) -> None:
-        print(f"[{k}/{n}] {ident} on {where}, {seconds:.1f} s", file=sys.stderr, flush=True)
+    def progress(k: int, n: int, ident: str, where: str, seconds: float) -> None:
+        # evaluate_run has written the task's result when it calls this: a failure is read from it.
+        failed = not _finished(os.path.join(results, f"{ident}.json"))
+        show(k, n, ident, where, seconds, failed)
 
-    r = evaluate_run(args.run_dir, args.scheduler, progress=show)
-    print(f"pmon.campaign: ran {len(r.ran)} of {r.total} tasks in {r.wall_s:.1f} s on {len(r.workers)} worker "
-          f"processes; {len(r.failed)} failed on their data", file=sys.stderr)
+    try:
+        r = evaluate_run(args.run_dir, args.scheduler, progress=progress)
+    finally:
+        show.close()
+    if not args.quiet:
+        print(f"pmon.campaign: ran {len(r.ran)} of {r.total} tasks in {r.wall_s:.1f} s on {len(r.workers)} worker "
+              f"processes; {len(r.failed)} failed on their data", file=sys.stderr)
     return 0
 
 

@@ -143,6 +143,39 @@ pub struct SceneIds {
     pub pedestrians_paper: Option<usize>,
 }
 
+impl SceneIds {
+    /// The role of a scene index in the plan (`pedestrians`, `intersection`, `pedestrians_20hz`,
+    /// `pedestrians_paper`), the scene's part of a run's identity; `scene-<index>` for an index without a role.
+    #[must_use]
+    pub fn role(&self, scene: usize) -> String {
+        if scene == self.pedestrians {
+            "pedestrians".into()
+        } else if scene == self.intersection {
+            "intersection".into()
+        } else if Some(scene) == self.pedestrians_20hz {
+            "pedestrians_20hz".into()
+        } else if Some(scene) == self.pedestrians_paper {
+            "pedestrians_paper".into()
+        } else {
+            format!("scene-{scene}")
+        }
+    }
+}
+
+/// The identity of a run, as text: the scene's role and the run's parameters, injection (without its seed) and
+/// window, as JSON. Two runs with the same identity are the same run.
+#[must_use]
+pub fn run_identity(role: &str, spec: &RunSpec) -> String {
+    let injection = InjectionConfig { seed: 0, ..spec.injection };
+    serde_json::to_string(&(role, &spec.params, &injection, spec.window)).unwrap_or_else(|e| format!("{role}: {e}"))
+}
+
+/// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].
+#[must_use]
+pub fn run_seed(campaign_seed: u64, role: &str, spec: &RunSpec) -> u64 {
+    crate::real_data::mix(campaign_seed, crate::real_data::evaluate::fnv1a(&run_identity(role, spec)))
+}
+
 /// How much to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Scale {
@@ -311,13 +344,16 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
     let quick = scale == Scale::Quick;
     let smoke = scale == Scale::Smoke;
     let mut runs = Vec::new();
-    // `noise`: (position sigma in metres, correlation time in seconds).
+    // `noise`: (position sigma in metres, correlation time in seconds). Each run's injection seed comes from the
+    // campaign seed and the run's identity (scene role, parameters, fault, noise, window), never from its
+    // position in the plan: a run gets the same seed in any plan and on any worker (`sim_tasks`).
     let mut push = |scene: usize, params: MonitorParams, fault: Fault, noise: (f32, f32), probes: Vec<Probe>| {
-        let k = runs.len() as u64;
-        let mut injection = InjectionConfig::new(fault, seed.wrapping_mul(1_000_003).wrapping_add(k));
+        let mut injection = InjectionConfig::new(fault, 0);
         injection.position_noise_m = noise.0;
         injection.noise_correlation_s = noise.1;
-        runs.push(PlannedRun { spec: RunSpec { scene, params, injection, window: 2 }, probes });
+        let spec = RunSpec { scene, params, injection, window: 2 };
+        let seeded = InjectionConfig { seed: run_seed(seed, &ids.role(scene), &spec), ..injection };
+        runs.push(PlannedRun { spec: RunSpec { injection: seeded, ..spec }, probes });
     };
     let p05 = MonitorParams { cell_size_m: 0.5, ..*base };
     // Beyond the paper: the calibrated plausibility rule (docs/plausibility.md), beside the paper's.

@@ -11,6 +11,7 @@ pub mod inject;
 pub mod metrics;
 pub mod real_data;
 pub mod run;
+pub mod sim_tasks;
 pub mod tracker;
 pub mod tracker_eval;
 

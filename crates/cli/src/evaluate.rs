@@ -1,6 +1,6 @@
 //! `pmon evaluate`: the real-data experiments of `pmon reproduce` over every log of a dataset, one task per log
 //! and part, run here (`--scheduler local`) or on a Dask or Ray cluster through the Python package
-//! (`python -m pmon.campaign evaluate-run`), resumable from its run folder (docs/campaigns.md).
+//! (`python -m pmon.campaign run`), resumable from its run folder (docs/campaigns.md).
 
 use std::collections::BTreeMap;
 use std::fs;
@@ -20,6 +20,7 @@ use rayon::prelude::*;
 use crate::config::load_params;
 use crate::output::{write_atomic, OutputDir};
 use crate::reproduce::{claims_markdown, render_figure};
+use crate::run_dir::{self, run_python, RunDir, TaskProgress};
 
 /// Arguments of `pmon evaluate`.
 #[derive(Args, Debug, Clone)]
@@ -66,24 +67,20 @@ pub struct EvaluateArgs {
     #[arg(long)]
     pub python: Option<PathBuf>,
     /// Write the run folder's plan (`tasks.json`) and stop: for running the tasks elsewhere
-    /// (`python -m pmon.campaign evaluate-run RUN_DIR --scheduler ...`) and merging them later.
+    /// (`python -m pmon.campaign run RUN_DIR --scheduler ...`) and merging them later.
     #[arg(long)]
     pub plan_only: bool,
     /// Start the run folder afresh when it holds another plan (other source, seed, parameters or scale).
     #[arg(long)]
     pub force: bool,
-}
-
-fn python(args: &EvaluateArgs) -> PathBuf {
-    args.python
-        .clone()
-        .or_else(|| std::env::var_os("PMON_PYTHON").map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from("python3"))
+    /// No progress display (by default a bar on a terminal, a line per finished task otherwise).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Scene names of a nuScenes split, from the devkit.
 fn split_scenes(args: &EvaluateArgs, split: &str) -> Result<Vec<String>> {
-    let py = python(args);
+    let py = run_dir::python(args.python.as_deref());
     let code = "import json, sys\nfrom nuscenes.utils.splits import create_splits_scenes\n\
                 s = create_splits_scenes(verbose=False)\n\
                 sys.exit(f'no split {sys.argv[1]!r}; known: {sorted(s)}') if sys.argv[1] not in s else print(json.dumps(s[sys.argv[1]]))";
@@ -107,69 +104,23 @@ fn read_scenes(path: &Path) -> Result<Vec<String>> {
     Ok(text.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('#')).map(String::from).collect())
 }
 
-/// The run folder: the plan, and the results found in it.
-struct RunDir {
-    dir: PathBuf,
-}
-
-impl RunDir {
-    fn results_dir(&self) -> PathBuf {
-        self.dir.join("results")
-    }
-
-    fn result_path(&self, id: &str) -> PathBuf {
-        self.results_dir().join(format!("{id}.json"))
-    }
-
-    /// Creates the folder and writes the plan, or checks that the plan in it is this one.
-    fn prepare(dir: &Path, tasks: &[LogTask], force: bool) -> Result<Self> {
-        let plan = serde_json::to_string_pretty(tasks).context("cannot serialise the plan")? + "\n";
-        let plan_path = dir.join("tasks.json");
-        if plan_path.exists() {
-            let old = fs::read_to_string(&plan_path).with_context(|| format!("cannot read {}", plan_path.display()))?;
-            if old != plan {
-                if !force {
-                    bail!(
-                        "{} holds another plan (other source, logs, seed, parameters or scale): nothing run; pass \
-                         --force to start it afresh, or choose another --run-dir",
-                        dir.display()
-                    );
-                }
-                let results = dir.join("results");
-                if results.exists() {
-                    fs::remove_dir_all(&results).with_context(|| format!("cannot remove {}", results.display()))?;
-                }
-            }
-        } else if dir.exists() && fs::read_dir(dir).map(|mut d| d.next().is_some()).unwrap_or(true) {
-            bail!("{} is not empty and holds no tasks.json: not a run folder of pmon evaluate", dir.display());
-        }
-        fs::create_dir_all(dir.join("results")).with_context(|| format!("cannot create {}", dir.display()))?;
-        write_atomic(&plan_path, &plan)?;
-        Ok(Self { dir: dir.to_path_buf() })
-    }
-
-    /// The result of a task, when its file exists and parses.
-    fn result(&self, id: &str) -> Option<TaskResult> {
-        let text = fs::read_to_string(self.result_path(id)).ok()?;
-        serde_json::from_str(&text).ok()
-    }
-}
-
-fn run_local(run: &RunDir, todo: &[&LogTask], threads: Option<usize>) -> Result<()> {
+fn run_local(run: &RunDir, todo: &[&LogTask], threads: Option<usize>, quiet: bool) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))
         .build()
         .context("cannot start the worker threads")?;
     let done = AtomicUsize::new(0);
+    let failed = AtomicUsize::new(0);
     let first_error = Mutex::new(None);
     let total = todo.len();
+    let progress = TaskProgress::new(total, "pmon evaluate", quiet);
     pool.install(|| {
         todo.par_iter().for_each(|t| {
             let started = Instant::now();
             let r = evaluate::run_task(t);
-            let status = match &r.outcome {
-                evaluate::Outcome::Ok(_) => "ok".to_string(),
-                evaluate::Outcome::Error(e) => format!("FAILED: {e}"),
+            let error = match &r.outcome {
+                evaluate::Outcome::Ok(_) => None,
+                evaluate::Outcome::Error(e) => Some(e.clone()),
             };
             let written = evaluate::result_json(&r)
                 .map_err(|e| anyhow::anyhow!(e))
@@ -177,34 +128,19 @@ fn run_local(run: &RunDir, todo: &[&LogTask], threads: Option<usize>) -> Result<
             if let Err(e) = written {
                 first_error.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get_or_insert(e);
             }
+            let nfailed =
+                failed.fetch_add(usize::from(error.is_some()), Ordering::SeqCst) + usize::from(error.is_some());
             let k = done.fetch_add(1, Ordering::SeqCst) + 1;
-            eprintln!("[{k}/{total}] {} {:.1} s {status}", t.id, started.elapsed().as_secs_f64());
+            let status = error.as_ref().map_or_else(|| "ok".to_string(), |e| format!("FAILED: {e}"));
+            let line = format!("{} {:.1} s {status}", t.id, started.elapsed().as_secs_f64());
+            progress.finished(k, total, nfailed, &line, error.as_ref().map(|e| format!("{}: {e}", t.id)).as_deref());
         });
     });
+    progress.finish();
     match first_error.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner) {
         Some(e) => Err(e),
         None => Ok(()),
     }
-}
-
-fn run_python(args: &EvaluateArgs, run: &RunDir) -> Result<()> {
-    let py = python(args);
-    let status = Command::new(&py)
-        .args(["-m", "pmon.campaign", "evaluate-run"])
-        .arg(&run.dir)
-        .args(["--scheduler", &args.scheduler])
-        .status()
-        .with_context(|| format!("cannot run {} (give --python or PMON_PYTHON)", py.display()))?;
-    if !status.success() {
-        bail!(
-            "{} -m pmon.campaign evaluate-run {} --scheduler {} failed ({status}); the finished tasks are kept, rerun \
-             to resume",
-            py.display(),
-            run.dir.display(),
-            args.scheduler
-        );
-    }
-    Ok(())
 }
 
 fn write_report(out: &Path, args: &EvaluateArgs, ev: &Evaluation) -> Result<()> {
@@ -279,6 +215,7 @@ fn write_report(out: &Path, args: &EvaluateArgs, ev: &Evaluation) -> Result<()> 
 /// input or usage.
 pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
     let started = Instant::now();
+    run_dir::check_scheduler(&args.scheduler)?;
     let params = load_params(args.params.as_deref())?;
     let scenes = match (&args.split, &args.scenes) {
         (Some(split), _) => Some(split_scenes(args, split)?),
@@ -297,7 +234,7 @@ pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
         name.push(".run");
         args.out.with_file_name(name)
     });
-    let run = RunDir::prepare(&run_dir, &plan.tasks, args.force)?;
+    let run = RunDir::prepare(&run_dir, &plan.tasks, args.force, "pmon evaluate")?;
     // The report folder is checked before anything runs (it is written under a temporary name at the end).
     let out_dir = OutputDir::prepare(&args.out, "evaluate", false)?;
     if args.plan_only {
@@ -305,7 +242,8 @@ pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
         eprintln!("pmon evaluate: {} tasks planned in {}", plan.tasks.len(), run_dir.join("tasks.json").display());
         return Ok(ExitCode::SUCCESS);
     }
-    let todo: Vec<&LogTask> = plan.tasks.iter().filter(|t| !run.result(&t.id).is_some_and(|r| r.is_ok())).collect();
+    let todo: Vec<&LogTask> =
+        plan.tasks.iter().filter(|t| !run.result::<TaskResult>(&t.id).is_some_and(|r| r.is_ok())).collect();
     eprintln!(
         "pmon evaluate: {} tasks ({} logs), {} finished in {}, {} to run ({})",
         plan.tasks.len(),
@@ -317,17 +255,9 @@ pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
     );
     if !todo.is_empty() {
         if args.scheduler == "local" {
-            run_local(&run, &todo, args.threads)?;
+            run_local(&run, &todo, args.threads, args.quiet)?;
         } else {
-            let known = ["dask://", "dask-local:", "ray://", "ray-local:"];
-            if args.scheduler != "ray" && !known.iter().any(|k| args.scheduler.starts_with(k)) {
-                bail!(
-                    "--scheduler {}: expected local, dask://HOST:PORT, dask-local:N, ray, ray://HOST:PORT or \
-                     ray-local:N",
-                    args.scheduler
-                );
-            }
-            run_python(args, &run)?;
+            run_python(&run_dir::python(args.python.as_deref()), &run, &args.scheduler, args.quiet)?;
         }
     }
     let mut results = BTreeMap::new();

@@ -9,6 +9,7 @@ mod output;
 mod readme_table;
 mod reproduce;
 mod ros2;
+mod run_dir;
 mod simulate;
 mod tracker_bed;
 mod view;

@@ -6,19 +6,20 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use pmon_campaign::experiments::{self, Claim, Figure, Scale, SceneIds};
+use pmon_campaign::experiments::{self, Claim, Figure, PlannedRun, Scale, SceneIds};
+use pmon_campaign::sim_tasks::{self, SceneSpec};
 use pmon_campaign::{replay_to, run_all, Direction, Fault, RunResult, RunSpec, Scene};
 use pmon_monitor::theory::{dv_min_mps, Margins, SpeedError};
 use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectClass, ObjectState, Pose2, Uncertainty};
 use pmon_report::{BarChart, BarGroup, CellClass, HtmlReport, LineChart, RefLine, Series, TableCell};
-use pmon_scenario::{ScenarioConfig, Simulator};
 use serde::Serialize;
 
 use crate::config::load_params;
 use crate::output::OutputDir;
+use crate::run_dir::{self, run_python, RunDir};
 use crate::view::{top_view, write_view, Checked};
 
 /// Arguments of `pmon reproduce`.
@@ -57,6 +58,21 @@ pub struct ReproduceArgs {
     /// (`<!-- paper-vs-pmon:begin ... -->`, `<!-- paper-vs-pmon:end -->`), with the run's seed and scale.
     #[arg(long, value_name = "FILE")]
     pub readme: Option<PathBuf>,
+    /// Where the simulated runs go: `local` (this process, `--threads` at a time), or, through the Python package
+    /// (`--python`), `dask://HOST:PORT`, `dask-local:N`, `ray`, `ray://HOST:PORT`, `ray-local:N`: one task per run,
+    /// the same results (docs/campaigns.md). The real-data experiments, latency and examples run here.
+    #[arg(long, default_value = "local")]
+    pub scheduler: String,
+    /// Run folder of a `--scheduler` run other than `local`: the tasks (`tasks.json`) and one result per finished
+    /// task; a rerun with the same folder runs only the missing tasks. Default: OUT.run beside the report.
+    #[arg(long)]
+    pub run_dir: Option<PathBuf>,
+    /// The Python interpreter with the `pmon` package (and dask or ray). Default: `$PMON_PYTHON`, else `python3`.
+    #[arg(long)]
+    pub python: Option<PathBuf>,
+    /// No progress display (by default bars on a terminal).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Serialize)]
@@ -103,58 +119,74 @@ fn bar(len: u64, what: &str) -> ProgressBar {
     pb
 }
 
-/// Simulates the two built-in scenes.
-pub fn build_scenes(quick: bool, seed: u64, duration_s: Option<f64>) -> Result<Vec<Scene>> {
+/// Simulates the built-in scenes of `pmon reproduce` (`pmon_campaign::sim_tasks::scenario_config`): the
+/// pedestrian street, the intersection, the street at 20 Hz and the street under the paper's conditions.
+pub fn build_scenes(specs: &[SceneSpec], quiet: bool) -> Result<Vec<Scene>> {
     let mut scenes = Vec::new();
-    // The two scenes of the paper, and the residential street once more as a 20 Hz, 32-beam sensor sees it
-    // (the paper's update rates span dt = 0.05 to 0.1 s), for the speed errors.
-    //
-    // And the residential street under the paper's conditions (docs/evaluation.md, "Paper conditions"): the
-    // ground truth carries no position uncertainty (CARLA's has none: the region grows by delta_safe only),
-    // parked cars are static geometry of the map rather than objects (CARLA lists its actors only), and the
-    // street holds half as many pedestrians (the paper spawns "multiple" pedestrians; the built-in street's
-    // 120 put about 33 in every frame, nearest neighbours a median 2.7 m apart).
-    for (name, builtin) in [
-        ("pedestrians", "pedestrians"),
-        ("intersection", "intersection"),
-        ("pedestrians_20hz", "pedestrians"),
-        ("pedestrians_paper", "pedestrians"),
-    ] {
-        let mut cfg = ScenarioConfig::builtin(builtin).with_context(|| format!("no built-in scenario `{builtin}`"))?;
-        cfg.seed = seed;
-        if name == "pedestrians_20hz" {
-            cfg.name = name.into();
-            cfg.dt_s = 0.05;
-            cfg.lidar.preset = pmon_scenario::LidarPreset::Vlp32;
-        }
-        if name == "pedestrians_paper" {
-            cfg.name = name.into();
-            cfg.noise.position_sigma_m = 0.0;
-            cfg.noise.size_sigma_m = 0.0;
-            cfg.noise.report_sigma = true;
-            cfg.agents.parked_as_scenery = true;
-            cfg.agents.pedestrians /= 2;
-        }
-        if let Some(d) = duration_s {
-            cfg.duration_s = d;
-        } else if quick {
-            cfg.duration_s = cfg.duration_s.min(15.0);
-        }
-        let mut sim = Simulator::new(&cfg).map_err(|e| anyhow::anyhow!("scenario `{name}`: {e}"))?;
-        let pb = bar(sim.frame_count(), name);
-        let mut frames = Vec::new();
-        while let Some(f) = sim.step() {
-            frames.push(f.frame);
-            pb.inc(1);
-        }
+    for spec in specs {
+        let pb = if quiet { ProgressBar::hidden() } else { bar(0, &spec.name) };
+        let scene = sim_tasks::simulate(spec, &|done, total| {
+            pb.set_length(total);
+            pb.set_position(done);
+        })
+        .map_err(|e| anyhow::anyhow!(e))?;
         pb.finish_and_clear();
-        let source = format!(
-            "built-in scenario `{builtin}`, seed {seed}, {} s, dt {} s, {:?} LiDAR",
-            cfg.duration_s, cfg.dt_s, cfg.lidar.preset
-        );
-        scenes.push(Scene { name: name.into(), source, frames });
+        scenes.push(scene);
     }
     Ok(scenes)
+}
+
+/// The simulated runs as tasks of a run folder, run on a scheduler through the Python package; their results in
+/// plan order (the same counts as [`run_all`]: each task runs [`pmon_campaign::run_one`] on its own scene).
+fn run_on_scheduler(args: &ReproduceArgs, planned: &[PlannedRun], scenes: &[SceneSpec]) -> Result<Vec<RunResult>> {
+    let tp = sim_tasks::tasks(planned, scenes).map_err(|e| anyhow::anyhow!(e))?;
+    let run_dir = args.run_dir.clone().unwrap_or_else(|| {
+        let mut name = args.out.file_name().map(std::ffi::OsStr::to_os_string).unwrap_or_else(|| "pmon-report".into());
+        name.push(".run");
+        args.out.with_file_name(name)
+    });
+    let run = RunDir::prepare(&run_dir, &tp.tasks, args.force, "pmon reproduce")?;
+    let finished = |t: &sim_tasks::SimTask| {
+        run.result::<sim_tasks::TaskResult>(&t.id).is_some_and(|r| matches!(r.outcome, sim_tasks::Outcome::Ok(_)))
+    };
+    let todo = tp.tasks.iter().filter(|t| !finished(t)).count();
+    eprintln!(
+        "pmon reproduce: {} runs as {} tasks, {} finished in {}, {todo} to run ({})",
+        planned.len(),
+        tp.tasks.len(),
+        tp.tasks.len() - todo,
+        run_dir.display(),
+        args.scheduler
+    );
+    if todo > 0 {
+        run_python(&run_dir::python(args.python.as_deref()), &run, &args.scheduler, args.quiet)?;
+    }
+    let mut outputs = Vec::with_capacity(tp.tasks.len());
+    let mut problems = Vec::new();
+    for t in &tp.tasks {
+        match run.result::<sim_tasks::TaskResult>(&t.id).map(|r| r.outcome) {
+            Some(sim_tasks::Outcome::Ok(o)) => outputs.push(Some(o.to_run_result())),
+            Some(sim_tasks::Outcome::Error(e)) => {
+                problems.push(e);
+                outputs.push(None);
+            }
+            None => {
+                problems.push(format!("{}: no result in {}", t.id, run.result_path(&t.id).display()));
+                outputs.push(None);
+            }
+        }
+    }
+    if !problems.is_empty() {
+        let shown: Vec<&str> = problems.iter().take(5).map(String::as_str).collect();
+        bail!(
+            "{} of {} tasks have no result (rerun to run only those): {}{}",
+            problems.len(),
+            tp.tasks.len(),
+            shown.join("; "),
+            if problems.len() > shown.len() { "; ..." } else { "" }
+        );
+    }
+    Ok(tp.task_of_run.iter().filter_map(|&i| outputs.get(i).cloned().flatten()).collect())
 }
 
 /// Median sensor-check and plausibility-check time per frame over the scenes, milliseconds.
@@ -475,6 +507,7 @@ fn claims_table(claims: &[Claim]) -> Vec<Vec<TableCell>> {
 /// `pmon reproduce`.
 pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     let started = Instant::now();
+    run_dir::check_scheduler(&args.scheduler)?;
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot set the thread count")?;
     }
@@ -488,16 +521,25 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     };
     let out_dir = OutputDir::prepare(&args.out, "reproduce", args.force)?;
     let out = out_dir.path().to_path_buf();
-    eprintln!("pmon reproduce: simulating the built-in scenes (seed {})", args.seed);
     let duration = if args.smoke { Some(args.duration_s.unwrap_or(3.0)) } else { args.duration_s };
-    let scenes = build_scenes(args.quick, args.seed, duration)?;
+    let scene_specs = sim_tasks::scene_specs(args.quick, args.seed, duration).map_err(|e| anyhow::anyhow!(e))?;
     let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: Some(2), pedestrians_paper: Some(3) };
     let planned = experiments::plan(scale, ids, &params, args.seed);
-    eprintln!("pmon reproduce: {} runs over {} scenes", planned.len(), scenes.len());
-    let specs: Vec<RunSpec> = planned.iter().map(|p| p.spec.clone()).collect();
-    let pb = bar(specs.len() as u64, "runs");
-    let results: Vec<RunResult> = run_all(&scenes, &specs, &|| pb.inc(1)).map_err(|e| anyhow::anyhow!(e))?;
-    pb.finish_and_clear();
+    let (scenes, results) = if args.scheduler == "local" {
+        eprintln!("pmon reproduce: simulating the built-in scenes (seed {})", args.seed);
+        let scenes = build_scenes(&scene_specs, args.quiet)?;
+        eprintln!("pmon reproduce: {} runs over {} scenes", planned.len(), scenes.len());
+        let specs: Vec<RunSpec> = planned.iter().map(|p| p.spec.clone()).collect();
+        let pb = if args.quiet { ProgressBar::hidden() } else { bar(specs.len() as u64, "runs") };
+        let results: Vec<RunResult> = run_all(&scenes, &specs, &|| pb.inc(1)).map_err(|e| anyhow::anyhow!(e))?;
+        pb.finish_and_clear();
+        (scenes, results)
+    } else {
+        let results = run_on_scheduler(args, &planned, &scene_specs)?;
+        // This process still needs the scenes: the latency, the example frames and the scene table.
+        eprintln!("pmon reproduce: simulating the built-in scenes here (seed {})", args.seed);
+        (build_scenes(&scene_specs, args.quiet)?, results)
+    };
     let figures = experiments::assemble(&planned, &results);
     let lat = latency(&scenes, &params)?;
     let checks = theory_checks(&params)?;

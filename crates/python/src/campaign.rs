@@ -5,6 +5,9 @@
 //! integers (exact, associative). The randomness is seeded by the task's fields (the scene seed and the
 //! injection seed it carries), never by the order in which a worker happens to run it.
 //!
+//! `run_reproduce_task` runs one task of `pmon reproduce --scheduler ...` (`pmon_campaign::sim_tasks`) and
+//! `run_evaluation_task` one of `pmon evaluate`.
+//!
 //! Scenes are simulated once per process and kept (keyed by scenario, seed and duration): a worker that runs
 //! many tasks on the same scene pays for the simulation once. The cache grows with the number of distinct
 //! scenes a process sees.
@@ -134,4 +137,37 @@ pub fn run_campaign_task(py: Python<'_>, task_json: &str) -> PyResult<String> {
 pub fn run_evaluation_task(py: Python<'_>, task_json: &str) -> PyResult<String> {
     let task_json = task_json.to_owned();
     py.detach(move || pmon_campaign::real_data::evaluate::run_task_json(&task_json)).map_err(PyValueError::new_err)
+}
+
+type ReproduceSceneKey = String;
+
+/// The scenes of `pmon reproduce` this process has simulated (at most the four of one campaign's scale and
+/// seed are kept: the cache is emptied when a fifth distinct scene comes), keyed by their JSON description.
+fn reproduce_scene_cache() -> &'static Mutex<BTreeMap<ReproduceSceneKey, Arc<Scene>>> {
+    static CACHE: OnceLock<Mutex<BTreeMap<ReproduceSceneKey, Arc<Scene>>>> = OnceLock::new();
+    CACHE.get_or_init(|| Mutex::new(BTreeMap::new()))
+}
+
+fn reproduce_scene(spec: &pmon_campaign::sim_tasks::SceneSpec) -> Result<Arc<Scene>, String> {
+    let key = serde_json::to_string(spec).map_err(|e| format!("internal: {e}"))?;
+    if let Some(s) = reproduce_scene_cache().lock().unwrap_or_else(PoisonError::into_inner).get(&key) {
+        return Ok(Arc::clone(s));
+    }
+    let scene = Arc::new(pmon_campaign::sim_tasks::simulate(spec, &|_, _| {})?);
+    let mut cache = reproduce_scene_cache().lock().unwrap_or_else(PoisonError::into_inner);
+    if cache.len() >= pmon_campaign::sim_tasks::SCENES.len() && !cache.contains_key(&key) {
+        cache.clear();
+    }
+    Ok(Arc::clone(cache.entry(key).or_insert(scene)))
+}
+
+/// Runs one task of `pmon reproduce --scheduler ...` (JSON, `pmon_campaign::sim_tasks::SimTask`: one run of the
+/// paper's plan on a built-in scene, simulated here once per process and kept) and returns its result file's
+/// text (JSON: counts and example frames, no timing). The GIL is released while it runs. A run that fails gives
+/// a result holding the error; only a task that is not valid JSON raises `ValueError`.
+#[pyfunction]
+pub fn run_reproduce_task(py: Python<'_>, task_json: &str) -> PyResult<String> {
+    let task_json = task_json.to_owned();
+    py.detach(move || pmon_campaign::sim_tasks::run_task_json(&task_json, &reproduce_scene))
+        .map_err(PyValueError::new_err)
 }

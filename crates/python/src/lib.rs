@@ -10,7 +10,7 @@
 //! - [`monitor`]: `Monitor` (create, check a frame, the core's own time for the overhead measurement).
 //! - [`frames`]: dataset readers, recording reader and writer, frames as dicts of numpy arrays.
 //! - [`campaign`]: one campaign task (simulate, inject, check, score) as JSON in, counts out, for
-//!   `pmon.campaign`.
+//!   `pmon.campaign`; one task of `pmon evaluate` and of `pmon reproduce --scheduler ...`.
 //! - [`params`]: parameters as JSON text (the Python `Params` dataclass is built from it), TOML files.
 
 mod campaign;
@@ -36,6 +36,7 @@ fn _pmon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(monitor::synthetic_frames, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::run_campaign_task, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::run_evaluation_task, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign::run_reproduce_task, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -324,7 +324,7 @@ fn discover(source: &str, scenes: Option<&[String]>, notes: &mut Vec<String>) ->
 }
 
 /// FNV-1a, 64 bits: a stable hash of a task's identity (the same on every platform and in every version).
-fn fnv1a(text: &str) -> u64 {
+pub(crate) fn fnv1a(text: &str) -> u64 {
     text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
 }
 
