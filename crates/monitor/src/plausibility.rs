@@ -322,8 +322,9 @@ impl TrackTable {
                                             cal.predicted_margin[0] as f32,
                                             cal.predicted_margin[1] as f32,
                                         ],
-                                        position_residual_m: cal.residual as f32,
-                                        position_allowance_m: cal.allowance as f32,
+                                        // (The one-frame residual when only the own-scatter test fired.)
+                                        position_residual_m: cal.own_position.map_or(cal.residual, |o| o.0) as f32,
+                                        position_allowance_m: cal.own_position.map_or(cal.allowance, |o| o.1) as f32,
                                         kind: cal.kind,
                                         error_size: cal.error_size as f32,
                                         severity: cal.severity as f32,
