@@ -45,6 +45,9 @@ pub const OWN_SCATTER_MIN_INCREMENTS: u8 = 5;
 pub const OWN_SCATTER_FLOOR: f64 = 0.05;
 /// Both speeds at least this for a heading change to count as a sample of the heading's own scatter, m/s.
 pub const OWN_HEADING_MIN_SPEED_MPS: f32 = 1.0;
+/// Smallest own position scatter used, as a fraction of the declared sigma of a one-frame residual (a track
+/// whose box never moves is not taken to be noise-free).
+pub const OWN_POSITION_FLOOR: f64 = 0.35;
 
 /// Safety-critical position error (the paper's Sec. III-A), metres.
 pub const CRITICAL_POSITION_M: f64 = 1.0;
@@ -102,6 +105,9 @@ pub struct History {
     /// defined at both states: both speeds `>= OWN_HEADING_MIN_SPEED_MPS`); negative when either state is not
     /// clean (an alarm, a warm-up) or has no kept predecessor.
     steps: [(f32, f32); HISTORY],
+    /// Per state: half the Mahalanobis distance squared of its one-frame position residual (see
+    /// [`one_frame_d2`]) under the declared covariance; negative like `steps`.
+    pos_steps: [f32; HISTORY],
     start: u8,
     len: u8,
     /// Sum and count of the kept states' clean speed steps (the oldest state's step is not kept).
@@ -110,11 +116,69 @@ pub struct History {
     /// The same for the heading steps.
     heading_sum: f64,
     heading_n: u8,
+    /// The same for the position steps.
+    pos_sum: f64,
+    pos_n: u8,
+}
+
+/// Both states are clean: neither raised an alarm nor is in its warm-up.
+fn clean_pair(p: &Entry, e: &Entry) -> bool {
+    !p.suspect && !p.warmup && !e.suspect && !e.warmup
+}
+
+/// The one-frame position residual of `e` from `p` (the box's motion minus the trapezoid of the two reported
+/// velocities, re-fits allowed for as in the baseline test) as its Mahalanobis distance squared under the
+/// declared covariance (both positions, both velocities weighted by `dt / 2`). Uses both states'
+/// [`Entry::unit`].
+#[must_use]
+pub fn one_frame_d2(p: &Entry, e: &Entry) -> f64 {
+    one_frame_residual(p, e).1
+}
+
+/// [`one_frame_d2`] with the residual itself (after the re-fit allowance).
+fn one_frame_residual(p: &Entry, e: &Entry) -> ([f64; 2], f64) {
+    let half = 0.5 * (e.t_s - p.t_s);
+    let (v0, v1) = (f64::from(p.v_mps), f64::from(e.v_mps));
+    let (c0, s0) = (f64::from(p.unit[0]), f64::from(p.unit[1]));
+    let (c1, s1) = (f64::from(e.unit[0]), f64::from(e.unit[1]));
+    let raw = [e.x_m - p.x_m - half * (v0 * c0 + v1 * c1), e.y_m - p.y_m - half * (v0 * s0 + v1 * s1)];
+    let (dl, dw) = (f64::from(e.length_m - p.length_m), f64::from(e.width_m - p.width_m));
+    let r = if p.v_mps.min(e.v_mps) >= OWN_HEADING_MIN_SPEED_MPS {
+        refit_allowance(raw, (s1, c1), dl, dw)
+    } else {
+        // Where the heading is not defined, neither is the box's axis: the re-fit may have moved the reference
+        // point in any direction, by up to half the larger size change.
+        let n = norm(raw[0], raw[1]);
+        let k = if n > 0.0 { shrink(n, 0.5 * dl.abs().max(dw.abs())) / n } else { 0.0 };
+        [k * raw[0], k * raw[1]]
+    };
+    let sq = |x: f32| f64::from(x) * f64::from(x);
+    let mut cov = [sq(p.sx_m) + sq(e.sx_m), 0.0, sq(p.sy_m) + sq(e.sy_m)];
+    let (sv0, sv1) = (f64::from(p.sv_mps), f64::from(e.sv_mps));
+    add_velocity_cov(&mut cov, half, (s0, c0), sv0, v0 * f64::from(p.sh_rad) + sv0);
+    add_velocity_cov(&mut cov, half, (s1, c1), sv1, v1 * f64::from(e.sh_rad) + sv1);
+    (r, mahalanobis2(r, cov))
+}
+
+/// The position step of `e` from `prev` kept in the history: half of [`one_frame_d2`] between clean states, else
+/// negative.
+fn position_step(prev: Option<&Entry>, e: &Entry) -> f32 {
+    match prev.filter(|p| clean_pair(p, e)) {
+        Some(p) => {
+            let q = 0.5 * one_frame_d2(p, e);
+            if q.is_finite() {
+                q as f32
+            } else {
+                -1.0
+            }
+        }
+        None => -1.0,
+    }
 }
 
 /// The studentised steps of `e` from `prev` (see `History::steps`).
 fn steps_from(prev: Option<&Entry>, e: &Entry) -> (f32, f32) {
-    let Some(p) = prev.filter(|p| !p.suspect && !p.warmup && !e.suspect && !e.warmup) else { return (-1.0, -1.0) };
+    let Some(p) = prev.filter(|p| clean_pair(p, e)) else { return (-1.0, -1.0) };
     let sq = |x: f32| f64::from(x) * f64::from(x);
     let var_v = sq(p.sv_mps) + sq(e.sv_mps);
     let dv = f64::from(e.v_mps) - f64::from(p.v_mps);
@@ -173,7 +237,9 @@ impl History {
     /// `push` would: the plausibility checks compute it once per state).
     pub(crate) fn push_with_unit(&mut self, e: Entry) {
         let step = steps_from(self.last(), &e);
+        let pos = position_step(self.last(), &e);
         self.add_steps(step, 1.0);
+        self.add_position_step(pos, 1.0);
         if self.len() >= HISTORY {
             // The oldest state leaves, and with it the step of the state after it.
             let next = (usize::from(self.start) + 1) % HISTORY;
@@ -182,6 +248,12 @@ impl History {
             }
             if let Some(slot) = self.steps.get_mut(next) {
                 *slot = (-1.0, -1.0);
+            }
+            if let Some(&old) = self.pos_steps.get(next) {
+                self.add_position_step(old, -1.0);
+            }
+            if let Some(slot) = self.pos_steps.get_mut(next) {
+                *slot = -1.0;
             }
         }
         let idx = if self.len() < HISTORY {
@@ -199,6 +271,24 @@ impl History {
         if let Some(slot) = self.steps.get_mut(idx) {
             *slot = step;
         }
+        if let Some(slot) = self.pos_steps.get_mut(idx) {
+            *slot = pos;
+        }
+    }
+
+    fn add_position_step(&mut self, q: f32, sign: f64) {
+        if q >= 0.0 {
+            self.pos_sum = (self.pos_sum + sign * f64::from(q)).max(0.0);
+            self.pos_n = if sign > 0.0 { self.pos_n.saturating_add(1) } else { self.pos_n.saturating_sub(1) };
+        }
+    }
+
+    /// The track's own one-frame position scatter over its declared one: the mean of the kept clean position
+    /// steps (half the Mahalanobis distance squared of each one-frame residual, 1 for honest declared sigmas),
+    /// and their number.
+    #[must_use]
+    pub fn own_position_scatter(&self) -> (f64, u8) {
+        (if self.pos_n == 0 { 0.0 } else { self.pos_sum / f64::from(self.pos_n) }, self.pos_n)
     }
 
     fn add_steps(&mut self, (speed, heading): (f32, f32), sign: f64) {
@@ -289,6 +379,9 @@ pub struct Gates {
     /// `t[n]`: the two-sided Student-t quantile at `p` with [`own_dof`]`(n)` degrees of freedom, for a track's
     /// own scatter from `n` kept steps.
     pub t: [f64; HISTORY],
+    /// `f[n]`: the upper `p` quantile of Fisher's F with 2 and `2 nu` degrees of freedom (`nu` = [`own_dof`]`(n)`),
+    /// `nu (p^(-1/nu) - 1)`, for a one-frame position residual against the track's own scatter from `n` kept steps.
+    pub f: [f64; HISTORY],
 }
 
 impl Gates {
@@ -302,10 +395,25 @@ impl Gates {
             - (2.515_517 + 0.802_853 * t + 0.010_328 * t * t)
                 / (1.0 + 1.432_788 * t + 0.189_269 * t * t + 0.001_308 * t * t * t);
         let mut t = [f64::INFINITY; HISTORY];
-        for (n, q) in t.iter_mut().enumerate().skip(usize::from(OWN_SCATTER_MIN_INCREMENTS)) {
-            *q = t_quantile(p, own_dof(n as u8));
+        let mut f = [f64::INFINITY; HISTORY];
+        for (n, (q, fq)) in t.iter_mut().zip(f.iter_mut()).enumerate().skip(usize::from(OWN_SCATTER_MIN_INCREMENTS)) {
+            let nu = own_dof(n as u8);
+            *q = t_quantile(p, nu);
+            *fq = f64::from(nu) * (libm::pow(p, -1.0 / f64::from(nu)) - 1.0);
         }
-        Self { chi2_2: -2.0 * libm::log(p), z, t }
+        Self { chi2_2: -2.0 * libm::log(p), z, t, f }
+    }
+
+    /// The own-position gate on half the one-frame Mahalanobis distance squared: the F quantile times the
+    /// track's own mean (floored at [`OWN_POSITION_FLOOR`] squared); infinite with fewer than
+    /// [`OWN_SCATTER_MIN_INCREMENTS`] steps.
+    #[must_use]
+    pub fn position_gate(&self, (mean, n): (f64, u8)) -> f64 {
+        if n < OWN_SCATTER_MIN_INCREMENTS {
+            return f64::INFINITY;
+        }
+        let f = self.f.get(usize::from(n)).copied().unwrap_or(f64::INFINITY);
+        f * mean.max(OWN_POSITION_FLOOR * OWN_POSITION_FLOOR)
     }
 
     /// The margin factor (times the declared sigma of the difference): the smaller of `z` and the own-scatter
@@ -344,6 +452,9 @@ pub struct CalibratedCheck {
     pub residual: f64,
     /// Distance along `r` at which the gate fires, metres.
     pub allowance: f64,
+    /// When the one-frame residual failed the track's own position scatter (and the baseline test did not
+    /// fire): that residual and the distance along it at which the own-scatter gate fires, metres.
+    pub own_position: Option<(f64, f64)>,
 }
 
 /// `sqrt(a^2 + b^2)` without `hypot`'s care for overflow (the values here are metres, m/s and radians: far from
@@ -491,11 +602,16 @@ pub(crate) fn check_calibrated_sc(
     // (The own scatter narrows the margin only between initialised speeds: at the end of a warm-up the step
     // is the warm-up's error, judged with the warm-up sigma.)
     let speed_factor = if s0.warmup || s1.warmup { gates.z } else { gates.factor(own_speed) };
-    let accel_margin = speed_factor * norm(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt;
-    // The first initialised speed after a warm-up is checked too: the warm-up's 0 carries the warm-up sigma,
-    // so a step beyond `a_acc dt + z hypot(warmup sigma, sigma_v)` says that the object moved at that speed
-    // while the tracker reported 0 (a speed error of the warm-up, named below).
+    // The first initialised speed after a warm-up is checked too. The warm-up's 0 is no measurement (the tracker
+    // did not know the speed), so the step from it carries only the new speed's sigma: a step beyond
+    // `a_acc dt + z sigma_v` says that the object moved at that speed while the tracker reported 0 (a speed error
+    // of the warm-up, named below). (The warm-up sigma stays in the motion test over the baseline.)
     let warmup_end = s0.warmup && !s1.warmup;
+    let accel_margin = if warmup_end {
+        speed_factor * f64::from(s1.sv_mps) / dt
+    } else {
+        speed_factor * norm(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt
+    };
     let accel_fired = (warmup_end || (!s0.warmup && !s1.warmup))
         && (accel - accel_margin > f64::from(limits.accel_max_mps2)
             || accel + accel_margin < f64::from(limits.brake_max_mps2));
@@ -577,7 +693,20 @@ pub(crate) fn check_calibrated_sc(
     } else {
         f64::INFINITY
     };
-    let motion_fired = d2 > gates.chi2_2;
+    // 3b. The one-frame residual against the track's own position scatter (an F test: the declared sigmas are an
+    // upper bound; a standing object's jitter from its own history tells a 1.5 m jump from its noise).
+    let mut own_position = None;
+    if clean_pair(&s0, &Entry { suspect: false, ..*s1 }) {
+        let gate = gates.position_gate(h.own_position_scatter());
+        if gate.is_finite() {
+            let (r1, d1) = one_frame_residual(&s0, &Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 });
+            if 0.5 * d1 > gate {
+                let res1 = norm(r1[0], r1[1]);
+                own_position = Some((res1, res1 * libm::sqrt(2.0 * gate / d1)));
+            }
+        }
+    }
+    let motion_fired = d2 > gates.chi2_2 || own_position.is_some();
     let span = (s1.t_s - sb.t_s).max(1e-9);
     let observed_speed = norm(s1.x_m - sb.x_m, s1.y_m - sb.y_m) / span;
     let reported_speed = norm(pred[0], pred[1]) / span;
@@ -620,7 +749,11 @@ pub(crate) fn check_calibrated_sc(
                     let dj = norm(rj[0], rj[1]);
                     // A jump if the positions alone are off, or if they explain most of the residual (a speed
                     // error leaves the positions on their straight line).
-                    Some((dj, dj * dj / var > gates.chi2_2 || dj >= 0.7 * residual))
+                    // (Fired by the one-frame own-scatter test: a jump when that frame's residual is most of the
+                    // baseline's; a speed error builds up over the baseline instead.)
+                    let own_jump = own_position.is_some_and(|(r1, _)| r1 >= 0.7 * residual);
+                    let size = own_position.map_or(dj, |(r1, _)| dj.max(r1));
+                    Some((size, dj * dj / var > gates.chi2_2 || dj >= 0.7 * residual || own_jump))
                 }
                 _ => None,
             };
@@ -685,6 +818,7 @@ pub(crate) fn check_calibrated_sc(
         predicted_margin: [libm::sqrt(cov[0].max(0.0)), libm::sqrt(cov[2].max(0.0))],
         residual,
         allowance,
+        own_position: if d2 > gates.chi2_2 { None } else { own_position },
     }
 }
 
@@ -997,6 +1131,103 @@ mod tests {
         assert!(run(&h2, &s).kind != Some(ImplausibilityKind::HeadingFlip));
     }
 
+    /// A standing object (declared 0.3 m per axis) whose centre jitters as a Gauss-Markov process of `sigma` m per
+    /// axis and correlation `rho` per frame (white for 0), checked state by state at `p`; returns (alarms of the
+    /// own-scatter position test, states).
+    fn jitter_run(p: f64, sigma: f64, rho: f64, dt: f64, states: usize, seed: u64) -> (usize, usize) {
+        let gates = Gates::new(p);
+        let mut g = normals(seed);
+        let mut h = History::default();
+        let (mut jx, mut jy) = (g(), g());
+        let k = libm::sqrt(1.0 - rho * rho);
+        let (mut alarms, mut judged) = (0, 0);
+        for i in 0..states {
+            jx = rho * jx + k * g();
+            jy = rho * jy + k * g();
+            let mut s = e(i as f64 * dt, sigma * jx, 0.0);
+            s.y_m = sigma * jy;
+            s.sx_m = 0.3;
+            s.sy_m = 0.3;
+            if !h.is_empty() {
+                let c = check_calibrated(&h, &s, &MotionLimits::default(), &gates, 1.0, 0.5);
+                judged += 1;
+                // (The own-scatter test alone: the baseline test's rate at honest sigmas is its own p.)
+                alarms += usize::from(c.own_position.is_some());
+                s.suspect = !c.fired.is_empty();
+            }
+            h.push(s);
+        }
+        (alarms, judged)
+    }
+
+    #[test]
+    fn own_position_gate_keeps_its_false_alarm_probability() {
+        // White jitter from 0.03x to 1x the declared 0.3 m, and the tracker bed's correlated jitter (0.25 m, 0.8
+        // per frame): the own-scatter F test must not alarm much more often than p.
+        let p = 0.01;
+        for (sigma, rho, seed) in [(0.3, 0.0, 3u64), (0.1, 0.0, 5), (0.01, 0.0, 7), (0.25, 0.8, 9), (0.05, 0.8, 11)] {
+            let (alarms, n) = jitter_run(p, sigma, rho, 0.1, 60_000, seed);
+            let rate = alarms as f64 / n as f64;
+            #[cfg(feature = "std")]
+            std::println!("jitter {sigma} m, rho {rho}: rate {rate:.4} (p {p})");
+            assert!(rate < 1.5 * p, "jitter {sigma} rho {rho}: {rate}");
+        }
+    }
+
+    #[test]
+    fn a_jump_of_a_standing_object_is_caught_by_its_own_scatter() {
+        // The bed's standing objects: declared 0.3 m, jitter 0.25 m correlated 0.8 per frame. A 1.55 m jump after a
+        // full history is caught at 10 and 20 Hz and named a jump; the declared sigmas alone (the own-position
+        // test switched off) miss most of them.
+        let without_own = Gates { f: [f64::INFINITY; HISTORY], ..Gates::new(1e-4) };
+        let mut declared_only = 0;
+        let mut cases = 0;
+        for dt in [0.1, 0.05] {
+            for seed in [21u64, 23, 25, 27, 29, 31] {
+                let mut g = normals(seed);
+                let mut h = History::default();
+                let (mut jx, mut jy) = (0.0, 0.0);
+                for i in 0..HISTORY {
+                    jx = 0.8 * jx + 0.6 * g();
+                    jy = 0.8 * jy + 0.6 * g();
+                    let mut s = e(i as f64 * dt, 0.25 * jx, 0.0);
+                    s.y_m = 0.25 * jy;
+                    s.sx_m = 0.3;
+                    s.sy_m = 0.3;
+                    h.push(s);
+                }
+                let last = *h.last().unwrap();
+                let mut s = e(HISTORY as f64 * dt, last.x_m + 1.1, 0.0);
+                s.y_m = last.y_m - 1.1;
+                s.sx_m = 0.3;
+                s.sy_m = 0.3;
+                let c = run(&h, &s);
+                assert_eq!(c.kind, Some(ImplausibilityKind::PositionJump), "dt {dt} seed {seed}: {c:?}");
+                let d = check_calibrated(&h, &s, &MotionLimits::default(), &without_own, 1.0, 0.5);
+                declared_only += usize::from(!d.fired.is_empty());
+                cases += 1;
+            }
+        }
+        assert!(declared_only * 2 < cases, "the declared sigmas alone caught {declared_only} of {cases}");
+    }
+
+    #[test]
+    fn a_warmup_that_hid_3_mps_is_named_at_its_end() {
+        // Reported 0 (warm-up) then 3.2 m/s, the box moving at 3.2 m/s: at 10 and 20 Hz the warm-up hid a
+        // safety-critical speed error; a pedestrian at 1.4 m/s (and 2 m/s) after its warm-up is not an alarm.
+        for dt in [0.1, 0.05] {
+            let mut s0 = e(0.0, 0.0, 0.0);
+            s0.warmup = true;
+            s0.sv_mps = 0.7;
+            let h = History::with(s0);
+            let c = run(&h, &e(dt, 3.2 * dt, 3.2));
+            assert_eq!(c.kind, Some(ImplausibilityKind::SpeedInconsistent), "dt {dt}: {c:?}");
+            assert!(c.severity > 1.0, "dt {dt}: {c:?}");
+            assert!(run(&h, &e(dt, 1.4 * dt, 1.4)).fired.is_empty(), "dt {dt}");
+            assert!(run(&h, &e(dt, 2.0 * dt, 2.0)).fired.is_empty(), "dt {dt}");
+        }
+    }
+
     proptest::proptest! {
         #[test]
         fn running_scatter_sums_match_a_recount(
@@ -1011,12 +1242,19 @@ mod tests {
                 h.push(s);
                 // Recount from the kept states (the oldest one's step is not kept).
                 let (mut sv, mut nv, mut sh, mut nh) = (0.0f64, 0u8, 0.0f64, 0u8);
+                let (mut sp, mut np) = (0.0f64, 0u8);
                 for i in 1..h.len() {
                     let (a, b) = (h.get(i - 1).copied().unwrap_or_default(), h.get(i).copied().unwrap_or_default());
                     let (x, y) = steps_from(Some(&a), &b);
                     if x >= 0.0 { sv += f64::from(x); nv += 1; }
                     if y >= 0.0 { sh += f64::from(y); nh += 1; }
+                    let q = position_step(Some(&a), &b);
+                    if q >= 0.0 { sp += f64::from(q); np += 1; }
                 }
+                let (mp, n_p) = h.own_position_scatter();
+                proptest::prop_assert_eq!(n_p, np);
+                let want = if np == 0 { 0.0 } else { sp / f64::from(np) };
+                proptest::prop_assert!((mp - want).abs() < 1e-6 * (1.0 + mp));
                 let rms = |s: f64, n: u8| if n == 0 { 0.0 } else { libm::sqrt(s / f64::from(n)) };
                 let ((a, na), (b, nb)) = h.own_scatter();
                 proptest::prop_assert_eq!((na, nb), (nv, nh));

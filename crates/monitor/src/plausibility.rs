@@ -20,8 +20,9 @@ struct Track {
     id: u64,
     /// The last state with the paper's margins (the paper's rule).
     state: MeasuredState,
-    /// The last [`HISTORY`] states with the calibrated rule's sigmas.
-    hist: History,
+    /// Slot of its last [`HISTORY`] states (with the calibrated rule's sigmas) in the table's pool of histories:
+    /// the track itself stays small, so the per-frame merge copies no history.
+    hist: u32,
     /// States seen since the track started.
     age: u32,
 }
@@ -87,6 +88,11 @@ pub struct TrackTable {
     tracks: Vec<Track>,
     next: Vec<Track>,
     order: Vec<u32>,
+    /// The tracks' histories, allocated at construction: one per remembered track and one per object of a frame
+    /// (a new track takes a slot before the old tracks after it in id order have given theirs back).
+    pool: Vec<History>,
+    /// Slots of `pool` not in use.
+    free: Vec<u32>,
     /// The calibrated rule's gates and the false-alarm probability they are for (computed once: the Student-t
     /// quantiles take a bisection each).
     gates: Option<(f64, Gates)>,
@@ -122,10 +128,15 @@ impl TrackTable {
     /// Room for `max_objects` objects per frame and as many remembered tracks.
     #[must_use]
     pub fn new(max_objects: usize) -> Self {
+        let slots = 3 * max_objects;
+        let mut pool = Vec::with_capacity(slots);
+        pool.resize(slots, History::default());
         Self {
             tracks: Vec::with_capacity(2 * max_objects),
             next: Vec::with_capacity(2 * max_objects),
             order: Vec::with_capacity(max_objects),
+            pool,
+            free: (0..slots as u32).rev().collect(),
             gates: None,
         }
     }
@@ -144,6 +155,9 @@ impl TrackTable {
 
     /// Forgets every track.
     pub fn clear(&mut self) {
+        for tr in &self.tracks {
+            self.free.push(tr.hist);
+        }
         self.tracks.clear();
     }
 
@@ -203,20 +217,24 @@ impl TrackTable {
                 }
                 if t_s - tr.state.t_s <= p.max_time_step_s && self.next.len() + remaining_current + 1 < cap {
                     self.next.push(*tr);
+                } else {
+                    self.free.push(tr.hist);
                 }
                 prev_i += 1;
             }
             let prev = match self.tracks.get(prev_i) {
                 Some(tr) if tr.id == id => {
                     prev_i += 1;
-                    Some(tr)
+                    Some(*tr)
                 }
                 _ => None,
             };
-            let keep_prev = |next: &mut Vec<Track>| {
+            let keep_prev = |next: &mut Vec<Track>, free: &mut Vec<u32>| {
                 if let Some(tr) = prev {
                     if next.len() < cap {
-                        next.push(*tr);
+                        next.push(tr);
+                    } else {
+                        free.push(tr.hist);
                     }
                 }
             };
@@ -226,42 +244,49 @@ impl TrackTable {
                         *o = MotionOutcome::not_monitored(NotMonitoredReason::DuplicateId);
                     }
                 }
-                keep_prev(&mut self.next);
+                keep_prev(&mut self.next, &mut self.free);
                 k = end;
                 continue;
             }
             let i = first as usize;
             let outcome = if !valid.get(i).copied().unwrap_or(false) {
-                keep_prev(&mut self.next);
+                keep_prev(&mut self.next, &mut self.free);
                 MotionOutcome::not_monitored(NotMonitoredReason::InvalidState)
             } else {
                 let u = obj.uncertainty.unwrap_or(p.default_uncertainty);
                 let s1 = to_world_sc(obj, &u, pose, pose_sc, t_s);
-                let fresh =
-                    |age: u32| Track { id, state: s1, hist: History::with(entry_of(obj, &s1, p, age).0), age: 1 };
+                // A new track in `slot` (the old track's, or a free one), remembered while there is room.
+                let fresh = |slot: Option<u32>, next: &mut Vec<Track>, free: &mut Vec<u32>, pool: &mut [History]| {
+                    let Some(slot) = slot.or_else(|| free.pop()) else { return };
+                    match pool.get_mut(slot as usize) {
+                        Some(h) if next.len() < cap => {
+                            *h = History::with(entry_of(obj, &s1, p, 0).0);
+                            next.push(Track { id, state: s1, hist: slot, age: 1 });
+                        }
+                        _ => free.push(slot),
+                    }
+                };
                 match prev {
                     None => {
-                        if self.next.len() < cap {
-                            self.next.push(fresh(0));
-                        }
+                        fresh(None, &mut self.next, &mut self.free, &mut self.pool);
                         MotionOutcome::not_monitored(NotMonitoredReason::FirstFrameOfTrack)
                     }
                     Some(tr) => {
                         let dt = t_s - tr.state.t_s;
                         if dt.is_nan() || dt <= 0.0 {
-                            keep_prev(&mut self.next);
+                            keep_prev(&mut self.next, &mut self.free);
                             MotionOutcome::not_monitored(NotMonitoredReason::TimeStepNotPositive)
                         } else if dt > p.max_time_step_s {
-                            if self.next.len() < cap {
-                                self.next.push(fresh(0));
-                            }
+                            fresh(Some(tr.hist), &mut self.next, &mut self.free, &mut self.pool);
                             MotionOutcome::not_monitored(NotMonitoredReason::TimeStepTooLong)
                         } else {
                             let (mut e1, u1) = entry_of(obj, &s1, p, tr.age);
                             let limits = p.limits_for(obj.class);
+                            let empty = History::default();
+                            let hist = self.pool.get(tr.hist as usize).unwrap_or(&empty);
                             let cal = || -> CalibratedCheck {
                                 check_calibrated_sc(
-                                    &tr.hist,
+                                    hist,
                                     &e1,
                                     u1,
                                     &limits,
@@ -322,8 +347,9 @@ impl TrackTable {
                                             cal.predicted_margin[0] as f32,
                                             cal.predicted_margin[1] as f32,
                                         ],
-                                        position_residual_m: cal.residual as f32,
-                                        position_allowance_m: cal.allowance as f32,
+                                        // (The one-frame residual when only the own-scatter test fired.)
+                                        position_residual_m: cal.own_position.map_or(cal.residual, |o| o.0) as f32,
+                                        position_allowance_m: cal.own_position.map_or(cal.allowance, |o| o.1) as f32,
                                         kind: cal.kind,
                                         error_size: cal.error_size as f32,
                                         severity: cal.severity as f32,
@@ -332,15 +358,14 @@ impl TrackTable {
                             };
                             e1.suspect = matches!(outcome.verdict, MotionVerdict::Implausible(_));
                             e1.flipped = e1.suspect && outcome.kind == Some(ImplausibilityKind::HeadingFlip);
-                            // The track is copied once, into its new place, and updated there (a track carries its
-                            // history: about 1 kB).
+                            // The track moves to its new place; its history is updated in its slot.
                             if self.next.len() < cap {
-                                self.next.push(*tr);
-                                if let Some(t) = self.next.last_mut() {
-                                    t.hist.push_with_unit(e1);
-                                    t.state = s1;
-                                    t.age = tr.age.saturating_add(1);
+                                if let Some(h) = self.pool.get_mut(tr.hist as usize) {
+                                    h.push_with_unit(e1);
                                 }
+                                self.next.push(Track { state: s1, age: tr.age.saturating_add(1), ..tr });
+                            } else {
+                                self.free.push(tr.hist);
                             }
                             // No verdict from a NaN: every comparison with NaN is false, so no condition would fire (issue 15: a
                             // tiny dt made the acceleration infinite and the residual NaN, and a 573 m jump was called plausible).
@@ -361,6 +386,8 @@ impl TrackTable {
         while let Some(tr) = self.tracks.get(prev_i) {
             if t_s - tr.state.t_s <= p.max_time_step_s && self.next.len() < cap {
                 self.next.push(*tr);
+            } else {
+                self.free.push(tr.hist);
             }
             prev_i += 1;
         }
