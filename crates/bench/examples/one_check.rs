@@ -4,11 +4,12 @@
 //! ```text
 //! cargo build --release -p pmon-bench --example one_check
 //! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Monitor::check_with_stages*' \
-//!     target/release/examples/one_check [CHECKS] [CELL_SIZE_M] [RASTERIZER] [kitti]
+//!     target/release/examples/one_check [CHECKS] [CELL_SIZE_M] [RASTERIZER] [kitti|av2]
 //! ```
 //!
 //! With `kitti`, the six KITTI sweeps with the 64-beam object lists, as `pmon bench`'s `kitti/0.5m` case (read
-//! from `PMON_DATA_DIR`, default `<workspace>/../shared/data`), instead of the synthetic frame.
+//! from `PMON_DATA_DIR`, default `<workspace>/../shared/data`), instead of the synthetic frame; with `av2`, the
+//! Argoverse 2 sweeps with their map's region of interest, as the `av2/0.5m` case.
 //!
 //! `RASTERIZER` is `blocked` (the default: AVX2 where the processor has it), `baseline` (the blocked loop on SSE2)
 //! or `scalar` (the reference loop); see `pmon_monitor::Rasterizer`.
@@ -64,8 +65,17 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Some("av2") => {
+            match pmon_bench::av2::sweeps(&pmon_bench::frames::data_dir()).ok().and_then(pmon_bench::av2::sequence) {
+                Some(seq) => seq,
+                None => {
+                    eprintln!("error: no Argoverse 2 sweeps under {}", pmon_bench::frames::data_dir().display());
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
         Some(other) => {
-            eprintln!("unknown case `{other}`; usage: one_check [CHECKS] [CELL_SIZE_M] [RASTERIZER] [kitti]");
+            eprintln!("unknown case `{other}`; usage: one_check [CHECKS] [CELL_SIZE_M] [RASTERIZER] [kitti|av2]");
             return ExitCode::from(2);
         }
     };

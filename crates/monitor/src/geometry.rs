@@ -149,14 +149,14 @@ impl OrientedRect {
 
 /// The even-odd rule's step: whether the edge from `prev` to `p` crosses the ray from `(x, y)` towards +x.
 #[inline(always)]
-fn edge_crosses_ray(prev: [f32; 2], p: [f32; 2], x: f32, y: f32) -> bool {
+pub(crate) fn edge_crosses_ray(prev: [f32; 2], p: [f32; 2], x: f32, y: f32) -> bool {
     let ([xi, yi], [xj, yj]) = (p, prev);
     (yi > y) != (yj > y) && x < xi + (y - yi) / (yj - yi) * (xj - xi)
 }
 
 /// The offset of `(x, y)` from the nearest point of the segment from `prev` to `p`.
 #[inline(always)]
-fn offset_from_segment(prev: [f32; 2], p: [f32; 2], x: f32, y: f32) -> (f32, f32) {
+pub(crate) fn offset_from_segment(prev: [f32; 2], p: [f32; 2], x: f32, y: f32) -> (f32, f32) {
     let (ex, ey) = (p[0] - prev[0], p[1] - prev[1]);
     let len2 = ex * ex + ey * ey;
     let t = if len2 > 0.0 { (((x - prev[0]) * ex + (y - prev[1]) * ey) / len2).clamp(0.0, 1.0) } else { 0.0 };
@@ -164,7 +164,7 @@ fn offset_from_segment(prev: [f32; 2], p: [f32; 2], x: f32, y: f32) -> (f32, f32
 }
 
 /// The polygon's edges as `(previous vertex, vertex)`, the closing edge first; none for fewer than 3 vertices.
-fn polygon_edges(polygon: &[[f32; 2]]) -> impl Iterator<Item = ([f32; 2], [f32; 2])> + '_ {
+pub(crate) fn polygon_edges(polygon: &[[f32; 2]]) -> impl Iterator<Item = ([f32; 2], [f32; 2])> + '_ {
     let last = if polygon.len() < 3 { None } else { polygon.last().copied() };
     polygon.iter().scan(last, |prev, &p| prev.replace(p).map(|q| (q, p)))
 }

@@ -19,64 +19,11 @@ use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
 mod assignment;
 mod attribution;
+mod roi;
 use attribution::{claim, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDERS};
-
-/// Where a cell's square lies against the region of interest.
-enum RoiSide {
-    /// Its centre lies inside a polygon, at least half a cell diagonal from every edge: the whole square is.
-    Inside,
-    /// Its centre lies within half a cell diagonal of some polygon's edge: its returns decide.
-    Edge,
-    /// No part of the square reaches a polygon.
-    Outside,
-}
-
-/// How many region-of-interest polygons have their bounding box kept per frame (memory reserved at
-/// construction); a frame with more tests the others without the box first, with the same result.
-const ROI_BOXES: usize = 512;
-
-/// The bounding box `[min x, min y, max x, max y]` of a polygon.
-fn polygon_box(poly: &[[f32; 2]]) -> [f32; 4] {
-    let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-    for p in poly {
-        b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
-    }
-    b
-}
-
-/// True when `(x, y)` lies within `margin` of the box (false for NaN).
-#[inline]
-fn near_box(b: &[f32; 4], x: f32, y: f32, margin: f32) -> bool {
-    x >= b[0] - margin && x <= b[2] + margin && y >= b[1] - margin && y <= b[3] + margin
-}
-
-/// [`RoiSide`] of the cell centred at `(x, y)`; each polygon's bounding box first (most are far away).
-/// `boxes` holds the bounding boxes of the first polygons (see [`ROI_BOXES`]).
-fn roi_cell_side(roi: &[&[[f32; 2]]], boxes: &[[f32; 4]], x: f32, y: f32, half_diagonal: f32) -> RoiSide {
-    let mut side = RoiSide::Outside;
-    let r2 = half_diagonal * half_diagonal;
-    for (k, poly) in roi.iter().enumerate() {
-        let b = boxes.get(k).copied().unwrap_or_else(|| polygon_box(poly));
-        if !near_box(&b, x, y, half_diagonal) {
-            continue;
-        }
-        let (inside, d2) = crate::geometry::polygon_side_and_edge_distance2(poly, x, y);
-        if inside && d2 >= r2 {
-            return RoiSide::Inside;
-        }
-        if d2 < r2 {
-            side = RoiSide::Edge;
-        }
-    }
-    side
-}
-
-/// True when `(x, y)` lies inside one of the polygons (even-odd rule each), the bounding boxes first.
-fn roi_contains(roi: &[&[[f32; 2]]], boxes: &[[f32; 4]], x: f32, y: f32) -> bool {
-    roi.iter().enumerate().any(|(k, poly)| {
-        boxes.get(k).is_none_or(|b| near_box(b, x, y, 0.0)) && crate::geometry::polygon_contains(poly, x, y)
-    })
-}
+#[doc(hidden)]
+pub use roi::roi_index_mismatch;
+use roi::{polygon_box, RoiIndex, RoiSide};
 
 /// The stages of [`Monitor::check`], in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -173,10 +120,11 @@ pub struct Monitor {
     stats: GridStats,
     sensor_status: Option<NotMonitoredReason>,
     rasterizer: crate::rasterize::Rasterizer,
-    /// The bounding boxes of this frame's region-of-interest polygons (at most [`ROI_BOXES`]).
-    roi_boxes: Vec<[f32; 4]>,
-    /// The square `[min x, min y, max x, max y]` around this frame's cells that straddle the ROI's edge.
-    roi_edge_box: [f32; 4],
+    /// This frame's region-of-interest polygons, indexed by grid row (`roi.rs`).
+    roi: RoiIndex,
+    /// In frames with a region of interest: each point's grid cell as the rasterizer found it (`NO_CELL` for
+    /// points not in the obstacle band or not in the grid), for the returns of the ROI's edge cells.
+    point_cells: Vec<u32>,
 }
 
 /// Checks an object's state: finite values, sizes in `(0, max]`, speed `>= 0`, valid uncertainties.
@@ -240,8 +188,8 @@ impl Monitor {
             stats: GridStats::default(),
             sensor_status: None,
             rasterizer: crate::rasterize::Rasterizer::default(),
-            roi_boxes: Vec::with_capacity(ROI_BOXES),
-            roi_edge_box: [0.0; 4],
+            roi: RoiIndex::new(geometry),
+            point_cells: Vec::with_capacity(max_points),
             params,
         })
     }
@@ -409,16 +357,28 @@ impl Monitor {
     }
 
     fn rasterize(&mut self, frame: &Frame<'_>) {
-        use crate::rasterize::{rasterize_blocked, rasterize_scalar, Rasterizer};
+        use crate::rasterize::{
+            rasterize_blocked, rasterize_blocked_recording, rasterize_scalar, rasterize_scalar_recording, Rasterizer,
+        };
+        self.point_cells.clear();
         let Some(cloud) = frame.cloud.filter(|_| self.sensor_status.is_none()) else { return };
         let t = cloud.ego_from_sensor;
         self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
         let band = self.band();
         let (points, grid, visibility) = (cloud.points_in_sensor, &mut self.grid, &mut self.visibility);
-        let in_band = match self.rasterizer {
-            Rasterizer::Blocked => rasterize_blocked(points, &t, band, grid, visibility, true),
-            Rasterizer::BlockedBaseline => rasterize_blocked(points, &t, band, grid, visibility, false),
-            Rasterizer::Scalar => rasterize_scalar(points, &t, band, grid, visibility),
+        // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
+        let cells = &mut self.point_cells;
+        let in_band = match (self.rasterizer, frame.roi_in_ego.is_empty()) {
+            (Rasterizer::Blocked, true) => rasterize_blocked(points, &t, band, grid, visibility, true),
+            (Rasterizer::BlockedBaseline, true) => rasterize_blocked(points, &t, band, grid, visibility, false),
+            (Rasterizer::Scalar, true) => rasterize_scalar(points, &t, band, grid, visibility),
+            (Rasterizer::Blocked, false) => {
+                rasterize_blocked_recording(points, &t, band, grid, visibility, true, cells)
+            }
+            (Rasterizer::BlockedBaseline, false) => {
+                rasterize_blocked_recording(points, &t, band, grid, visibility, false, cells)
+            }
+            (Rasterizer::Scalar, false) => rasterize_scalar_recording(points, &t, band, grid, visibility, cells),
         };
         self.stats.points_total = u32::try_from(cloud.points_in_sensor.len()).unwrap_or(u32::MAX);
         self.stats.points_in_band = in_band;
@@ -522,13 +482,8 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let n = geometry.cells_per_side;
         let tau = self.params.tau_fn;
-        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         let mut edge_clusters = false;
-        self.roi_boxes.clear();
-        for poly in frame.roi_in_ego.iter().take(ROI_BOXES) {
-            self.roi_boxes.push(polygon_box(poly));
-        }
-        self.roi_edge_box = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+        self.roi.build(frame.roi_in_ego);
         let mut k = 0usize;
         while let Some(&idx) = self.grid.touched().get(k) {
             k += 1;
@@ -590,23 +545,30 @@ impl Monitor {
             // a polygon decides it at once; cells straddling an edge are marked and decided return by return
             // below (`roi_by_returns`).
             let mut in_roi = frame.roi_in_ego.is_empty();
-            for &c in self.queue.get(start..end).unwrap_or(&[]) {
+            let mut edge_cells = false;
+            let span = self.queue.get(start..end).unwrap_or(&[]);
+            for &c in span {
                 let (x, y) = geometry.cell_center(c);
                 sx += x;
                 sy += y;
                 b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 if !in_roi {
-                    match roi_cell_side(frame.roi_in_ego, &self.roi_boxes, x, y, half_diagonal) {
+                    match self.roi.cell_side(frame.roi_in_ego, c, x, y) {
                         RoiSide::Inside => in_roi = true,
-                        RoiSide::Edge => {
-                            self.grid.set_flags(c, FLAG_ROI_EDGE);
-                            let e = &mut self.roi_edge_box;
-                            *e = [e[0].min(x), e[1].min(y), e[2].max(x), e[3].max(y)];
-                            edge_clusters = true;
-                        }
+                        RoiSide::Edge => edge_cells = true,
                         RoiSide::Outside => {}
                     }
                 }
+            }
+            // Only a cluster its cells leave undecided has its edge cells marked for the returns.
+            if !in_roi && edge_cells {
+                for &c in span {
+                    let (x, y) = geometry.cell_center(c);
+                    if self.roi.cell_side(frame.roi_in_ego, c, x, y) == RoiSide::Edge {
+                        self.grid.set_flags(c, FLAG_ROI_EDGE);
+                    }
+                }
+                edge_clusters = true;
             }
             if in_roi {
                 for k in start..end {
@@ -632,29 +594,40 @@ impl Monitor {
 
     /// Decides the clusters left undecided by their cells (every cell centre outside the ROI or within half a
     /// cell diagonal of its edge): such a cluster is in the ROI when one of the obstacle-band returns in its edge
-    /// cells lies inside a polygon. One pass over the sweep; the polygons are tested only for returns in edge
-    /// cells, once per cell. A cluster whose cells' centres lie inside while all its returns lie outside (a tree
-    /// behind the kerb whose 0.5 m cells straddle the kerb line) is no missed object, and a road user whose returns
-    /// reach into the area is one although its cells' centres lie outside.
+    /// cells lies inside a polygon. The returns are found through the cells the rasterizer recorded per point (no
+    /// second transform of the sweep), and tested against the polygon edges of their row (`roi.rs`), each cell
+    /// until one return is inside. A cluster whose cells' centres lie inside while all its returns lie outside (a
+    /// tree behind the kerb whose 0.5 m cells straddle the kerb line) is no missed object, and a road user whose
+    /// returns reach into the area is one although its cells' centres lie outside.
     fn roi_by_returns(&mut self, frame: &Frame<'_>) {
         let Some(cloud) = frame.cloud else { return };
-        let band = self.band();
         let t = cloud.ego_from_sensor;
-        let geometry = self.grid.geometry;
-        // Every return of an edge cell lies within half a cell of its centre: the square around the edge cells'
-        // centres, grown by that (and a quarter cell for rounding), skips most of the sweep before the cell lookup.
-        let (edge, half) = (self.roi_edge_box, 0.75 * geometry.cell_size_m);
-        for p in cloud.points_in_sensor {
-            let q = t.transform(*p);
-            let in_band = q[2] >= band.lo_m && q[2] <= band.hi_m;
-            if !(in_band && near_box(&edge, q[0], q[1], half)) || band.in_ego(q[0], q[1]) {
-                continue;
+        let (points, roi) = (cloud.points_in_sensor, frame.roi_in_ego);
+        if self.point_cells.len() == points.len() {
+            for (p, &cell) in points.iter().zip(&self.point_cells) {
+                if cell == NO_CELL || self.grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) != FLAG_ROI_EDGE {
+                    continue;
+                }
+                let q = t.transform(*p);
+                if self.roi.contains(roi, cell, q[0], q[1]) {
+                    self.grid.set_flags(cell, FLAG_RETURN_IN_ROI);
+                }
             }
-            let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
-            if self.grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) == FLAG_ROI_EDGE
-                && roi_contains(frame.roi_in_ego, &self.roi_boxes, q[0], q[1])
-            {
-                self.grid.set_flags(cell, FLAG_RETURN_IN_ROI);
+        } else {
+            // Not recorded (never with the capacities of `new`): the same returns, found by a pass over the sweep.
+            let band = self.band();
+            let geometry = self.grid.geometry;
+            for p in points {
+                let q = t.transform(*p);
+                if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
+                    continue;
+                }
+                let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
+                if self.grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) == FLAG_ROI_EDGE
+                    && self.roi.contains(roi, cell, q[0], q[1])
+                {
+                    self.grid.set_flags(cell, FLAG_RETURN_IN_ROI);
+                }
             }
         }
         for (k, &(start, end)) in self.cluster_spans.iter().enumerate() {

@@ -22,6 +22,8 @@
 //! (identity rotation, the usual extrinsic), the transform as a translation. The division of the diamond angle
 //! stays: no multiplication by a reciprocal rounds like it.
 
+use alloc::vec::Vec;
+
 use crate::frame::Isometry3;
 use crate::geometry::diamond_angle_select;
 use crate::grid::{GridGeometry, OccupancyGrid};
@@ -89,20 +91,50 @@ pub(crate) fn rasterize_scalar(
     grid: &mut OccupancyGrid,
     visibility: &mut VisibilityMap,
 ) -> u32 {
+    scalar(points, t, band, grid, visibility, None)
+}
+
+/// [`rasterize_scalar`], and each point's grid cell in `cells` (see [`rasterize_blocked_recording`]).
+pub(crate) fn rasterize_scalar_recording(
+    points: &[[f32; 3]],
+    t: &Isometry3,
+    band: Band,
+    grid: &mut OccupancyGrid,
+    visibility: &mut VisibilityMap,
+    cells: &mut Vec<u32>,
+) -> u32 {
+    cells.clear();
+    let record = (cells.capacity() >= points.len()).then_some(cells);
+    scalar(points, t, band, grid, visibility, record)
+}
+
+/// The reference loop, recording each point's cell (or [`NO_CELL`]) in `cells` when given (room for every point
+/// is the caller's).
+fn scalar(
+    points: &[[f32; 3]],
+    t: &Isometry3,
+    band: Band,
+    grid: &mut OccupancyGrid,
+    visibility: &mut VisibilityMap,
+    mut cells: Option<&mut Vec<u32>>,
+) -> u32 {
     let (lo, hi) = (band.lo_m, band.hi_m);
     let geometry = grid.geometry;
     let mut in_band = 0u32;
     for p in points {
         let q = t.transform(*p);
         // Above the band (overhangs) or NaN: not an obstacle, and not a return that shows free space.
-        if q[2].partial_cmp(&hi).is_none_or(|o| o == core::cmp::Ordering::Greater) {
-            continue;
-        }
+        let skipped = q[2].partial_cmp(&hi).is_none_or(|o| o == core::cmp::Ordering::Greater)
+            || !(q[0].is_finite() && q[1].is_finite())
+            || band.in_ego(q[0], q[1]);
         let obstacle = q[2] >= lo;
-        if !(q[0].is_finite() && q[1].is_finite()) || band.in_ego(q[0], q[1]) {
+        let cell = if obstacle && !skipped { geometry.point_to_cell(q[0], q[1]) } else { None };
+        if let Some(cells) = cells.as_deref_mut() {
+            cells.push(cell.unwrap_or(NO_CELL));
+        }
+        if skipped {
             continue;
         }
-        let cell = if obstacle { geometry.point_to_cell(q[0], q[1]) } else { None };
         visibility.add_return(q[0], q[1], obstacle, cell.unwrap_or(NO_CELL));
         if let Some(cell) = cell {
             // Cannot fail: the touched list has room for max_points >= points cells.
@@ -306,29 +338,62 @@ pub(crate) fn rasterize_blocked(
         return rasterize_scalar(points, t, band, grid, visibility);
     };
     let ego = band.ego_m != Band::NO_EGO;
+    let none = &mut Vec::new();
     match (k.translation_only(), ego) {
-        (true, false) => blocks_on::<true, false>(&k, points, grid, visibility, wide),
-        (false, false) => blocks_on::<false, false>(&k, points, grid, visibility, wide),
-        (true, true) => blocks_on::<true, true>(&k, points, grid, visibility, wide),
-        (false, true) => blocks_on::<false, true>(&k, points, grid, visibility, wide),
+        (true, false) => blocks_on::<true, false, false>(&k, points, grid, visibility, wide, none),
+        (false, false) => blocks_on::<false, false, false>(&k, points, grid, visibility, wide, none),
+        (true, true) => blocks_on::<true, true, false>(&k, points, grid, visibility, wide, none),
+        (false, true) => blocks_on::<false, true, false>(&k, points, grid, visibility, wide, none),
+    }
+}
+
+/// [`rasterize_blocked`], and in `cells` each point's grid cell as the rasterizer found it: the cell of an
+/// obstacle-band return in the grid (outside the ego footprint), [`NO_CELL`] for every other point, one entry per
+/// point in order (the same entries as [`rasterize_scalar_recording`]). For the frames with a region of interest
+/// (the cluster stage decides cells on its edge by their returns without a second transform of the sweep): a
+/// separate instantiation of the loop, so that frames without one do not pay for it. `cells` is left empty when
+/// it has no room for every point (it is never grown here).
+pub(crate) fn rasterize_blocked_recording(
+    points: &[[f32; 3]],
+    t: &Isometry3,
+    band: Band,
+    grid: &mut OccupancyGrid,
+    visibility: &mut VisibilityMap,
+    wide: bool,
+    cells: &mut Vec<u32>,
+) -> u32 {
+    cells.clear();
+    if cells.capacity() < points.len() {
+        return rasterize_blocked(points, t, band, grid, visibility, wide);
+    }
+    let Some(k) = Pass1::new(t, band, &grid.geometry, visibility.bin_params()) else {
+        return rasterize_scalar_recording(points, t, band, grid, visibility, cells);
+    };
+    let ego = band.ego_m != Band::NO_EGO;
+    match (k.translation_only(), ego) {
+        (true, false) => blocks_on::<true, false, true>(&k, points, grid, visibility, wide, cells),
+        (false, false) => blocks_on::<false, false, true>(&k, points, grid, visibility, wide, cells),
+        (true, true) => blocks_on::<true, true, true>(&k, points, grid, visibility, wide, cells),
+        (false, true) => blocks_on::<false, true, true>(&k, points, grid, visibility, wide, cells),
     }
 }
 
 /// [`blocks`] with the wider vector unit when `wide` and the processor has one, else on the baseline.
-fn blocks_on<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
+fn blocks_on<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
     k: &Pass1,
     points: &[[f32; 3]],
     grid: &mut OccupancyGrid,
     visibility: &mut VisibilityMap,
     wide: bool,
+    cells: &mut Vec<u32>,
 ) -> u32 {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if wide {
-        return wide::blocks::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility);
+        return wide::blocks::<TRANSLATION_ONLY, EGO_MASK, RECORD>(k, points, grid, visibility, cells);
     }
     // Without run-time detection (`wide::available` is false) the flag has nothing to choose.
     let _ = wide;
-    blocks::<TRANSLATION_ONLY, EGO_MASK, false>(k, points, grid, visibility)
+    blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD>(k, points, grid, visibility, cells)
 }
 
 /// The block loop compiled for a wider vector unit, chosen at run time.
@@ -341,7 +406,7 @@ fn blocks_on<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[allow(unsafe_code)]
 mod wide {
-    use super::{OccupancyGrid, Pass1, VisibilityMap};
+    use super::{OccupancyGrid, Pass1, Vec, VisibilityMap};
 
     /// True when the processor has AVX2.
     pub(super) fn available() -> bool {
@@ -349,30 +414,32 @@ mod wide {
     }
 
     /// [`super::blocks`] with AVX2, or with the baseline when the processor lacks it.
-    pub(super) fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
+    pub(super) fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
         k: &Pass1,
         points: &[[f32; 3]],
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
+        cells: &mut Vec<u32>,
     ) -> u32 {
         if available() {
             // SAFETY: the processor has AVX2 (checked on the line above), the one requirement of a function
             // compiled with `target_feature(enable = "avx2")`.
-            unsafe { blocks_avx2::<TRANSLATION_ONLY, EGO_MASK>(k, points, grid, visibility) }
+            unsafe { blocks_avx2::<TRANSLATION_ONLY, EGO_MASK, RECORD>(k, points, grid, visibility, cells) }
         } else {
-            super::blocks::<TRANSLATION_ONLY, EGO_MASK, false>(k, points, grid, visibility)
+            super::blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD>(k, points, grid, visibility, cells)
         }
     }
 
     #[target_feature(enable = "avx2")]
-    fn blocks_avx2<const TRANSLATION_ONLY: bool, const EGO_MASK: bool>(
+    fn blocks_avx2<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
         k: &Pass1,
         points: &[[f32; 3]],
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
+        cells: &mut Vec<u32>,
     ) -> u32 {
         // AVX2 implies SSE4.1's `roundps`: the cheaper floor of `floor_of`.
-        super::blocks::<TRANSLATION_ONLY, EGO_MASK, true>(k, points, grid, visibility)
+        super::blocks::<TRANSLATION_ONLY, EGO_MASK, true, RECORD>(k, points, grid, visibility, cells)
     }
 }
 
@@ -386,13 +453,15 @@ mod wide {
     }
 }
 
-/// The block loop of [`rasterize_blocked`] (inlined into each instruction set's version).
+/// The block loop of [`rasterize_blocked`] (inlined into each instruction set's version); with `RECORD`, each
+/// point's cell appended to `cells`, which the caller made room for.
 #[inline(always)]
-fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool>(
+fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const RECORD: bool>(
     k: &Pass1,
     points: &[[f32; 3]],
     grid: &mut OccupancyGrid,
     visibility: &mut VisibilityMap,
+    cells: &mut Vec<u32>,
 ) -> u32 {
     let mut block = Block::EMPTY;
     let mut in_band = 0u32;
@@ -400,6 +469,9 @@ fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool>
     for chunk in chunks {
         in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, chunk);
         block.apply(grid, visibility);
+        if RECORD {
+            cells.extend_from_slice(&block.cells);
+        }
     }
     if !rest.is_empty() {
         // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
@@ -409,6 +481,9 @@ fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool>
         }
         in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, &padded);
         block.apply(grid, visibility);
+        if RECORD {
+            cells.extend_from_slice(block.cells.get(..rest.len()).unwrap_or(&[]));
+        }
     }
     in_band
 }
@@ -446,22 +521,42 @@ mod tests {
     fn assert_same(points: &[[f32; 3]], t: &Isometry3, band: Band, cells: u32, cell_m: f32, bins: u32) -> u32 {
         let geometry = GridGeometry::new(cells, cell_m);
         // 0: the reference, 1: the blocked loop on the baseline, 2: with the widest vector unit available.
+        // Modes 3, 4, 5: the same three, recording each point's cell.
         let run = |mode: u8| {
             let mut grid = OccupancyGrid::new(geometry, 0.7, points.len());
             let mut vis = VisibilityMap::new(bins);
             vis.reset([t.translation_m[0], t.translation_m[1]]);
+            let mut cells = Vec::with_capacity(points.len());
             let n = match mode {
                 0 => rasterize_scalar(points, t, band, &mut grid, &mut vis),
-                m => rasterize_blocked(points, t, band, &mut grid, &mut vis, m == 2),
+                1 | 2 => rasterize_blocked(points, t, band, &mut grid, &mut vis, mode == 2),
+                3 => rasterize_scalar_recording(points, t, band, &mut grid, &mut vis, &mut cells),
+                m => rasterize_blocked_recording(points, t, band, &mut grid, &mut vis, m == 5, &mut cells),
             };
             let touched = grid.touched().to_vec();
             let hits: Vec<u16> = touched.iter().map(|&c| grid.hits(c)).collect();
             let (near, near_cell, far) = vis.arrays();
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
-            (n, touched, hits, bits(&near), near_cell, bits(&far))
+            ((n, touched, hits, bits(&near), near_cell, bits(&far)), cells)
         };
-        let scalar = run(0);
-        for blocked in [run(1), run(2)] {
+        let (scalar, _) = run(0);
+        // The recorded cells: one per point, the reference's definition (an obstacle-band return in the grid,
+        // outside the ego footprint), the same for the three loops; recording changes nothing else.
+        let expected: Vec<u32> = points
+            .iter()
+            .map(|p| {
+                let q = t.transform(*p);
+                let obstacle = q[2] >= band.lo_m && q[2] <= band.hi_m && !band.in_ego(q[0], q[1]);
+                obstacle.then(|| geometry.point_to_cell(q[0], q[1])).flatten().unwrap_or(NO_CELL)
+            })
+            .collect();
+        let mut outputs = vec![run(1).0, run(2).0];
+        for mode in 3..=5 {
+            let (out, cells) = run(mode);
+            assert_eq!(cells, expected, "recorded cells, mode {mode}");
+            outputs.push(out);
+        }
+        for blocked in outputs {
             assert_eq!(scalar.0, blocked.0, "points in band");
             assert_eq!(scalar.1, blocked.1, "touched cells in order");
             assert_eq!(scalar.2, blocked.2, "hits");
