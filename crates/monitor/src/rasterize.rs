@@ -337,13 +337,24 @@ pub(crate) fn rasterize_blocked(
     let Some(k) = Pass1::new(t, band, &grid.geometry, visibility.bin_params()) else {
         return rasterize_scalar(points, t, band, grid, visibility);
     };
-    let ego = band.ego_m != Band::NO_EGO;
-    let none = &mut Vec::new();
-    match (k.translation_only(), ego) {
-        (true, false) => blocks_on::<true, false, false>(&k, points, grid, visibility, wide, none),
-        (false, false) => blocks_on::<false, false, false>(&k, points, grid, visibility, wide, none),
-        (true, true) => blocks_on::<true, true, false>(&k, points, grid, visibility, wide, none),
-        (false, true) => blocks_on::<false, true, false>(&k, points, grid, visibility, wide, none),
+    blocks_for::<false>(&k, band, points, grid, visibility, wide, &mut Vec::new())
+}
+
+/// [`blocks_on`] instantiated for the frame: a pure translation or not, with an ego footprint or not.
+fn blocks_for<const RECORD: bool>(
+    k: &Pass1,
+    band: Band,
+    points: &[[f32; 3]],
+    grid: &mut OccupancyGrid,
+    visibility: &mut VisibilityMap,
+    wide: bool,
+    cells: &mut Vec<u32>,
+) -> u32 {
+    match (k.translation_only(), band.ego_m != Band::NO_EGO) {
+        (true, false) => blocks_on::<true, false, RECORD>(k, points, grid, visibility, wide, cells),
+        (false, false) => blocks_on::<false, false, RECORD>(k, points, grid, visibility, wide, cells),
+        (true, true) => blocks_on::<true, true, RECORD>(k, points, grid, visibility, wide, cells),
+        (false, true) => blocks_on::<false, true, RECORD>(k, points, grid, visibility, wide, cells),
     }
 }
 
@@ -369,13 +380,7 @@ pub(crate) fn rasterize_blocked_recording(
     let Some(k) = Pass1::new(t, band, &grid.geometry, visibility.bin_params()) else {
         return rasterize_scalar_recording(points, t, band, grid, visibility, cells);
     };
-    let ego = band.ego_m != Band::NO_EGO;
-    match (k.translation_only(), ego) {
-        (true, false) => blocks_on::<true, false, true>(&k, points, grid, visibility, wide, cells),
-        (false, false) => blocks_on::<false, false, true>(&k, points, grid, visibility, wide, cells),
-        (true, true) => blocks_on::<true, true, true>(&k, points, grid, visibility, wide, cells),
-        (false, true) => blocks_on::<false, true, true>(&k, points, grid, visibility, wide, cells),
-    }
+    blocks_for::<true>(&k, band, points, grid, visibility, wide, cells)
 }
 
 /// [`blocks`] with the wider vector unit when `wide` and the processor has one, else on the baseline.

@@ -236,6 +236,11 @@ impl RoiIndex {
         self.entries.get(a as usize..b as usize).unwrap_or(&[])
     }
 
+    /// The indexed edges of `cell`'s row, one run per polygon: `(polygon, its edges)`.
+    fn polygon_groups(&self, cell: u32) -> impl Iterator<Item = (u32, &[Entry])> {
+        self.row_entries(cell).chunk_by(|a, b| a.polygon == b.polygon).map(|g| (g.first().map_or(0, |e| e.polygon), g))
+    }
+
     /// [`roi_cell_side`] of cell `cell`, centred at `(x, y)` (its `GridGeometry::cell_center`).
     pub(super) fn cell_side(&self, roi: &[&[[f32; 2]]], cell: u32, x: f32, y: f32) -> RoiSide {
         if !self.indexed {
@@ -244,12 +249,7 @@ impl RoiIndex {
         let hd = self.half_diagonal;
         let r2 = hd * hd;
         let mut side = RoiSide::Outside;
-        let mut rest = self.row_entries(cell);
-        while let Some(first) = rest.first() {
-            let k = first.polygon;
-            let len = rest.iter().position(|e| e.polygon != k).unwrap_or(rest.len());
-            let (group, next) = rest.split_at(len);
-            rest = next;
+        for (k, group) in self.polygon_groups(cell) {
             if !self.boxes.get(k as usize).is_some_and(|b| near_box(b, x, y, hd)) {
                 continue;
             }
@@ -272,12 +272,7 @@ impl RoiIndex {
         if !self.indexed {
             return roi_contains(roi, &self.boxes, x, y);
         }
-        let mut rest = self.row_entries(cell);
-        while let Some(first) = rest.first() {
-            let k = first.polygon;
-            let len = rest.iter().position(|e| e.polygon != k).unwrap_or(rest.len());
-            let (group, next) = rest.split_at(len);
-            rest = next;
+        for (k, group) in self.polygon_groups(cell) {
             if self.boxes.get(k as usize).is_some_and(|b| near_box(b, x, y, 0.0))
                 && group.iter().fold(false, |inside, e| inside != edge_crosses_ray(e.from, e.to, x, y))
             {
