@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
 use pmon_campaign::{run_one, Injector, Scene};
 use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
-use pmon_scenario::{ScenarioConfig, Simulator};
+use pmon_scenario::Simulator;
 use rayon::prelude::*;
 
 /// The scenes of `pmon reproduce --quick` that the sensor runs use (the same configuration as
@@ -24,16 +24,7 @@ fn scenes(seed: u64) -> Result<Vec<Scene>, Box<dyn std::error::Error>> {
             out.push(Scene { name: name.into(), source: String::new(), frames: Vec::new() });
             continue;
         }
-        let mut cfg = ScenarioConfig::builtin("pedestrians").ok_or("no built-in pedestrians")?;
-        cfg.seed = seed;
-        if name == "pedestrians_paper" {
-            cfg.name = name.into();
-            cfg.noise.position_sigma_m = 0.0;
-            cfg.noise.size_sigma_m = 0.0;
-            cfg.noise.report_sigma = true;
-            cfg.agents.parked_as_scenery = true;
-            cfg.agents.pedestrians /= 2;
-        }
+        let mut cfg = pmon_campaign::sim_tasks::scenario_config(name, seed, None)?;
         cfg.duration_s = cfg.duration_s.min(15.0);
         let mut sim = Simulator::new(&cfg).map_err(|e| format!("{name}: {e}"))?;
         let mut frames = Vec::new();
