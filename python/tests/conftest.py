@@ -59,3 +59,12 @@ def cli_records(pmon_bin, spec, *extra):
     assert p.returncode in (0, 1), p.stderr
     records = [json.loads(line) for line in p.stdout.splitlines() if line.strip()]
     return [r for r in records if r.get("record") != "totals"]
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A Dask LocalCluster of 2 single-thread worker processes, one per test module (skipped without Dask)."""
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None,
+                                  processes=True) as c:
+        yield c

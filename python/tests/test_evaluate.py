@@ -56,14 +56,6 @@ def local_report(pmon_bin, recordings, tmp_path_factory):
     return out
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None,
-                                  processes=True) as c:
-        yield c
-
-
 def test_dask_scheduler_gives_the_local_bytes_and_resumes(pmon_bin, recordings, local_report, cluster, tmp_path):
     address = cluster.scheduler_address.replace("tcp://", "dask://")
     out = tmp_path / "dask"

@@ -53,14 +53,6 @@ def reproduce(pmon_bin, tmp, out, *extra):
     return p
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None,
-                                  processes=True) as c:
-        yield c
-
-
 def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_path):
     local = tmp_path / "local"
     reproduce(pmon_bin, tmp_path, local, "--quiet")
