@@ -13,6 +13,7 @@
 //! labels; every check starts with a fresh track memory), as the experiment's one-box curve. With `ONE_BOX=1
 //! HISTORY=1`, only frames that follow another sweep are used, and the previous sweep, clean, is checked right before
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
+//! `SPILL=every` checks with `SpillOverFit::EveryReturn` (spill-over over every return, off by default).
 use std::collections::BTreeMap;
 
 use pmon_campaign::{Direction, Fault, InjectionConfig, Injector};
@@ -35,6 +36,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();
     let mut monitor = Monitor::new(params)?;
     let mut clean_monitor = Monitor::new(params)?;
+    if std::env::var("SPILL").is_ok_and(|v| v == "every") {
+        monitor.set_spill_over_fit(pmon_monitor::SpillOverFit::EveryReturn);
+        clean_monitor.set_spill_over_fit(pmon_monitor::SpillOverFit::EveryReturn);
+    }
     let fault = Fault::PermanentPosition { magnitude_m, direction: Direction::Away };
     let mut cfg = InjectionConfig::new(fault, 7);
     cfg.permanent_track_fraction = 1.0;

@@ -53,6 +53,6 @@ pub mod theory;
 pub mod visibility;
 
 pub use grid::{CellState, GridGeometry, OccupancyGrid};
-pub use monitor::{object_is_valid, Monitor, Stage};
+pub use monitor::{object_is_valid, Monitor, SpillOverFit, Stage};
 pub use rasterize::Rasterizer;
 pub use region::Region;

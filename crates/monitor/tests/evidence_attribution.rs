@@ -6,7 +6,7 @@
 mod common;
 
 use common::*;
-use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectReport, PointCloud, Pose2, SensorVerdict};
+use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectReport, PointCloud, Pose2, SensorVerdict, SpillOverFit};
 
 fn run(monitor: &mut Monitor, objects: &[pmon_monitor::ObjectState], points_ego: &[[f32; 3]]) -> Vec<ObjectReport> {
     run_frame(monitor, objects, points_ego).0
@@ -97,6 +97,55 @@ fn a_wall_is_too_large_to_be_a_pedestrians_evidence() {
     let r = run(&mut m, &[car, ghost], &pts);
     assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
     assert_ne!(r[1].sensor.verdict, SensorVerdict::PositionError, "{:?}", r[1].sensor);
+}
+
+/// Spill-over (attribution step 5) counts every return: a confirmed pedestrian whose occupied returns run on from
+/// its box into a two-cell cluster beyond its margin, together no longer than the box may be, is flagged (its box
+/// may be displaced, its evidence reaching over the edge). The same frame with one more return, too sparse to make
+/// its cell occupied, where the row continues beyond the cluster, or at the box's far end, is not: the returns
+/// then span more than the box, so the cluster is unlabelled returns next to a clean box (a missed object), as on
+/// the clean nuScenes and KITTI frames (docs/attribution.md). The rule is [`SpillOverFit::EveryReturn`], off by
+/// default: with the default fit (occupied cells only) all three frames flag the box.
+#[test]
+fn spill_over_counts_every_return_not_only_the_occupied_cells() {
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut default = Monitor::new(MonitorParams::default()).unwrap();
+    m.set_spill_over_fit(SpillOverFit::EveryReturn);
+    // 0.5 m cells with edges on multiples of 0.5 m: the box and its grown region (0.4 m margins) reach from
+    // x = 13.55 to 14.95; the cells centred at x = 14.25 and 14.75 are its own, 15.25 and 15.75 a conflict.
+    let ped = object(1, 14.25, 0.25, 0.0, 0.6, 0.6);
+    let cell = |x: f32, hits: usize| -> Vec<[f32; 3]> {
+        (0..hits).map(|i| [x - 0.1 + 0.05 * i as f32, 0.2 + 0.02 * i as f32, 1.0]).collect()
+    };
+    let mut row = Vec::new();
+    for x in [14.25f32, 14.75, 15.25, 15.75] {
+        row.extend(cell(x, 4));
+    }
+    row.extend(ground_points(45.0));
+    let (r, missed) = run_frame(&mut m, &[ped], &row);
+    assert!(r[0].sensor.eta_own >= 0.8, "{:?}", r[0].sensor);
+    assert_eq!(
+        r[0].sensor.verdict,
+        SensorVerdict::PositionError,
+        "its evidence reaches over the edge: {:?}",
+        r[0].sensor
+    );
+    assert_eq!(missed, 0);
+    for (sparse, what) in [(16.25f32, "beyond the cluster"), (13.75, "at the box's far end")] {
+        let mut pts = row.clone();
+        pts.extend(cell(sparse, 1));
+        let (r, missed) = run_frame(&mut m, &[ped], &pts);
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "one return {what}: {:?}", r[0].sensor);
+        assert_eq!(missed, 1, "one return {what}: the cluster is a missed object");
+        let (r, missed) = run_frame(&mut default, &[ped], &pts);
+        assert_eq!(
+            r[0].sensor.verdict,
+            SensorVerdict::PositionError,
+            "default fit, one return {what}: {:?}",
+            r[0].sensor
+        );
+        assert_eq!(missed, 0);
+    }
 }
 
 /// A pedestrian hidden behind a car, whose noisy box pokes half out of the car's shadow: its stated uncertainty

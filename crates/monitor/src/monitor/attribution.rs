@@ -323,7 +323,11 @@ impl Monitor {
                 let Some(region) = self.scratch.get(j).and_then(|s| s.region) else { continue };
                 let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
                 let ok = if confirmed {
-                    self.cluster_touches_own_evidence(j, k) && self.evidence_fits(j, &region, k, true)
+                    self.cluster_touches_own_evidence(j, k)
+                        && match self.spill_over_fit {
+                            SpillOverFit::Occupied => self.evidence_fits(j, &region, k, true),
+                            SpillOverFit::EveryReturn => self.spill_fits(j, &region, k),
+                        }
                 } else {
                     self.evidence_fits(j, &region, k, false)
                 };
@@ -784,6 +788,51 @@ impl Monitor {
                     }
                 });
             }
+        }
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+
+    /// The fit test of spill-over to a confirmed object `j` (step 5) with [`SpillOverFit::EveryReturn`]:
+    /// [`Monitor::evidence_fits`] with its own
+    /// evidence, counting every return rather than the occupied cells only. The box's own returns are the hit cells
+    /// it owns in its region, however few their hits, and the cluster's are its cells and the hit cells 8-adjacent
+    /// to them that no object explains (returns too sparse to be occupied that continue the cluster). A box whose
+    /// evidence moved with it leaves no return of its own where the displaced box no longer reaches, and its
+    /// displaced evidence ends within its extent: a box that keeps a return at its far end, or a cluster whose
+    /// returns run on beyond the box's extent, is a clean box next to unlabelled returns (docs/attribution.md,
+    /// "spill-over counts every return"). Bounded: one walk over the region's cells and the 3 x 3 neighbourhood of
+    /// each cluster cell.
+    pub(super) fn spill_fits(&self, j: usize, region: &Region, k: usize) -> bool {
+        if !self.evidence_fits(j, region, k, true) {
+            return false;
+        }
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
+        let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+        let mut add = |x: f32, y: f32| {
+            let (u, v) = fp.local(x, y);
+            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+        };
+        let (grid, owner) = (&self.grid, &self.owner);
+        let own = |idx: u32| {
+            grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+        };
+        for &c in self.cluster_cells(k) {
+            for idx in geometry.block3x3(c) {
+                if grid.hits(idx) > 0 && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == 0 {
+                    let (x, y) = geometry.cell_center(idx);
+                    add(x, y);
+                }
+            }
+        }
+        if let Some(range) = geometry.cell_range(region.grown.aabb()) {
+            geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
+                if grid.hits(idx) > 0 && own(idx) {
+                    add(x, y);
+                }
+            });
         }
         span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
     }
