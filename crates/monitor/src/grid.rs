@@ -439,6 +439,14 @@ impl OccupancyGrid {
         }
     }
 
+    /// Clears flags of a cell.
+    #[inline]
+    pub fn clear_flags(&mut self, index: u32, flags: u8) {
+        if let Some(f) = self.flags.get_mut(index as usize) {
+            *f &= !flags;
+        }
+    }
+
     /// Cells touched this frame, in the order of first touch.
     #[must_use]
     pub fn touched(&self) -> &[u32] {
