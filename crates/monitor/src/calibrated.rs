@@ -90,6 +90,25 @@ pub struct Entry {
 }
 
 impl Entry {
+    /// Every field zero or false (the same as `Entry::default()`, as a constant).
+    pub const ZERO: Self = Self {
+        t_s: 0.0,
+        x_m: 0.0,
+        y_m: 0.0,
+        v_mps: 0.0,
+        heading_rad: 0.0,
+        sx_m: 0.0,
+        sy_m: 0.0,
+        sv_mps: 0.0,
+        sh_rad: 0.0,
+        length_m: 0.0,
+        width_m: 0.0,
+        warmup: false,
+        suspect: false,
+        flipped: false,
+        unit: [0.0; 2],
+    };
+
     fn heading_sigma(&self) -> f64 {
         let v = f64::from(self.v_mps).max(0.05);
         (f64::from(self.sh_rad) + f64::from(self.sv_mps) / v).min(core::f64::consts::PI)
@@ -199,6 +218,21 @@ fn steps_from(prev: Option<&Entry>, e: &Entry) -> (f32, f32) {
 }
 
 impl History {
+    /// A history without states (the same as `History::default()`, as a constant).
+    pub const EMPTY: Self = Self {
+        items: [Entry::ZERO; HISTORY],
+        steps: [(0.0, 0.0); HISTORY],
+        pos_steps: [0.0; HISTORY],
+        start: 0,
+        len: 0,
+        speed_sum: 0.0,
+        speed_n: 0,
+        heading_sum: 0.0,
+        heading_n: 0,
+        pos_sum: 0.0,
+        pos_n: 0,
+    };
+
     /// Number of states.
     #[must_use]
     pub fn len(&self) -> usize {
@@ -236,8 +270,15 @@ impl History {
     /// [`History::push`] of a state whose [`Entry::unit`] the caller set (to `libm::sincos` of its heading, as
     /// `push` would: the plausibility checks compute it once per state).
     pub(crate) fn push_with_unit(&mut self, e: Entry) {
-        let step = steps_from(self.last(), &e);
         let pos = position_step(self.last(), &e);
+        self.push_with_unit_and_step(e, pos);
+    }
+
+    /// [`History::push_with_unit`] with the position step of `e` from the newest state given: the
+    /// [`CalibratedCheck::position_step`] of `e`'s check against this history (the same number, computed once),
+    /// or negative when `e` raised an alarm.
+    pub(crate) fn push_with_unit_and_step(&mut self, e: Entry, pos: f32) {
+        let step = steps_from(self.last(), &e);
         self.add_steps(step, 1.0);
         self.add_position_step(pos, 1.0);
         if self.len() >= HISTORY {
@@ -455,6 +496,10 @@ pub struct CalibratedCheck {
     /// When the one-frame residual failed the track's own position scatter (and the baseline test did not
     /// fire): that residual and the distance along it at which the own-scatter gate fires, metres.
     pub own_position: Option<(f64, f64)>,
+    /// Half the Mahalanobis distance squared of the one-frame residual from the newest state (as
+    /// [`one_frame_d2`]) when both states are clean (the new one taken to be alarm-free) and it is finite, else
+    /// negative: the position step [`History::push`] keeps for a new state that raised no alarm.
+    pub position_step: f32,
 }
 
 /// `sqrt(a^2 + b^2)` without `hypot`'s care for overflow (the values here are metres, m/s and radians: far from
@@ -655,7 +700,8 @@ pub(crate) fn check_calibrated_sc(
     ];
     // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no
     // velocity); each velocity weighs half of its two adjacent intervals.
-    let mut prev: Option<Entry> = None;
+    let s1u = Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 };
+    let mut prev: Option<&Entry> = None;
     let mut prev_w = 0.0f64;
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
         let v = f64::from(e.v_mps);
@@ -666,20 +712,19 @@ pub(crate) fn check_calibrated_sc(
         add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
     };
     for j in b..=n {
-        let e =
-            if j < n { h.get(j).copied().unwrap_or(*s1) } else { Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 } };
+        let e = if j < n { h.get(j).unwrap_or(s1) } else { &s1u };
         if j != b && j < n && e.flipped {
             continue;
         }
         if let Some(p) = prev {
             let half = 0.5 * (e.t_s - p.t_s);
-            add(&p, prev_w + half, &mut pred, &mut cov);
+            add(p, prev_w + half, &mut pred, &mut cov);
             prev_w = half;
         }
         prev = Some(e);
     }
     if let Some(p) = prev {
-        add(&p, prev_w, &mut pred, &mut cov);
+        add(p, prev_w, &mut pred, &mut cov);
     }
     let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
     let r = refit_allowance(raw, u1, f64::from(s1.length_m - sb.length_m), f64::from(s1.width_m - sb.width_m));
@@ -695,15 +740,19 @@ pub(crate) fn check_calibrated_sc(
     };
     // 3b. The one-frame residual against the track's own position scatter (an F test: the declared sigmas are an
     // upper bound; a standing object's jitter from its own history tells a 1.5 m jump from its noise).
+    // (Computed once: the same step is kept in the history when the new state raises no alarm.)
     let mut own_position = None;
-    if clean_pair(&s0, &Entry { suspect: false, ..*s1 }) {
+    let mut position_step = -1.0f32;
+    if n > 0 && clean_pair(&s0, &Entry { suspect: false, ..*s1 }) {
+        let (r1, d1) = one_frame_residual(&s0, &s1u);
+        let q = 0.5 * d1;
+        if q.is_finite() {
+            position_step = q as f32;
+        }
         let gate = gates.position_gate(h.own_position_scatter());
-        if gate.is_finite() {
-            let (r1, d1) = one_frame_residual(&s0, &Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 });
-            if 0.5 * d1 > gate {
-                let res1 = norm(r1[0], r1[1]);
-                own_position = Some((res1, res1 * libm::sqrt(2.0 * gate / d1)));
-            }
+        if gate.is_finite() && 0.5 * d1 > gate {
+            let res1 = norm(r1[0], r1[1]);
+            own_position = Some((res1, res1 * libm::sqrt(2.0 * gate / d1)));
         }
     }
     let motion_fired = d2 > gates.chi2_2 || own_position.is_some();
@@ -819,6 +868,7 @@ pub(crate) fn check_calibrated_sc(
         residual,
         allowance,
         own_position: if d2 > gates.chi2_2 { None } else { own_position },
+        position_step,
     }
 }
 

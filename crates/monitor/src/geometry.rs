@@ -5,11 +5,22 @@ use core::f64::consts::PI;
 /// Wraps an angle difference into `(-pi, pi]`, radians. Non-finite input returns NaN.
 #[must_use]
 pub fn wrap_angle(a: f64) -> f64 {
-    if !a.is_finite() {
-        return f64::NAN;
-    }
     let two_pi = 2.0 * PI;
-    let mut r = libm::fmod(a + PI, two_pi);
+    let x = a + PI;
+    // `fmod(x, 2 pi)` without its division where it is `x` itself (`|x| < 2 pi`) or one subtraction of `2 pi`
+    // (`2 pi <= |x| < 4 pi`: exact by Sterbenz's lemma, as `fmod` is): bit for bit the same result (test
+    // `wrap_angle_fast_path_is_bit_identical`). Angle differences of two wrapped angles always take it.
+    let mut r = if x > -two_pi && x < two_pi {
+        x
+    } else if x >= two_pi && x < 2.0 * two_pi {
+        x - two_pi
+    } else if x <= -two_pi && x > -2.0 * two_pi {
+        x + two_pi
+    } else if a.is_finite() {
+        libm::fmod(x, two_pi)
+    } else {
+        return f64::NAN;
+    };
     if r <= 0.0 {
         r += two_pi;
     }
@@ -255,6 +266,44 @@ pub(crate) fn diamond_angle_select(dx: f32, dy: f32) -> f32 {
 #[allow(clippy::float_cmp)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wrap_angle_fast_path_is_bit_identical() {
+        // The definition: fmod for every input.
+        let reference = |a: f64| {
+            if !a.is_finite() {
+                return f64::NAN;
+            }
+            let mut r = libm::fmod(a + PI, 2.0 * PI);
+            if r <= 0.0 {
+                r += 2.0 * PI;
+            }
+            r - PI
+        };
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut values = alloc::vec![0.0, -0.0, PI, -PI, 2.0 * PI, -2.0 * PI, 3.0 * PI, -3.0 * PI, 5.0 * PI, 1e300];
+        for k in -2000..=2000 {
+            values.push(f64::from(k) * 0.007_853_981_633_974_483);
+        }
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            values.push(((x >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 30.0);
+        }
+        for &b in &[PI, 2.0 * PI, 3.0 * PI, 4.0 * PI] {
+            for s in [-1.0, 1.0] {
+                let c = s * b;
+                values.extend([c, c.next_up(), c.next_down()]);
+                let m = c - PI;
+                values.extend([m, m.next_up(), m.next_down()]);
+            }
+        }
+        for a in values {
+            assert_eq!(wrap_angle(a).to_bits(), reference(a).to_bits(), "{a:e}");
+        }
+        assert!(wrap_angle(f64::INFINITY).is_nan() && wrap_angle(f64::NEG_INFINITY).is_nan());
+    }
 
     #[test]
     fn wrap_angle_into_half_open_interval() {

@@ -89,6 +89,12 @@ pub struct MotionCheck {
     pub fired: Conditions,
 }
 
+/// `sqrt(a^2 + b^2)` without `libm::hypot`'s care for overflow (metres, m/s and radians are far from it), several
+/// times faster.
+fn norm(a: f64, b: f64) -> f64 {
+    libm::sqrt(a * a + b * b)
+}
+
 /// Evaluates the plausibility of the motion from `s0` to `s1` (`s1.t_s - s0.t_s` must be > 0; the caller
 /// checks). Implements eqs. (pred1), (pred2), the error propagation above, and the three conditions.
 #[must_use]
@@ -96,9 +102,9 @@ pub fn check_motion(s0: &MeasuredState, s1: &MeasuredState, limits: &MotionLimit
     let dt = s1.t_s - s0.t_s;
     let d_heading = wrap_angle(s1.heading_rad - s0.heading_rad);
     let turn_rate = d_heading / dt;
-    let turn_rate_margin = libm::hypot(s0.dheading_rad, s1.dheading_rad) / dt;
+    let turn_rate_margin = norm(s0.dheading_rad, s1.dheading_rad) / dt;
     let accel = (s1.v_mps - s0.v_mps) / dt;
-    let accel_margin = libm::hypot(s0.dv_mps, s1.dv_mps) / dt;
+    let accel_margin = norm(s0.dv_mps, s1.dv_mps) / dt;
 
     let (s, c) = libm::sincos(s0.heading_rad);
     let (ddx, ddy) = ctra_displacement_sc(dt, s0.v_mps, (s, c), accel, turn_rate);
@@ -120,9 +126,8 @@ pub fn check_motion(s0: &MeasuredState, s1: &MeasuredState, limits: &MotionLimit
         + sq(h * v0 * c * dth1);
     let predicted_margin = [libm::sqrt(var_x), libm::sqrt(var_y)];
 
-    let residual = libm::hypot(predicted[0] - s1.x_m, predicted[1] - s1.y_m);
-    let allowance =
-        gamma_plaus * (libm::hypot(predicted_margin[0], predicted_margin[1]) + libm::hypot(s1.dx_m, s1.dy_m));
+    let residual = norm(predicted[0] - s1.x_m, predicted[1] - s1.y_m);
+    let allowance = gamma_plaus * (norm(predicted_margin[0], predicted_margin[1]) + norm(s1.dx_m, s1.dy_m));
 
     let w_max = f64::from(limits.turn_rate_max_radps).abs();
     let mut fired = Conditions::default();

@@ -282,8 +282,7 @@ impl TrackTable {
                         } else {
                             let (mut e1, u1) = entry_of(obj, &s1, p, tr.age);
                             let limits = p.limits_for(obj.class);
-                            let empty = History::default();
-                            let hist = self.pool.get(tr.hist as usize).unwrap_or(&empty);
+                            let hist = self.pool.get(tr.hist as usize).unwrap_or(&History::EMPTY);
                             let cal = || -> CalibratedCheck {
                                 check_calibrated_sc(
                                     hist,
@@ -295,6 +294,8 @@ impl TrackTable {
                                     p.baseline_s,
                                 )
                             };
+                            // The calibrated check's one-frame position step, kept with the new state (computed once).
+                            let mut position_step = None;
                             let outcome = match p.plausibility_mode {
                                 PlausibilityMode::Paper => {
                                     let m = check_motion(&tr.state, &s1, &limits, f64::from(p.gamma_plaus));
@@ -331,6 +332,7 @@ impl TrackTable {
                                 }
                                 PlausibilityMode::Calibrated => {
                                     let cal = cal();
+                                    position_step = Some(cal.position_step);
                                     MotionOutcome {
                                         verdict: if cal.fired.is_empty() {
                                             MotionVerdict::Plausible
@@ -361,7 +363,11 @@ impl TrackTable {
                             // The track moves to its new place; its history is updated in its slot.
                             if self.next.len() < cap {
                                 if let Some(h) = self.pool.get_mut(tr.hist as usize) {
-                                    h.push_with_unit(e1);
+                                    match position_step {
+                                        // (A state that raised an alarm keeps no step.)
+                                        Some(q) => h.push_with_unit_and_step(e1, if e1.suspect { -1.0 } else { q }),
+                                        None => h.push_with_unit(e1),
+                                    }
                                 }
                                 self.next.push(Track { state: s1, age: tr.age.saturating_add(1), ..tr });
                             } else {
