@@ -416,17 +416,18 @@ fn open_log(task: &LogTask, load_clouds: bool) -> Result<(Dataset, MonitorParams
     let base = task.params;
     if task.family == "recording" {
         let path = recording_path(task);
-        let (_meta, frames) = pmon_recording::read_recording(&path).map_err(|e| e.to_string())?;
-        let params = recording_params(&path, base)?;
-        let frames = frames
-            .into_iter()
-            .map(|mut f| {
+        // Frame by frame, each cloud dropped as soon as it is read when the clouds are not wanted.
+        let reader = pmon_recording::RecordingReader::open(&path).map_err(|e| e.to_string())?;
+        let frames = reader
+            .map(|f| {
+                let mut f = f.map_err(|e| e.to_string())?;
                 if !load_clouds {
                     f.cloud = None;
                 }
-                DatasetFrame { frame: f, extras: Vec::new() }
+                Ok(DatasetFrame { frame: f, extras: Vec::new() })
             })
-            .collect();
+            .collect::<Result<Vec<_>, String>>()?;
+        let params = recording_params(&path, base)?;
         let info = DatasetInfo {
             // The folder's name: recordings of one simulator share their `name`.
             name: task.log.clone(),
