@@ -1,5 +1,10 @@
 """Cost of `pmon evaluate` tasks in-process and on a Dask LocalCluster of 1 and 2 workers, side by side in one run.
 
+A task runs its passes on a rayon pool inside the Rust call, so one task alone can use every core. For a clean
+scaling measurement each Dask worker gets ``RAYON_NUM_THREADS=--rayon-threads`` (default 1: one core per worker),
+and the in-process rows are ``pmon evaluate --scheduler local --threads 1`` and ``--threads 2`` (one rayon pool of
+that many threads for the tasks and the passes inside them), timed around the command (merge included).
+
 The source's logs are linked (symbolic links, nothing copied) ``--copies`` times under new names into a
 temporary folder, so that there are enough tasks to share out. ``pmon evaluate --plan-only`` writes the plan;
 each engine then runs every task of a fresh copy of it (``pmon.campaign.evaluate_run``; the cluster's start is
@@ -9,7 +14,7 @@ byte for byte with the in-process run's. Printed per engine and round: wall time
 / tasks), the speed-up against 1 Dask worker of the same round, and the median task time per part.
 
     python python/benchmarks/evaluate.py [--source av2:../shared/data/av2/sensor/val] [--copies 4] [--smoke]
-        [--rounds 2] [--pmon target/debug/pmon]
+        [--rounds 2] [--pmon target/debug/pmon] [--rayon-threads 1]
 """
 
 import argparse
@@ -20,6 +25,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from pmon import campaign
@@ -34,7 +40,12 @@ def main() -> None:
     ap.add_argument("--smoke", action="store_true", help="the smoke sweeps (default: the full ones)")
     ap.add_argument("--rounds", type=int, default=2, help="rounds of the three engines, alternating order")
     ap.add_argument("--pmon", default=str(REPO / "target" / "debug" / "pmon"))
+    ap.add_argument("--rayon-threads", type=int, default=1,
+                    help="RAYON_NUM_THREADS of every Dask worker (0: not set, rayon takes every core)")
     args = ap.parse_args()
+    if args.rayon_threads > 0:
+        # Inherited by the worker processes LocalCluster starts.
+        os.environ["RAYON_NUM_THREADS"] = str(args.rayon_threads)
     scheme, path = args.source.split(":", 1) if ":" in args.source else ("", args.source)
     tmp = Path(tempfile.mkdtemp(prefix="pmon-eval-bench-"))
     src = tmp / "logs"
@@ -50,52 +61,64 @@ def main() -> None:
                     *common], check=True)
     tasks = json.loads((plan / "tasks.json").read_text())
     rows, reference = [], None
-    engines = [("in-process", "local", 1), ("dask, 1 worker", "dask-local:1", 1), ("dask, 2 workers", "dask-local:2", 2)]
+    engines = [("in-process, 1 thread", "threads1", 1), ("in-process, 2 threads", "threads2", 2),
+               ("dask, 1 worker", "dask-local:1", 1), ("dask, 2 workers", "dask-local:2", 2)]
+    loads = []
     for rnd in range(args.rounds):
         order = engines if rnd % 2 == 0 else engines[::-1]
         walls = {}
         for name, scheduler, workers in order:
-            run = tmp / f"r{rnd}-{scheduler.replace(':', '')}.run"
+            tag = scheduler.replace(":", "")
+            run = tmp / f"r{rnd}-{tag}.run"
             (run / "results").mkdir(parents=True)
             shutil.copy(plan / "tasks.json", run / "tasks.json")
-            r = campaign.evaluate_run(run, scheduler)
-            out = tmp / f"r{rnd}-{scheduler.replace(':', '')}"
-            p = subprocess.run([args.pmon, "evaluate", source, "--out", out, "--run-dir", run, *common],
-                               capture_output=True, text=True)
+            out = tmp / f"r{rnd}-{tag}"
+            loads.append(os.getloadavg()[0])
+            busy, ran, failed, by_part, cpu_part = None, len(tasks), 0, {}, {}
+            if scheduler.startswith("threads"):
+                t0 = time.perf_counter()
+                p = subprocess.run([args.pmon, "evaluate", source, "--out", out, "--run-dir", run, "-q",
+                                    "--threads", str(workers), *common], capture_output=True, text=True)
+                wall = time.perf_counter() - t0
+            else:
+                r = campaign.evaluate_run(run, scheduler)
+                wall, ran, failed = r.wall_s, len(r.ran), len(r.failed)
+                p = subprocess.run([args.pmon, "evaluate", source, "--out", out, "--run-dir", run, *common],
+                                   capture_output=True, text=True)
+                busy = sum(r.task_s.values())
+                for ident, s in r.task_s.items():
+                    by_part.setdefault(ident.rsplit("-", 1)[1], []).append(s)
+                for ident, s in r.task_cpu_s.items():
+                    cpu_part.setdefault(ident.rsplit("-", 1)[1], []).append(s)
             files = {f.name: f.read_bytes() for f in sorted(out.iterdir())
                      if f.name == "results.json" or f.suffix == ".csv"}
             reference = reference or files
-            busy = sum(r.task_s.values())
-            walls[scheduler] = r.wall_s
-            by_part = {}
-            for ident, s in r.task_s.items():
-                by_part.setdefault(ident.rsplit("-", 1)[1], []).append(s)
-            cpu_part = {}
-            for ident, s in r.task_cpu_s.items():
-                cpu_part.setdefault(ident.rsplit("-", 1)[1], []).append(s)
+            walls[scheduler] = wall
             rows.append({
-                "round": rnd + 1, "engine": name, "tasks": len(r.ran), "failed": len(r.failed),
-                "wall_s": round(r.wall_s, 2), "task_sum_s": round(busy, 2),
-                "overhead_ms_per_task": round((r.wall_s * workers - busy) / max(len(r.ran), 1) * 1e3, 1),
+                "round": rnd + 1, "engine": name, "tasks": ran, "failed": failed,
+                "wall_s": round(wall, 2), "task_sum_s": None if busy is None else round(busy, 2),
+                "overhead_ms_per_task": None if busy is None else round((wall * workers - busy) / max(ran, 1) * 1e3, 1),
                 "median_task_s": {k: round(statistics.median(v), 2) for k, v in sorted(by_part.items())},
                 "median_task_cpu_s": {k: round(statistics.median(v), 2) for k, v in sorted(cpu_part.items())},
-                "identical": files == reference, "exit": p.returncode,
+                "identical": files == reference, "exit": p.returncode, "scheduler": scheduler,
             })
-        for row in rows[-3:]:
-            row["speedup_vs_1_worker"] = round(walls["dask-local:1"] / walls[
-                {"in-process": "local", "dask, 1 worker": "dask-local:1", "dask, 2 workers": "dask-local:2"}[
-                    row["engine"]]], 2)
+        for row in rows[-len(engines):]:
+            base = "threads1" if row["scheduler"].startswith("threads") else "dask-local:1"
+            row["speedup"] = round(walls[base] / walls[row["scheduler"]], 2)
     print(f"{len(tasks)} tasks ({len(logs)} logs x {args.copies} links x parts), {'smoke' if args.smoke else 'full'} "
-          f"sweeps, pmon {args.pmon}, load average {os.getloadavg()[0]:.1f}", file=sys.stderr)
-    print("| round | engine | tasks | wall | sum of task times | overhead per task | speed-up vs 1 worker "
+          f"sweeps, pmon {args.pmon}, RAYON_NUM_THREADS per Dask worker: {os.environ.get('RAYON_NUM_THREADS', 'unset')}, "
+          f"load average (1 min) at the start of each row: min {min(loads):.1f}, median {statistics.median(loads):.1f}, "
+          f"max {max(loads):.1f}", file=sys.stderr)
+    print("| round | engine | tasks | wall | sum of task times | overhead per task | speed-up vs 1 (thread or worker) "
           "| median task time per part | median CPU time per part | identical |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        med = ", ".join(f"{k} {v} s" for k, v in r["median_task_s"].items())
-        cpu = ", ".join(f"{k} {v} s" for k, v in r["median_task_cpu_s"].items())
-        print(f"| {r['round']} | {r['engine']} | {r['tasks']} | {r['wall_s']} s | {r['task_sum_s']} s "
-              f"| {r['overhead_ms_per_task']} ms | {r['speedup_vs_1_worker']} | {med} | {cpu} | "
-              f"{'yes' if r['identical'] else 'NO'} |")
+        med = ", ".join(f"{k} {v} s" for k, v in r["median_task_s"].items()) or "-"
+        cpu = ", ".join(f"{k} {v} s" for k, v in r["median_task_cpu_s"].items()) or "-"
+        busy = "-" if r["task_sum_s"] is None else f"{r['task_sum_s']} s"
+        over = "-" if r["overhead_ms_per_task"] is None else f"{r['overhead_ms_per_task']} ms"
+        print(f"| {r['round']} | {r['engine']} | {r['tasks']} | {r['wall_s']} s | {busy} | {over} | {r['speedup']} "
+              f"| {med} | {cpu} | {'yes' if r['identical'] and r['exit'] == 0 else 'NO'} |")
     shutil.rmtree(tmp, ignore_errors=True)
 
 

@@ -47,16 +47,24 @@ def report(out):
 
 
 def reproduce(pmon_bin, tmp, out, *extra):
-    p = subprocess.run([str(pmon_bin), *ARGS, "--data", str(tmp / "no-data"), "--out", str(out),
+    # One absent data folder for every run: its path is in the report's notes.
+    p = subprocess.run([str(pmon_bin), *ARGS, "--data", "/nonexistent/pmon-test-no-data", "--out", str(out),
                         "--python", sys.executable, *extra], capture_output=True, text=True, timeout=900)
     assert p.returncode == 0, p.stderr
     return p
 
 
-def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_path):
-    local = tmp_path / "local"
-    reproduce(pmon_bin, tmp_path, local, "--quiet")
+@pytest.fixture(scope="module")
+def local_report(pmon_bin, tmp_path_factory):
+    """The single-process run's report (masked), made once for the module."""
+    tmp = tmp_path_factory.mktemp("reproduce-local")
+    local = tmp / "local"
+    reproduce(pmon_bin, tmp, local, "--quiet")
     assert not Path(str(local) + ".run").exists()  # the local run needs no run folder
+    return report(local)
+
+
+def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_path, local_report):
     address = cluster.scheduler_address.replace("tcp://", "dask://")
     out = tmp_path / "dask"
     p = reproduce(pmon_bin, tmp_path, out, "--scheduler", address)
@@ -68,8 +76,7 @@ def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_
     assert len(lines) == n and f"[{n}/{n}]" in p.stderr, p.stderr[-2000:]
     workers = {re.search(r" on (\S+), ", line).group(1) for line in lines}
     assert len(workers) == 2, workers
-    want = report(local)
-    assert report(out) == want
+    assert report(out) == local_report
     # The claims are the local run's (the masks hid nothing else) and the figures have points.
     res = json.loads((out / "results.json").read_text())
     assert res["runs"] > 200 and all(f["curves"] for f in res["figures"])
@@ -84,6 +91,15 @@ def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_
         r = campaign.evaluate_run(tmp_path / "dask.run", client)
     assert len(r.ran) == 3 and r.total == n and not r.failed
     assert {f.name: f.read_bytes() for f in results.iterdir()} == before
+
+
+def test_ray_gives_the_single_process_bytes(pmon_bin, tmp_path, local_report):
+    pytest.importorskip("ray", reason="ray not installed (CI does not install it; PMON_PY_RAY=1 .ci/python.sh does)")
+    out = tmp_path / "ray"
+    p = reproduce(pmon_bin, tmp_path, out, "--scheduler", "ray-local:2")
+    n = len(json.loads((tmp_path / "ray.run" / "tasks.json").read_text()))
+    assert n > 200 and f"[{n}/{n}]" in p.stderr, p.stderr[-2000:]
+    assert report(out) == local_report
 
 
 def test_an_unknown_scheduler_is_refused_before_anything_runs(pmon_bin, tmp_path):

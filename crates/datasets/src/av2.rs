@@ -30,7 +30,7 @@ use serde::Deserialize;
 
 use crate::av2_map::{find_vector_map, MapRoiOptions, VectorMap};
 use crate::geometry::{wrap_angle, Rigid3};
-use crate::ground::{level_cloud, GroundMode, GROUND_NOTE_PREFIX};
+use crate::ground::{level_cloud, GroundMode, LevelStats, GROUND_NOTE_PREFIX};
 use crate::roi::{RoiMode, ROI_NOTE_PREFIX};
 use crate::util::{f32_of, finite_difference_speeds, list_dir, read_bytes, read_text};
 use crate::WARNING_PREFIX;
@@ -741,6 +741,100 @@ fn seconds_of_ns(ns: i64) -> f64 {
 /// Missing required files (`annotations*.feather`, `city_SE3_egovehicle.feather`, and the extrinsics when a sweep
 /// is read), malformed files, repeated track in one frame.
 pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError> {
+    open_log_with(dir, opts, false).map(|(ds, _)| ds)
+}
+
+/// The sweeps of an Argoverse 2 log opened by [`open_log_deferred`]: one frame's cloud read (and levelled) when
+/// asked, never held.
+#[derive(Clone, Debug)]
+pub struct Av2Sweeps {
+    /// The up-LiDAR's extrinsic (`None`: no sweep is read).
+    up_lidar: Option<Rigid3>,
+    /// Per frame: its sweep file, if one matched its timestamp.
+    files: Vec<Option<PathBuf>>,
+    /// Per frame: the ego pose (city frame).
+    poses: Vec<Rigid3>,
+    raster: Option<GroundRaster>,
+    ground_z_m: f32,
+    ground: GroundMode,
+    /// Level each sweep by the local estimate as it is read (what [`crate::open_with`] does after the reader with
+    /// [`GroundMode::Local`]).
+    level_local: bool,
+}
+
+impl Av2Sweeps {
+    /// True when frame `index` has a sweep.
+    #[must_use]
+    pub fn has_sweep(&self, index: usize) -> bool {
+        self.up_lidar.is_some() && self.files.get(index).is_some_and(Option::is_some)
+    }
+
+    /// Reads frame `index`'s sweep, levelled as [`open_log`] levels it (the ground raster per return with
+    /// [`GroundMode::Auto`], the local estimate with [`GroundMode::Local`]); `None` when the frame has none.
+    ///
+    /// # Errors
+    /// A missing or malformed sweep file.
+    pub fn cloud(&self, index: usize) -> Result<Option<OwnedCloud>, DatasetError> {
+        Ok(self.cloud_and_stats(index)?.map(|(c, _)| c))
+    }
+
+    fn cloud_and_stats(&self, index: usize) -> Result<Option<(OwnedCloud, Option<LevelStats>)>, DatasetError> {
+        let (Some(up), Some(Some(path)), Some(pose)) = (self.up_lidar, self.files.get(index), self.poses.get(index))
+        else {
+            return Ok(None);
+        };
+        let pose = *pose;
+        let sweep = read_sweep(path)?;
+        let o = up.translation_m;
+        let (ox, oy, oz) = (f32_of(o[0]), f32_of(o[1]), f32_of(o[2]));
+        let mut cloud = OwnedCloud {
+            points_in_sensor: sweep.points_in_ego.iter().map(|p| [p[0] - ox, p[1] - oy, p[2] - oz]).collect(),
+            ego_from_sensor: Isometry3::from_translation(ox, oy, oz),
+        };
+        let ego = DatasetFormat::Argoverse2.ego_footprint_m();
+        // The ground raster per return (the height of each return over the city-frame ground under it), the
+        // local estimate where the raster has no value.
+        let stats = match (&self.raster, self.ground) {
+            (Some(r), GroundMode::Auto) => {
+                let known = |q: [f32; 3]| {
+                    let c = pose.apply([f64::from(q[0]), f64::from(q[1]), f64::from(q[2])]);
+                    let h = r.height_at_city(c[0], c[1])?;
+                    Some(q[2] - f32_of(c[2] - f64::from(h)))
+                };
+                Some(level_cloud(&mut cloud, self.ground_z_m, ego, Default::default(), &known))
+            }
+            _ => None,
+        };
+        if self.level_local {
+            level_cloud(&mut cloud, self.ground_z_m, ego, Default::default(), &|_| None);
+        }
+        Ok(Some((cloud, stats)))
+    }
+}
+
+/// [`open_log`] without reading the sweeps: the frames (objects, poses, ROI) with `cloud: None`, and the
+/// [`Av2Sweeps`] that reads one frame's sweep when asked, levelled as [`open_log`] would have (so that a log
+/// can be streamed a frame at a time). The region of interest and the checks of [`crate::open_with`] are
+/// applied; with [`GroundMode::Local`] each sweep is levelled by the local estimate as it is read. The notes
+/// say how many sweeps matched; the share of returns levelled by the raster is not known before they are read.
+///
+/// # Errors
+/// As [`open_log`], except for the sweep files, whose errors come when they are read.
+pub fn open_log_deferred(dir: &Path, opts: &ReadOptions) -> Result<(Dataset, Av2Sweeps), DatasetError> {
+    let (mut ds, mut sweeps) = open_log_with(dir, opts, true)?;
+    crate::roi::finish(&mut ds, &opts.roi);
+    if opts.ground == GroundMode::Local && !ds.info.notes.iter().any(|n| n.starts_with(GROUND_NOTE_PREFIX)) {
+        let n = (0..ds.frames.len()).filter(|&i| sweeps.has_sweep(i)).count();
+        if n > 0 {
+            ds.info.notes.push(format!("{GROUND_NOTE_PREFIX}{}", crate::ground::local_note(n)));
+        }
+        sweeps.level_local = true;
+    }
+    crate::check_finite(&ds)?;
+    Ok((ds, sweeps))
+}
+
+fn open_log_with(dir: &Path, opts: &ReadOptions, defer: bool) -> Result<(Dataset, Av2Sweeps), DatasetError> {
     let ann_path = ["annotations.feather", "annotations_with_ego.feather"]
         .iter()
         .map(|n| dir.join(n))
@@ -851,6 +945,15 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
     ground.sort_by(f64::total_cmp);
     let ground_z_m = ground.get(ground.len() / 2).map_or(NOMINAL_GROUND_Z_M, |g| f32_of(*g));
 
+    let mut sweeps = Av2Sweeps {
+        up_lidar,
+        files: Vec::new(),
+        poses: Vec::new(),
+        raster,
+        ground_z_m,
+        ground: opts.ground,
+        level_local: false,
+    };
     let mut frames = Vec::new();
     let mut levelled = (0usize, 0usize, 0usize);
     let mut no_speed = 0usize;
@@ -893,31 +996,20 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
                 accel_mps2: None,
             });
         }
-        if let (Some(up), Some(path)) = (up_lidar, sweep_files.get(ts)) {
-            let sweep = read_sweep(path)?;
-            let o = up.translation_m;
-            let (ox, oy, oz) = (f32_of(o[0]), f32_of(o[1]), f32_of(o[2]));
-            frame.cloud = Some(OwnedCloud {
-                points_in_sensor: sweep.points_in_ego.iter().map(|p| [p[0] - ox, p[1] - oy, p[2] - oz]).collect(),
-                ego_from_sensor: Isometry3::from_translation(ox, oy, oz),
-            });
+        let index = frames.len();
+        sweeps.files.push(if up_lidar.is_some() { sweep_files.get(ts).cloned() } else { None });
+        sweeps.poses.push(pose);
+        if sweeps.has_sweep(index) {
             sweeps_used += 1;
-            // The ground raster per return (the height of each return over the city-frame ground under it), the
-            // local estimate where the raster has no value.
-            if let (Some(r), Some(cloud), GroundMode::Auto) = (&raster, frame.cloud.as_mut(), opts.ground) {
-                let known = |q: [f32; 3]| {
-                    let c = pose.apply([f64::from(q[0]), f64::from(q[1]), f64::from(q[2])]);
-                    let h = r.height_at_city(c[0], c[1])?;
-                    Some(q[2] - f32_of(c[2] - f64::from(h)))
-                };
-                let s = level_cloud(
-                    cloud,
-                    ground_z_m,
-                    DatasetFormat::Argoverse2.ego_footprint_m(),
-                    Default::default(),
-                    &known,
-                );
-                levelled = (levelled.0 + s.from_dataset, levelled.1 + s.from_estimate, levelled.2 + 1);
+            if !defer {
+                if let Some((cloud, stats)) = sweeps.cloud_and_stats(index)? {
+                    frame.cloud = Some(cloud);
+                    if let Some(s) = stats {
+                        levelled = (levelled.0 + s.from_dataset, levelled.1 + s.from_estimate, levelled.2 + 1);
+                    }
+                }
+            } else if sweeps.raster.is_some() && opts.ground == GroundMode::Auto {
+                levelled.2 += 1;
             }
         }
         frames.push(DatasetFrame { frame, extras });
@@ -964,7 +1056,13 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
             }
         ));
     }
-    if levelled.2 > 0 {
+    if levelled.2 > 0 && defer {
+        notes.push(format!(
+            "{GROUND_NOTE_PREFIX}{} sweeps levelled to the log's ground raster per return as they are read (the local \
+             estimate where the raster has no value)",
+            levelled.2
+        ));
+    } else if levelled.2 > 0 {
         notes.push(format!(
             "{GROUND_NOTE_PREFIX}{} sweeps levelled to the log's ground raster per return ({:.1} % of the returns; \
              the local estimate for the rest, where the raster has no value)",
@@ -979,7 +1077,7 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
     if no_speed > 0 {
         notes.push(format!("{no_speed} cuboids of tracks seen once (or isolated) get speed 0"));
     }
-    Ok(Dataset {
+    let ds = Dataset {
         info: DatasetInfo {
             name: dir.file_name().and_then(|s| s.to_str()).unwrap_or("av2").to_string(),
             format: DatasetFormat::Argoverse2,
@@ -991,7 +1089,8 @@ pub fn open_log(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError>
             notes,
         },
         frames,
-    })
+    };
+    Ok((ds, sweeps))
 }
 
 #[cfg(test)]

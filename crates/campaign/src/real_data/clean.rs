@@ -6,11 +6,11 @@ use std::collections::BTreeMap;
 use pmon_datasets::{points_in_box, DatasetFrame};
 use pmon_monitor::geometry::OrientedRect;
 use pmon_monitor::{
-    ClusterReport, GridGeometry, Monitor, MonitorParams, NotMonitoredReason, ObjectState, Region, SensorVerdict,
+    ClusterReport, GridGeometry, MonitorParams, NotMonitoredReason, ObjectState, Region, SensorVerdict,
 };
 
-use super::sensor::{range_of, SensorSet};
-use super::FrameRun;
+use super::sensor::range_of;
+use super::StateRecord;
 
 /// "class (dataset label)" of an object.
 pub(super) fn object_label(df: &DatasetFrame, index: usize) -> String {
@@ -124,196 +124,249 @@ pub(super) fn cluster_gap(region: &Region, c: &ClusterReport) -> f32 {
     gx.hypot(gy)
 }
 
-/// Table rows of a clean run: the verdict counts, every flagged box, and a sentence for the claim.
-pub(super) fn clean_summary(set: &SensorSet, run: &FrameRun) -> (Vec<String>, Vec<Vec<String>>, String) {
-    let p = &set.params;
-    let mut counts: BTreeMap<&'static str, u64> = BTreeMap::new();
-    let mut not_monitored: BTreeMap<NotMonitoredReason, u64> = BTreeMap::new();
-    let (mut in_scope, mut zero_points) = (0u64, 0u64);
-    let mut flagged = Vec::new();
-    let mut mechanisms: BTreeMap<&'static str, u64> = BTreeMap::new();
-    for rec in &run.records {
-        let v = rec.report.sensor.verdict;
-        if let SensorVerdict::NotMonitored(r) = v {
-            *not_monitored.entry(r).or_default() += 1;
-        }
-        if !rec.in_scope {
-            continue;
-        }
-        in_scope += 1;
-        let Some(df) = set.frames.get(rec.frame) else { continue };
-        let ds_points = df.extras.get(rec.index).and_then(|e| e.num_points);
-        zero_points += u64::from(ds_points == Some(0));
-        let name = match v {
-            SensorVerdict::Consistent => "consistent",
-            SensorVerdict::Ghost => "ghost",
-            SensorVerdict::PositionError => "position_error",
-            SensorVerdict::NotMonitored(_) => "not_monitored",
-        };
-        *counts.entry(name).or_default() += 1;
-        if !matches!(v, SensorVerdict::Ghost | SensorVerdict::PositionError) {
-            continue;
-        }
-        let s = &rec.report.sensor;
-        let pts = box_points(df, rec.index, p);
-        let range = range_of(df, rec.index);
-        let cluster = s.cluster.and_then(|k| run.clusters.get(rec.frame)?.get(usize::from(k)));
-        let cells = cluster.map_or(0, |c| c.cells);
-        let gap = cluster.map(|c| cluster_gap(&region_of(&rec.object, p), c));
-        let (mechanism, mut why) = match v {
-            SensorVerdict::PositionError if s.eta >= p.tau_tp => (
-                "consistent box, unexplained evidence touching it",
-                format!(
-                    "the box is consistent (eta {:.2}) but a conflict cluster of {cells} cells (centroid {:.1} m from \
-                     the box) touches its grown region: evidence spilling over the box edge (label smaller than the \
-                     object, or an unlabelled object or structure next to it)",
-                    s.eta,
-                    s.offset_m[0].hypot(s.offset_m[1])
-                ),
-            ),
-            SensorVerdict::PositionError if gap.is_some_and(|g| g > p.conflict_association_m) => (
-                "evidence-free box in the shadow of unexplained evidence",
-                format!(
-                    "too few returns for an occupied cell (eta {:.2}) and the region is hidden ({:.0} % visible) \
-                     behind a conflict cluster of {cells} cells ({:.1} m from the region) that no label explains: the monitor \
-                     takes the unexplained occluder for the displaced object. Without a region of interest or a \
-                     scenery map, unlabelled structures (walls, poles, vegetation) trigger this",
-                    s.eta,
-                    100.0 * s.visible_fraction,
-                    gap.unwrap_or(f32::NAN)
-                ),
-            ),
-            SensorVerdict::PositionError => (
-                "evidence-free box with unexplained evidence beside it",
-                format!(
-                    "no occupied cell in the region (eta {:.2}) and unexplained evidence ({cells} cells) within \
-                     {:.1} m: the label is offset from its returns, or an unlabelled object stands next to it",
-                    s.eta, p.conflict_association_m
-                ),
-            ),
-            _ if ds_points == Some(0) => (
-                "ghost: no LiDAR point in the box",
-                format!(
-                    "no LiDAR point in the labelled box (dataset count 0) although {:.0} % of its region is visible: \
-                     labelled from other frames or sensors, or hidden by something the 2D visibility test does not \
-                     model",
-                    100.0 * s.visible_fraction
-                ),
-            ),
-            _ => match pts {
-                Some((_, band)) if band < 2 => (
-                    "ghost: fewer than 2 returns in the height band",
-                    format!(
-                        "only {band} of the box's points lie in the obstacle band ({:.2} to {:.2} m above the \
-                         ground): an occupied cell needs 2 hits (one hit gives p = {:.2} < tau_tp {:.2}); few \
-                         returns, a low object, or the ground is not where ground_z_m says",
-                        p.min_obstacle_height_m, p.max_obstacle_height_m, p.hit_probability, p.tau_tp
-                    ),
-                ),
-                Some((_, band)) => (
-                    "ghost: returns spread thin",
-                    format!(
-                        "{band} points in the band, spread so that no cell of the region collects 2 hits (eta \
-                         {:.2}): sparse returns at range",
-                        s.eta
-                    ),
-                ),
-                None => ("ghost", format!("no occupied cell in the region (eta {:.2})", s.eta)),
-            },
-        };
-        *mechanisms.entry(mechanism).or_default() += 1;
-        if range > 0.5 * p.grid_size_m - 5.0 {
-            why.push_str("; near the grid edge");
-        }
-        flagged.push(vec![
-            set.key.to_string(),
-            rec.frame.to_string(),
-            rec.report.id.to_string(),
-            object_label(df, rec.index),
-            format!("{range:.1}"),
-            ds_points.map_or("n/a".into(), |n| n.to_string()),
-            pts.map_or("n/a".into(), |(a, b)| format!("{a} / {b}")),
-            format!("{:.2}", s.eta),
-            format!("{v:?}"),
-            format!("{:.0} %", 100.0 * s.visible_fraction),
-            why,
-        ]);
-    }
-    let mut sizes: Vec<u32> = Vec::new();
-    let mut nearest = f32::INFINITY;
-    for c in run.clusters.iter().flatten().filter(|c| c.is_missed_object()) {
-        sizes.push(c.cells);
-        nearest = nearest.min(c.centroid_m[0].hypot(c.centroid_m[1]));
-    }
-    sizes.sort_unstable();
-    let (per_frame, without_roi) = missed_per_frame(set, run);
-    let get = |k: &str| counts.get(k).copied().unwrap_or(0);
-    let states: usize = set.frames.iter().map(|f| f.frame.objects.len()).sum();
-    let nm = not_monitored.iter().map(|(r, n)| format!("{r} {n}")).collect::<Vec<_>>().join(", ");
-    let row = vec![
-        set.key.to_string(),
-        set.frames.len().to_string(),
-        states.to_string(),
-        in_scope.to_string(),
-        get("consistent").to_string(),
-        get("ghost").to_string(),
-        get("position_error").to_string(),
-        if nm.is_empty() { "none".into() } else { nm },
-        zero_points.to_string(),
-        if mechanisms.is_empty() {
-            "-".into()
-        } else {
-            mechanisms.iter().map(|(m, n)| format!("{m}: {n}")).collect::<Vec<_>>().join("; ")
-        },
-        set.roi.clone(),
-        run.metrics.missed_object_alarms.to_string(),
-        spread(&per_frame),
-        without_roi.map_or_else(|| "same".into(), |w| spread(&w)),
-        if sizes.is_empty() {
-            "-".into()
-        } else {
-            format!(
-                "{} / {}, {nearest:.1}",
-                sizes.get(sizes.len() / 2).copied().unwrap_or(0),
-                sizes.last().copied().unwrap_or(0)
-            )
-        },
-    ];
-    let fa = get("ghost") + get("position_error");
-    let claim = format!(
-        "{}: {fa} of {in_scope} clean boxes in scope flagged ({} ghost, {} position error; {}), {} missed-object \
-         alarms (ROI: {}; per frame {})",
-        set.key,
-        get("ghost"),
-        get("position_error"),
-        mechanisms.iter().map(|(m, n)| format!("{m}: {n}")).collect::<Vec<_>>().join(", "),
-        run.metrics.missed_object_alarms,
-        set.roi,
-        spread(&per_frame)
-    );
-    (row, flagged, claim)
+/// What the clean run says about a set, gathered frame by frame (the frames are streamed: nothing of a frame is kept
+/// but these counts and the rows of the flagged boxes).
+#[derive(Default)]
+pub(super) struct CleanSummary {
+    counts: BTreeMap<&'static str, u64>,
+    not_monitored: BTreeMap<NotMonitoredReason, u64>,
+    in_scope: u64,
+    zero_points: u64,
+    flagged: Vec<Vec<String>>,
+    mechanisms: BTreeMap<&'static str, u64>,
+    /// Size in cells of every missed-object cluster.
+    sizes: Vec<u32>,
+    nearest: f32,
+    /// Missed-object alarms per frame.
+    per_frame: Vec<u64>,
+    /// The same frames checked without their ROI: missed-object alarms per frame (`None`: no monitor).
+    without_roi: Option<Vec<u64>>,
+    /// True when a frame carried a ROI.
+    any_roi: bool,
 }
 
-/// Missed-object alarms per frame of a clean run and, when the frames carry a ROI, of the same frames checked
-/// without it (the whole grid), for the comparison.
-fn missed_per_frame(set: &SensorSet, run: &FrameRun) -> (Vec<u64>, Option<Vec<u64>>) {
-    let per_frame: Vec<u64> =
-        run.clusters.iter().map(|f| f.iter().filter(|c| c.is_missed_object()).count() as u64).collect();
-    if set.frames.iter().all(|f| f.frame.roi_in_ego.is_empty()) {
-        return (per_frame, None);
+impl CleanSummary {
+    pub(super) fn new() -> Self {
+        Self { nearest: f32::INFINITY, ..Self::default() }
     }
-    let Ok(mut monitor) = Monitor::new(set.params) else { return (per_frame, None) };
-    let mut without = Vec::new();
-    for f in &set.frames {
-        let mut frame = f.frame.clone();
-        frame.roi_in_ego.clear();
-        let mut polygons = Vec::new();
-        let view = frame.as_frame(&mut polygons);
-        if let Ok(rep) = monitor.check(&view) {
-            without.push(rep.missed_objects() as u64);
+
+    /// Adds the clean run's records and clusters of one frame.
+    pub(super) fn add_frame(
+        &mut self,
+        key: &str,
+        p: &MonitorParams,
+        df: &DatasetFrame,
+        records: &[StateRecord],
+        clusters: &[ClusterReport],
+    ) {
+        for rec in records {
+            let v = rec.report.sensor.verdict;
+            if let SensorVerdict::NotMonitored(r) = v {
+                *self.not_monitored.entry(r).or_default() += 1;
+            }
+            if !rec.in_scope {
+                continue;
+            }
+            self.in_scope += 1;
+            let ds_points = df.extras.get(rec.index).and_then(|e| e.num_points);
+            self.zero_points += u64::from(ds_points == Some(0));
+            let name = match v {
+                SensorVerdict::Consistent => "consistent",
+                SensorVerdict::Ghost => "ghost",
+                SensorVerdict::PositionError => "position_error",
+                SensorVerdict::NotMonitored(_) => "not_monitored",
+            };
+            *self.counts.entry(name).or_default() += 1;
+            if !matches!(v, SensorVerdict::Ghost | SensorVerdict::PositionError) {
+                continue;
+            }
+            let (mechanism, row) = flagged_row(key, p, df, rec, clusters);
+            *self.mechanisms.entry(mechanism).or_default() += 1;
+            self.flagged.push(row);
         }
+        let mut missed = 0u64;
+        for c in clusters.iter().filter(|c| c.is_missed_object()) {
+            missed += 1;
+            self.sizes.push(c.cells);
+            self.nearest = self.nearest.min(c.centroid_m[0].hypot(c.centroid_m[1]));
+        }
+        self.per_frame.push(missed);
     }
-    (per_frame, Some(without))
+
+    /// Notes whether a frame carried a ROI (once per frame).
+    pub(super) fn add_roi(&mut self, df: &DatasetFrame) {
+        self.any_roi |= !df.frame.roi_in_ego.is_empty();
+    }
+
+    /// The missed-object alarms per frame of the clean frames checked without their ROI (`None`: not checked).
+    pub(super) fn set_without_roi(&mut self, without_roi: Option<Vec<u64>>) {
+        self.without_roi = without_roi;
+    }
+
+    /// Table rows of the clean run: the verdict counts, every flagged box, and a sentence for the claim.
+    /// `frames` and `states`: the set's frames and object states; `missed_alarms`: the clean run's total.
+    pub(super) fn finish(
+        self,
+        key: &str,
+        roi: &str,
+        frames: usize,
+        states: usize,
+        missed_alarms: u64,
+    ) -> (Vec<String>, Vec<Vec<String>>, String) {
+        let Self {
+            counts,
+            not_monitored,
+            in_scope,
+            zero_points,
+            flagged,
+            mechanisms,
+            mut sizes,
+            nearest,
+            per_frame,
+            without_roi,
+            any_roi,
+        } = self;
+        sizes.sort_unstable();
+        // Missed-object alarms per frame and, when the frames carry a ROI, of the same frames checked without it.
+        let without_roi = if any_roi { without_roi } else { None };
+        let get = |k: &str| counts.get(k).copied().unwrap_or(0);
+        let nm = not_monitored.iter().map(|(r, n)| format!("{r} {n}")).collect::<Vec<_>>().join(", ");
+        let row = vec![
+            key.to_string(),
+            frames.to_string(),
+            states.to_string(),
+            in_scope.to_string(),
+            get("consistent").to_string(),
+            get("ghost").to_string(),
+            get("position_error").to_string(),
+            if nm.is_empty() { "none".into() } else { nm },
+            zero_points.to_string(),
+            if mechanisms.is_empty() {
+                "-".into()
+            } else {
+                mechanisms.iter().map(|(m, n)| format!("{m}: {n}")).collect::<Vec<_>>().join("; ")
+            },
+            roi.to_string(),
+            missed_alarms.to_string(),
+            spread(&per_frame),
+            without_roi.map_or_else(|| "same".into(), |w| spread(&w)),
+            if sizes.is_empty() {
+                "-".into()
+            } else {
+                format!(
+                    "{} / {}, {nearest:.1}",
+                    sizes.get(sizes.len() / 2).copied().unwrap_or(0),
+                    sizes.last().copied().unwrap_or(0)
+                )
+            },
+        ];
+        let fa = get("ghost") + get("position_error");
+        let claim = format!(
+            "{key}: {fa} of {in_scope} clean boxes in scope flagged ({} ghost, {} position error; {}), {missed_alarms} \
+             missed-object alarms (ROI: {roi}; per frame {})",
+            get("ghost"),
+            get("position_error"),
+            mechanisms.iter().map(|(m, n)| format!("{m}: {n}")).collect::<Vec<_>>().join(", "),
+            spread(&per_frame)
+        );
+        (row, flagged, claim)
+    }
+}
+
+/// A box the clean run flagged: its mechanism and its table row.
+fn flagged_row(
+    key: &str,
+    p: &MonitorParams,
+    df: &DatasetFrame,
+    rec: &StateRecord,
+    clusters: &[ClusterReport],
+) -> (&'static str, Vec<String>) {
+    let v = rec.report.sensor.verdict;
+    let ds_points = df.extras.get(rec.index).and_then(|e| e.num_points);
+    let s = &rec.report.sensor;
+    let pts = box_points(df, rec.index, p);
+    let range = range_of(df, rec.index);
+    let cluster = s.cluster.and_then(|k| clusters.get(usize::from(k)));
+    let cells = cluster.map_or(0, |c| c.cells);
+    let gap = cluster.map(|c| cluster_gap(&region_of(&rec.object, p), c));
+    let (mechanism, mut why) = match v {
+        SensorVerdict::PositionError if s.eta >= p.tau_tp => (
+            "consistent box, unexplained evidence touching it",
+            format!(
+                "the box is consistent (eta {:.2}) but a conflict cluster of {cells} cells (centroid {:.1} m from \
+                 the box) touches its grown region: evidence spilling over the box edge (label smaller than the \
+                 object, or an unlabelled object or structure next to it)",
+                s.eta,
+                s.offset_m[0].hypot(s.offset_m[1])
+            ),
+        ),
+        SensorVerdict::PositionError if gap.is_some_and(|g| g > p.conflict_association_m) => (
+            "evidence-free box in the shadow of unexplained evidence",
+            format!(
+                "too few returns for an occupied cell (eta {:.2}) and the region is hidden ({:.0} % visible) \
+                 behind a conflict cluster of {cells} cells ({:.1} m from the region) that no label explains: the monitor \
+                 takes the unexplained occluder for the displaced object. Without a region of interest or a \
+                 scenery map, unlabelled structures (walls, poles, vegetation) trigger this",
+                s.eta,
+                100.0 * s.visible_fraction,
+                gap.unwrap_or(f32::NAN)
+            ),
+        ),
+        SensorVerdict::PositionError => (
+            "evidence-free box with unexplained evidence beside it",
+            format!(
+                "no occupied cell in the region (eta {:.2}) and unexplained evidence ({cells} cells) within \
+                 {:.1} m: the label is offset from its returns, or an unlabelled object stands next to it",
+                s.eta, p.conflict_association_m
+            ),
+        ),
+        _ if ds_points == Some(0) => (
+            "ghost: no LiDAR point in the box",
+            format!(
+                "no LiDAR point in the labelled box (dataset count 0) although {:.0} % of its region is visible: \
+                 labelled from other frames or sensors, or hidden by something the 2D visibility test does not \
+                 model",
+                100.0 * s.visible_fraction
+            ),
+        ),
+        _ => match pts {
+            Some((_, band)) if band < 2 => (
+                "ghost: fewer than 2 returns in the height band",
+                format!(
+                    "only {band} of the box's points lie in the obstacle band ({:.2} to {:.2} m above the \
+                     ground): an occupied cell needs 2 hits (one hit gives p = {:.2} < tau_tp {:.2}); few \
+                     returns, a low object, or the ground is not where ground_z_m says",
+                    p.min_obstacle_height_m, p.max_obstacle_height_m, p.hit_probability, p.tau_tp
+                ),
+            ),
+            Some((_, band)) => (
+                "ghost: returns spread thin",
+                format!(
+                    "{band} points in the band, spread so that no cell of the region collects 2 hits (eta \
+                     {:.2}): sparse returns at range",
+                    s.eta
+                ),
+            ),
+            None => ("ghost", format!("no occupied cell in the region (eta {:.2})", s.eta)),
+        },
+    };
+    if range > 0.5 * p.grid_size_m - 5.0 {
+        why.push_str("; near the grid edge");
+    }
+    let row = vec![
+        key.to_string(),
+        rec.frame.to_string(),
+        rec.report.id.to_string(),
+        object_label(df, rec.index),
+        format!("{range:.1}"),
+        ds_points.map_or("n/a".into(), |n| n.to_string()),
+        pts.map_or("n/a".into(), |(a, b)| format!("{a} / {b}")),
+        format!("{:.2}", s.eta),
+        format!("{v:?}"),
+        format!("{:.0} %", 100.0 * s.visible_fraction),
+        why,
+    ];
+    (mechanism, row)
 }
 
 /// `min / median / max` of counts.

@@ -16,19 +16,22 @@
 //! The per-class limits of the plausibility experiment (a configuration derived from the clean tracks) are
 //! derived per log here, where `pmon reproduce` pools the logs of a family first: a task sees its log only.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fs;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
+use pmon_datasets::av2::{open_log_deferred, Av2Sweeps};
 use pmon_datasets::ground::GroundMode;
 use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{open_with, Dataset, DatasetFormat, DatasetFrame, DatasetInfo, ReadOptions, SpeedSource};
 use pmon_monitor::MonitorParams;
+use pmon_recording::RecordedFrame;
 use serde::{Deserialize, Serialize};
 
 use super::plausibility::{plausibility_experiments, TrackScene};
-use super::sensor::{sensor_experiments, SensorSet};
+use super::sensor::{sensor_experiments, FrameStream, SensorSet};
 use super::{mix, roi_label, RealDataOptions, RealDataResults, Table};
 use crate::experiments::{Claim, Curve, Figure, FigureSpec, Point};
 use crate::metrics::Rate;
@@ -383,36 +386,48 @@ pub fn plan(
     Ok(Plan { tasks: tasks.into_values().collect(), notes })
 }
 
+/// A recording's parameters: `base` with the ground height and ego footprint of its `params.toml`, if any.
+fn recording_params(path: &Path, base: MonitorParams) -> Result<MonitorParams, String> {
+    let mut params = base;
+    let sidecar = path.join("params.toml");
+    if sidecar.is_file() {
+        let text = fs::read_to_string(&sidecar).map_err(|e| format!("{}: {e}", sidecar.display()))?;
+        let table: toml::Table = text.parse().map_err(|e| format!("{}: {e}", sidecar.display()))?;
+        if let Some(z) = table.get("ground_z_m").and_then(toml::Value::as_float) {
+            params.ground_z_m = z as f32;
+        }
+        if let Some(fp) = table.get("ego_footprint_m").and_then(toml::Value::as_array) {
+            let v: Vec<f32> = fp.iter().filter_map(toml::Value::as_float).map(|x| x as f32).collect();
+            params.ego_footprint_m =
+                v.try_into().map_err(|_| format!("{}: ego_footprint_m needs 4 numbers", sidecar.display()))?;
+        }
+    }
+    Ok(params)
+}
+
+/// The path of a recording task.
+fn recording_path(task: &LogTask) -> PathBuf {
+    PathBuf::from(task.spec.strip_prefix("recording:").unwrap_or(&task.spec))
+}
+
 /// Reads the task's log: a dataset reader, or a pmon recording (with its `params.toml`: ground height and ego
 /// footprint). Returns the dataset and the parameters for it.
 fn open_log(task: &LogTask, load_clouds: bool) -> Result<(Dataset, MonitorParams), String> {
     let base = task.params;
     if task.family == "recording" {
-        let path = PathBuf::from(task.spec.strip_prefix("recording:").unwrap_or(&task.spec));
-        let (_meta, frames) = pmon_recording::read_recording(&path).map_err(|e| e.to_string())?;
-        let mut params = base;
-        let sidecar = path.join("params.toml");
-        if sidecar.is_file() {
-            let text = fs::read_to_string(&sidecar).map_err(|e| format!("{}: {e}", sidecar.display()))?;
-            let table: toml::Table = text.parse().map_err(|e| format!("{}: {e}", sidecar.display()))?;
-            if let Some(z) = table.get("ground_z_m").and_then(toml::Value::as_float) {
-                params.ground_z_m = z as f32;
-            }
-            if let Some(fp) = table.get("ego_footprint_m").and_then(toml::Value::as_array) {
-                let v: Vec<f32> = fp.iter().filter_map(toml::Value::as_float).map(|x| x as f32).collect();
-                params.ego_footprint_m =
-                    v.try_into().map_err(|_| format!("{}: ego_footprint_m needs 4 numbers", sidecar.display()))?;
-            }
-        }
-        let frames = frames
-            .into_iter()
-            .map(|mut f| {
+        let path = recording_path(task);
+        // Frame by frame, each cloud dropped as soon as it is read when the clouds are not wanted.
+        let reader = pmon_recording::RecordingReader::open(&path).map_err(|e| e.to_string())?;
+        let frames = reader
+            .map(|f| {
+                let mut f = f.map_err(|e| e.to_string())?;
                 if !load_clouds {
                     f.cloud = None;
                 }
-                DatasetFrame { frame: f, extras: Vec::new() }
+                Ok(DatasetFrame { frame: f, extras: Vec::new() })
             })
-            .collect();
+            .collect::<Result<Vec<_>, String>>()?;
+        let params = recording_params(&path, base)?;
         let info = DatasetInfo {
             // The folder's name: recordings of one simulator share their `name`.
             name: task.log.clone(),
@@ -432,6 +447,71 @@ fn open_log(task: &LogTask, load_clouds: bool) -> Result<(Dataset, MonitorParams
     let params =
         MonitorParams { ground_z_m: ds.info.ground_z_m, ego_footprint_m: ds.info.format.ego_footprint_m(), ..base };
     Ok((ds, params))
+}
+
+/// Where a `sensor` task's frames come from.
+enum SensorSource {
+    /// A pmon recording: read frame by frame from its `frames.jsonl`, once per pass.
+    Recording(PathBuf),
+    /// An Argoverse 2 log: its annotations, poses and map read first, then one sweep per frame, once per pass.
+    Av2(Box<(Dataset, Av2Sweeps)>),
+    /// A dataset read whole by its reader; its frames are lent one by one.
+    Loaded(Dataset),
+}
+
+impl SensorSource {
+    /// Opens the task's log for the sensor part: the source, the parameters and the ROI label.
+    fn open(task: &LogTask) -> Result<(Self, MonitorParams, String), String> {
+        if task.family == "recording" {
+            let path = recording_path(task);
+            let params = recording_params(&path, task.params)?;
+            return Ok((Self::Recording(path), params, "none".to_string()));
+        }
+        if task.family == "av2" {
+            let dir = task.spec.strip_prefix("av2:").unwrap_or(&task.spec);
+            let roi =
+                RoiOptions { grid_half_extent_m: 0.5 * f64::from(task.params.grid_size_m), ..RoiOptions::default() };
+            let opts = ReadOptions { load_clouds: true, roi, ground: GroundMode::Auto };
+            let (ds, sweeps) = open_log_deferred(Path::new(dir), &opts).map_err(|e| e.to_string())?;
+            let params = MonitorParams {
+                ground_z_m: ds.info.ground_z_m,
+                ego_footprint_m: ds.info.format.ego_footprint_m(),
+                ..task.params
+            };
+            let roi = ds.roi_note().map_or_else(|| "none".to_string(), roi_label);
+            return Ok((Self::Av2(Box::new((ds, sweeps))), params, roi));
+        }
+        let (ds, params) = open_log(task, true)?;
+        let roi = ds.roi_note().map_or_else(|| "none".to_string(), roi_label);
+        Ok((Self::Loaded(ds), params, roi))
+    }
+
+    /// One reading of the frames with a LiDAR sweep.
+    fn frames(&self) -> Result<FrameStream<'_>, String> {
+        Ok(match self {
+            Self::Recording(path) => {
+                let reader = pmon_recording::RecordingReader::open(path).map_err(|e| e.to_string())?;
+                Box::new(reader.filter_map(|f| match f {
+                    Ok(frame) if frame.cloud.is_none() => None,
+                    Ok(frame) => Some(Ok(Cow::Owned(DatasetFrame { frame, extras: Vec::new() }))),
+                    Err(e) => Some(Err(e.to_string())),
+                }))
+            }
+            Self::Av2(log) => {
+                let (ds, sweeps) = &**log;
+                Box::new(ds.frames.iter().enumerate().filter(|(i, _)| sweeps.has_sweep(*i)).map(|(i, f)| {
+                    let cloud = sweeps.cloud(i).map_err(|e| e.to_string())?;
+                    Ok(Cow::Owned(DatasetFrame {
+                        frame: RecordedFrame { cloud, ..f.frame.clone() },
+                        extras: f.extras.clone(),
+                    }))
+                }))
+            }
+            Self::Loaded(ds) => {
+                Box::new(ds.frames.iter().filter(|f| f.frame.cloud.is_some()).map(|f| Ok(Cow::Borrowed(f))))
+            }
+        })
+    }
 }
 
 fn count_figure(f: &Figure) -> CountFigure {
@@ -458,25 +538,20 @@ fn run_task_inner(task: &LogTask) -> Result<LogOutput, String> {
     let frames;
     match task.part {
         Part::Sensor => {
-            let (ds, params) = open_log(task, true)?;
-            let roi = ds.roi_note().map_or_else(|| "none".to_string(), roi_label);
-            let frames_with_sweep: Vec<DatasetFrame> =
-                ds.frames.into_iter().filter(|f| f.frame.cloud.is_some()).collect();
-            frames = frames_with_sweep.len() as u64;
-            if frames_with_sweep.is_empty() {
+            let (source, params, roi) = SensorSource::open(task)?;
+            let mut set = SensorSet {
+                key,
+                name: format!("{label} {}", task.log),
+                paper_ref,
+                params,
+                frames: Box::new(|| source.frames()),
+                roi,
+            };
+            let counts = sensor_experiments(std::slice::from_mut(&mut set), task.seed, &task.options, &mut out)?;
+            frames = counts.first().copied().unwrap_or(0) as u64;
+            if frames == 0 {
                 out.notes
                     .push(format!("{label} {}: no frame with a LiDAR sweep, sensor experiments skipped", task.log));
-            } else {
-                let boxes = frames_with_sweep.iter().map(|f| f.frame.objects.len()).sum::<usize>();
-                let set = SensorSet {
-                    key,
-                    label: format!("{label} {} ({frames} frames, {boxes} boxes)", task.log),
-                    paper_ref,
-                    params,
-                    frames: frames_with_sweep,
-                    roi,
-                };
-                sensor_experiments(std::slice::from_ref(&set), task.seed, &task.options, &mut out)?;
             }
         }
         Part::Tracks => {

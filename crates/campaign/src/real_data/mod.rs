@@ -14,6 +14,7 @@
 //! shared data folder and never copied. Results are deterministic for a seed (rayon only maps independent runs
 //! and keeps their order; no timing enters the results).
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use pmon_datasets::ground::GroundMode;
@@ -36,7 +37,7 @@ mod plausibility;
 mod sensor;
 
 use plausibility::{plausibility_experiments, TrackScene};
-use sensor::{sensor_experiments, SensorSet};
+use sensor::{sensor_experiments, FrameStream, OpenFrames, SensorSet};
 
 /// nuScenes keyframe folder, relative to the data folder.
 pub const NUSCENES_DIR: &str = "nuscenes";
@@ -162,15 +163,19 @@ pub fn real_data_experiments_with(
         ),
     ] {
         let Some(ds) = ds else { continue };
-        let frames: Vec<DatasetFrame> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).cloned().collect();
-        if frames.is_empty() {
+        if !ds.frames.iter().any(|f| f.frame.cloud.is_some()) {
             out.notes.push(format!("{label}: no frame with a LiDAR sweep, sensor experiments skipped"));
             continue;
         }
-        let boxes = frames.iter().map(|f| f.frame.objects.len()).sum::<usize>();
+        // The dataset is in memory already (`reproduce` reads the extracts whole); the frames are lent one by one.
+        let frames: OpenFrames<'_> = Box::new(move || {
+            let stream: FrameStream<'_> =
+                Box::new(ds.frames.iter().filter(|f| f.frame.cloud.is_some()).map(|f| Ok(Cow::Borrowed(f))));
+            Ok(stream)
+        });
         sets.push(SensorSet {
             key,
-            label: format!("{label} ({} frames, {boxes} boxes)", frames.len()),
+            name: label.to_string(),
             paper_ref,
             params: MonitorParams {
                 ground_z_m: ds.info.ground_z_m,
@@ -181,7 +186,8 @@ pub fn real_data_experiments_with(
             roi: ds.roi_note().map_or_else(|| "none".to_string(), roi_label),
         });
     }
-    sensor_experiments(&sets, seed, opts, &mut out)?;
+    sensor_experiments(&mut sets, seed, opts, &mut out)?;
+    drop(sets);
 
     // ---- 3: plausibility on real tracks ----
     let mut scenes = Vec::new();
@@ -278,36 +284,59 @@ struct FrameRun {
     clusters: Vec<Vec<ClusterReport>>,
 }
 
-/// Runs the monitor over dataset frames with an injection, as [`crate::run_one`] does, but with the real-data
-/// notion of verifiability: a state is *judged* by the sensor checks when the monitor judged it AND the dataset
-/// does not count zero LiDAR points in its box.
-fn run_frames(
-    frames: &[DatasetFrame],
-    params: &MonitorParams,
-    injection: InjectionConfig,
-    window: u64,
-    details: bool,
-) -> Result<FrameRun, String> {
-    let mut monitor = Monitor::new(*params).map_err(|e| e.to_string())?;
-    let mut injector = Injector::new(injection);
-    let mut run = FrameRun::default();
-    let mut outcomes = Vec::new();
-    let mut missed = 0u64;
-    let mut objects = Vec::new();
-    for (k, df) in frames.iter().enumerate() {
+/// One run's monitor and injector, advanced one frame at a time (the frames of a log are streamed through every
+/// run of an experiment at once, so a run keeps its state between frames instead of holding the frames).
+struct RunState {
+    monitor: Monitor,
+    injector: Injector,
+    objects: Vec<ObjectState>,
+}
+
+/// What one frame of a run gives.
+#[derive(Default)]
+struct FrameStep {
+    /// One per object of the frame.
+    outcomes: Vec<Outcome>,
+    /// Missed-object alarms of the frame.
+    missed: u64,
+    /// Injected states in scope that the monitor could not judge (occluded, ...).
+    nv_monitor: u64,
+    /// Injected states in scope the monitor judged although the dataset counts no LiDAR point in the box.
+    nv_no_points: u64,
+    /// Every object state (only when asked for details).
+    records: Vec<StateRecord>,
+    /// The frame's conflict clusters (only when asked for details).
+    clusters: Vec<ClusterReport>,
+}
+
+impl RunState {
+    fn new(params: &MonitorParams, injection: InjectionConfig) -> Result<Self, String> {
+        Ok(Self {
+            monitor: Monitor::new(*params).map_err(|e| e.to_string())?,
+            injector: Injector::new(injection),
+            objects: Vec::new(),
+        })
+    }
+
+    /// Checks frame `k` (frames must come in order, each once) with the run's injection, with the real-data
+    /// notion of verifiability: a state is *judged* by the sensor checks when the monitor judged it AND the
+    /// dataset does not count zero LiDAR points in its box.
+    fn step(&mut self, k: usize, df: &DatasetFrame, details: bool) -> Result<FrameStep, String> {
         let clean = &df.frame;
+        let objects = &mut self.objects;
         objects.clone_from(&clean.objects);
         let mut injected = vec![false; objects.len()];
-        for i in injector.apply(k as u64, &mut objects) {
+        for i in self.injector.apply(k as u64, objects) {
             if let Some(x) = injected.get_mut(i.index as usize) {
                 *x = true;
             }
         }
         let mut polygons = Vec::new();
         let mut view = clean.as_frame(&mut polygons);
-        view.objects = &objects;
-        let report = monitor.check(&view).map_err(|e| format!("frame {k}: {e}"))?;
-        missed += report.missed_objects() as u64;
+        view.objects = objects;
+        let report = self.monitor.check(&view).map_err(|e| format!("frame {k}: {e}"))?;
+        let mut step = FrameStep { missed: report.missed_objects() as u64, ..FrameStep::default() };
+        step.outcomes.reserve(report.objects.len());
         for (i, r) in report.objects.iter().enumerate() {
             let in_scope = !matches!(
                 r.sensor.verdict,
@@ -318,12 +347,12 @@ fn run_frames(
             let inj = injected.get(i).copied().unwrap_or(false);
             if in_scope && inj {
                 if !monitor_judged {
-                    run.nv_monitor += 1;
+                    step.nv_monitor += 1;
                 } else if no_points {
-                    run.nv_no_points += 1;
+                    step.nv_no_points += 1;
                 }
             }
-            outcomes.push(Outcome {
+            step.outcomes.push(Outcome {
                 frame: k as u64,
                 id: r.id,
                 in_scope,
@@ -334,11 +363,39 @@ fn run_frames(
             });
             if details {
                 let object = objects.get(i).copied().unwrap_or_else(|| clean.objects.get(i).copied().unwrap_or(OBJ0));
-                run.records.push(StateRecord { frame: k, index: i, injected: inj, in_scope, object, report: *r });
+                step.records.push(StateRecord { frame: k, index: i, injected: inj, in_scope, object, report: *r });
             }
         }
         if details {
-            run.clusters.push(report.clusters.to_vec());
+            step.clusters = report.clusters.to_vec();
+        }
+        Ok(step)
+    }
+}
+
+/// Runs the monitor over dataset frames with an injection, as [`crate::run_one`] does, but with the real-data
+/// notion of verifiability (see [`RunState::step`]). Scores with a window (the plausibility experiments need 2
+/// frames); the sensor experiments stream their frames through [`RunState`] instead.
+fn run_frames(
+    frames: &[DatasetFrame],
+    params: &MonitorParams,
+    injection: InjectionConfig,
+    window: u64,
+    details: bool,
+) -> Result<FrameRun, String> {
+    let mut state = RunState::new(params, injection)?;
+    let mut run = FrameRun::default();
+    let mut outcomes = Vec::new();
+    let mut missed = 0u64;
+    for (k, df) in frames.iter().enumerate() {
+        let step = state.step(k, df, details)?;
+        outcomes.extend(step.outcomes);
+        missed += step.missed;
+        run.nv_monitor += step.nv_monitor;
+        run.nv_no_points += step.nv_no_points;
+        run.records.extend(step.records);
+        if details {
+            run.clusters.push(step.clusters);
         }
     }
     run.metrics = score(&outcomes, window, frames.len() as u64, missed);

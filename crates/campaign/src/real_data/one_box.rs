@@ -11,8 +11,7 @@
 //! neighbour blamed for the displaced box's evidence).
 
 use pmon_datasets::DatasetFrame;
-use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
-use rayon::prelude::*;
+use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, ObjectState, SensorVerdict};
 
 use crate::metrics::Rate;
 
@@ -40,24 +39,35 @@ fn alarm(v: SensorVerdict) -> bool {
     matches!(v, SensorVerdict::Ghost | SensorVerdict::PositionError)
 }
 
-/// Runs every magnitude over the frames (one fresh-memory check per frame and displaced box).
-///
-/// # Errors
-/// A monitor error (parameters, or too many objects).
-pub(super) fn one_box_runs(
-    frames: &[DatasetFrame],
-    params: &MonitorParams,
-    magnitudes_m: &[f64],
-) -> Result<Vec<OneBox>, String> {
-    magnitudes_m.par_iter().map(|&m| one_box_at(frames, params, m as f32)).collect()
+/// One magnitude of the one-box runs, advanced one frame at a time: every box consistent on its clean frame
+/// displaced alone, away from the ego.
+pub(super) struct OneBoxRun {
+    monitor: Monitor,
+    magnitude_m: f32,
+    objects: Vec<ObjectState>,
+    /// The counts so far.
+    pub(super) out: OneBox,
 }
 
-/// One magnitude: every box consistent on its clean frame displaced alone, away from the ego.
-pub(super) fn one_box_at(frames: &[DatasetFrame], params: &MonitorParams, magnitude_m: f32) -> Result<OneBox, String> {
-    let mut monitor = Monitor::new(*params).map_err(|e| e.to_string())?;
-    let mut out = OneBox::default();
-    let mut objects = Vec::new();
-    for (k, df) in frames.iter().enumerate() {
+impl OneBoxRun {
+    /// # Errors
+    /// The parameters are invalid.
+    pub(super) fn new(params: &MonitorParams, magnitude_m: f32) -> Result<Self, String> {
+        Ok(Self {
+            monitor: Monitor::new(*params).map_err(|e| e.to_string())?,
+            magnitude_m,
+            objects: Vec::new(),
+            out: OneBox::default(),
+        })
+    }
+
+    /// Frame `k`: one fresh-memory check of the clean frame, then one per displaced box.
+    ///
+    /// # Errors
+    /// A monitor error (too many objects).
+    pub(super) fn step(&mut self, k: usize, df: &DatasetFrame) -> Result<(), String> {
+        let Self { monitor, magnitude_m, objects, out } = self;
+        let magnitude_m = *magnitude_m;
         let clean = &df.frame;
         let mut polygons = Vec::new();
         let view = clean.as_frame(&mut polygons);
@@ -81,7 +91,7 @@ pub(super) fn one_box_at(frames: &[DatasetFrame], params: &MonitorParams, magnit
             o.y_m += magnitude_m * uy;
             let mut polygons = Vec::new();
             let mut view = clean.as_frame(&mut polygons);
-            view.objects = &objects;
+            view.objects = objects;
             monitor.reset_tracks();
             let rep = monitor.check(&view).map_err(|e| format!("frame {k}: {e}"))?;
             let Some(mine) = rep.objects.get(i) else { continue };
@@ -100,8 +110,18 @@ pub(super) fn one_box_at(frames: &[DatasetFrame], params: &MonitorParams, magnit
                 .filter(|(j, (r, v))| *j != i && alarm(r.sensor.verdict) && !alarm(**v))
                 .count() as u64;
         }
+        Ok(())
     }
-    Ok(out)
+}
+
+/// One magnitude over frames held in memory (the experiments stream their frames through [`OneBoxRun`]).
+#[cfg(test)]
+fn one_box_at(frames: &[DatasetFrame], params: &MonitorParams, magnitude_m: f32) -> Result<OneBox, String> {
+    let mut run = OneBoxRun::new(params, magnitude_m)?;
+    for (k, df) in frames.iter().enumerate() {
+        run.step(k, df)?;
+    }
+    Ok(run.out)
 }
 
 #[cfg(test)]

@@ -1,21 +1,22 @@
 //! Experiments 1 and 2 on real LiDAR: the paper's real-sensor experiment (permanent position errors in
 //! labelled boxes, the sensor checks scored per dataset) and the clean-frame runs behind the false-alarm table.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 use pmon_datasets::DatasetFrame;
-use pmon_monitor::{MonitorParams, NotMonitoredReason, SensorVerdict};
+use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
 use rayon::prelude::*;
 
-use super::clean::{band_points, box_points, clean_summary, evidence_in, object_label, region_of};
-use super::one_box::{one_box_runs, OneBox};
+use super::clean::{band_points, box_points, evidence_in, object_label, region_of, CleanSummary};
+use super::one_box::{OneBox, OneBoxRun};
 use super::{
-    add_metrics, fig_spec, fmt_rate, mix, rate_at, run_frames, short_rate, FrameRun, RealDataOptions, RealDataResults,
-    SATURATION_FROM_M,
+    add_metrics, fig_spec, fmt_rate, mix, rate_at, short_rate, FrameStep, RealDataOptions, RealDataResults, RunState,
+    StateRecord, SATURATION_FROM_M,
 };
 use crate::experiments::{threshold_from, Claim, Curve, Figure, Measure, Point};
 use crate::inject::{Direction, Fault, InjectionConfig};
-use crate::metrics::{Metrics, Rate};
+use crate::metrics::{score, Metrics, Rate};
 
 pub(super) fn range_of(df: &DatasetFrame, index: usize) -> f32 {
     df.frame.objects.get(index).map_or(f32::NAN, |o| o.x_m.hypot(o.y_m))
@@ -42,13 +43,22 @@ pub(super) struct Saturation {
     one_box: [Option<OneBox>; 2],
 }
 
+/// The frames of a sensor set, read one at a time and in order: each item one frame with a LiDAR sweep, or the
+/// reader's error. Only the frame being checked is held (plus what the reader keeps).
+pub(super) type FrameStream<'a> = Box<dyn Iterator<Item = Result<Cow<'a, DatasetFrame>, String>> + 'a>;
+
+/// Opens a set's frames for one reading (called once per pass: see [`RUNS_PER_PASS`]).
+pub(super) type OpenFrames<'a> = Box<dyn FnMut() -> Result<FrameStream<'a>, String> + 'a>;
+
 /// A dataset with LiDAR: its frames with a sweep, and the monitor parameters with its ground height.
-pub(super) struct SensorSet {
+pub(super) struct SensorSet<'a> {
     pub(super) key: &'static str,
-    pub(super) label: String,
+    /// What the set is; the label adds its frame and box counts once they are read.
+    pub(super) name: String,
     pub(super) paper_ref: &'static str,
     pub(super) params: MonitorParams,
-    pub(super) frames: Vec<DatasetFrame>,
+    /// The frames, read once per pass of [`RUNS_PER_PASS`] runs.
+    pub(super) frames: OpenFrames<'a>,
     /// Where the frames' region of interest comes from (`"none"`: the whole grid).
     pub(super) roi: String,
 }
@@ -62,61 +72,386 @@ pub(super) enum SensorJobKind {
 
 #[derive(Clone, Copy)]
 pub(super) struct SensorJob {
-    set: usize,
     magnitude: usize,
     kind: SensorJobKind,
     injection: InjectionConfig,
     details: bool,
 }
 
-pub(super) fn sensor_experiments(
-    sets: &[SensorSet],
+/// The counts of one run (its records are used frame by frame and not kept).
+#[derive(Default)]
+pub(super) struct RunCounts {
+    metrics: Metrics,
+    nv_monitor: u64,
+    nv_no_points: u64,
+}
+
+/// Everything a set's single pass over its frames gives.
+struct SetPass {
+    label: String,
+    frames: usize,
+    /// Object states over all frames.
+    states: usize,
+    clean: RunCounts,
+    /// The runs that displace every box, per magnitude.
+    all: Vec<RunCounts>,
+    /// The runs that displace half the boxes, seeds pooled, per magnitude.
+    half: Vec<Metrics>,
+    /// Recall over the boxes consistent on the clean frame (every box displaced), `(k, n)` per magnitude.
+    consistent: Vec<(u64, u64)>,
+    one_box: Vec<OneBox>,
+    /// Boxes not detected at the largest magnitude, rows and causes.
+    missed_rows: Vec<Vec<String>>,
+    causes: BTreeMap<&'static str, u64>,
+    clean_summary: CleanSummary,
+}
+
+/// Frames held at once by the streaming pass of the set named [`tests::COUNTED`] (tests only).
+#[cfg(test)]
+pub(super) static FRAMES_ALIVE: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// The runs of one set: the clean run, per magnitude every box displaced and `precision_repeats` runs with half
+/// the boxes, each seeded by the set's index, the magnitude and the repeat.
+fn sensor_jobs(s: usize, seed: u64, opts: &RealDataOptions) -> Vec<SensorJob> {
+    let tag = |m: usize, r: u64| ((s as u64) << 40) | ((m as u64) << 20) | r;
+    let mut jobs = vec![SensorJob {
+        magnitude: 0,
+        kind: SensorJobKind::Clean,
+        injection: InjectionConfig::new(Fault::None, mix(seed, tag(0, 0xFFFF))),
+        details: true,
+    }];
+    for (m, &mag) in opts.position_magnitudes_m.iter().enumerate() {
+        let fault = Fault::PermanentPosition { magnitude_m: mag as f32, direction: Direction::Away };
+        let mut all = InjectionConfig::new(fault, mix(seed, tag(m, 0xFFFE)));
+        all.permanent_track_fraction = 1.0;
+        jobs.push(SensorJob { magnitude: m, kind: SensorJobKind::AllBoxes, injection: all, details: true });
+        for r in 0..u64::from(opts.precision_repeats) {
+            let half = InjectionConfig::new(fault, mix(seed, tag(m, r)));
+            jobs.push(SensorJob { magnitude: m, kind: SensorJobKind::HalfBoxes, injection: half, details: false });
+        }
+    }
+    jobs
+}
+
+/// Runs (each with its own monitor, a few MB) alive at once in a pass over a set's frames. The full sweeps have
+/// 242 runs per set (221 sensor runs, 20 one-box runs, the check without the ROI): they are streamed through in
+/// passes of this many, so that memory holds this many monitors and one frame, whatever the log's length and the
+/// sweeps; the price is one reading of the log per pass (16 passes for the full sweeps, 1 for the smoke ones).
+pub(super) const RUNS_PER_PASS: usize = 16;
+
+/// One run of a pass.
+enum Run {
+    /// A sensor run (index into the jobs) with its state.
+    Sensor(usize, Box<RunState>),
+    /// A one-box magnitude (index) with its state.
+    OneBox(usize, Box<OneBoxRun>),
+    /// The clean frames once more without their ROI (`None`: no monitor, no comparison).
+    WithoutRoi(Option<Box<Monitor>>),
+}
+
+/// What a run gives for one frame.
+enum RunOut {
+    Sensor(FrameStep),
+    OneBox,
+    WithoutRoi(Option<u64>),
+}
+
+/// Which runs, in order: the sensor runs, the one-box magnitudes, the check without the ROI.
+#[derive(Clone, Copy)]
+enum RunId {
+    Sensor(usize),
+    OneBox(usize),
+    WithoutRoi,
+}
+
+/// Streams a set's frames through every run, [`RUNS_PER_PASS`] runs per pass: each run keeps its monitor and
+/// injector from frame to frame, so it sees the frames in order exactly as when it had them all; what the tables
+/// need of a frame is taken from it before the next one is read. The counts are per frame and added (the sensor
+/// runs score each state on its own frame: a window of 1).
+fn stream_set(
+    set: &mut SensorSet<'_>,
+    s: usize,
     seed: u64,
     opts: &RealDataOptions,
-    out: &mut RealDataResults,
-) -> Result<(), String> {
-    if sets.is_empty() {
-        return Ok(());
-    }
+    runs_per_pass: usize,
+) -> Result<SetPass, String> {
     let mags = &opts.position_magnitudes_m;
-    let mut jobs = Vec::new();
-    for (s, _) in sets.iter().enumerate() {
-        let tag = |m: usize, r: u64| ((s as u64) << 40) | ((m as u64) << 20) | r;
-        jobs.push(SensorJob {
-            set: s,
-            magnitude: 0,
-            kind: SensorJobKind::Clean,
-            injection: InjectionConfig::new(Fault::None, mix(seed, tag(0, 0xFFFF))),
-            details: true,
-        });
-        for (m, &mag) in mags.iter().enumerate() {
-            let fault = Fault::PermanentPosition { magnitude_m: mag as f32, direction: Direction::Away };
-            let mut all = InjectionConfig::new(fault, mix(seed, tag(m, 0xFFFE)));
-            all.permanent_track_fraction = 1.0;
-            jobs.push(SensorJob { set: s, magnitude: m, kind: SensorJobKind::AllBoxes, injection: all, details: true });
-            for r in 0..u64::from(opts.precision_repeats) {
-                let half = InjectionConfig::new(fault, mix(seed, tag(m, r)));
-                jobs.push(SensorJob {
-                    set: s,
-                    magnitude: m,
-                    kind: SensorJobKind::HalfBoxes,
-                    injection: half,
-                    details: false,
-                });
+    let params = set.params;
+    let jobs = sensor_jobs(s, seed, opts);
+    let mut ids: Vec<RunId> = (0..jobs.len()).map(RunId::Sensor).collect();
+    ids.extend((0..mags.len()).map(RunId::OneBox));
+    ids.push(RunId::WithoutRoi);
+    let mut pass = SetPass {
+        label: String::new(),
+        frames: 0,
+        states: 0,
+        clean: RunCounts::default(),
+        all: (0..mags.len()).map(|_| RunCounts::default()).collect(),
+        half: vec![Metrics::default(); mags.len()],
+        consistent: vec![(0, 0); mags.len()],
+        one_box: vec![OneBox::default(); mags.len()],
+        missed_rows: Vec::new(),
+        causes: BTreeMap::new(),
+        clean_summary: CleanSummary::default(),
+    };
+    let last_all = jobs.iter().rposition(|j| matches!(j.kind, SensorJobKind::AllBoxes));
+    let mut clean_summary = CleanSummary::new();
+    let mut without_roi: Option<Vec<u64>> = None;
+    // The boxes consistent on each clean frame (the clean run comes first, in the first pass).
+    let mut consistent_by_frame: Vec<Vec<usize>> = Vec::new();
+    for (p, batch) in ids.chunks(runs_per_pass.max(1)).enumerate() {
+        let mut runs: Vec<Run> = batch
+            .iter()
+            .map(|id| {
+                Ok(match *id {
+                    RunId::Sensor(j) => {
+                        let injection = jobs.get(j).ok_or("internal: no such run")?.injection;
+                        Run::Sensor(
+                            j,
+                            Box::new(RunState::new(&params, injection).map_err(|e| format!("{}: {e}", set.name))?),
+                        )
+                    }
+                    RunId::OneBox(m) => {
+                        let mag = mags.get(m).copied().ok_or("internal: no such magnitude")?;
+                        Run::OneBox(m, Box::new(OneBoxRun::new(&params, mag as f32)?))
+                    }
+                    RunId::WithoutRoi => Run::WithoutRoi(Monitor::new(params).ok().map(Box::new)),
+                })
+            })
+            .collect::<Result<_, String>>()?;
+        if let Some(Run::WithoutRoi(m)) = runs.last() {
+            without_roi = m.as_ref().map(|_| Vec::new());
+        }
+        let frames = (set.frames)()?;
+        let mut k = 0usize;
+        for df in frames {
+            let df = df?;
+            #[cfg(test)]
+            let _alive = (set.name == tests::COUNTED).then(AliveGuard::new);
+            let outs: Vec<RunOut> = runs
+                .par_iter_mut()
+                .map(|run| match run {
+                    Run::Sensor(j, state) => {
+                        let details = jobs.get(*j).is_some_and(|x| x.details);
+                        state.step(k, &df, details).map(RunOut::Sensor).map_err(|e| format!("{}: {e}", set.name))
+                    }
+                    Run::OneBox(_, r) => r.step(k, &df).map(|()| RunOut::OneBox),
+                    Run::WithoutRoi(m) => Ok(RunOut::WithoutRoi(m.as_mut().and_then(|m| {
+                        let mut frame = df.frame.clone();
+                        frame.roi_in_ego.clear();
+                        let mut polygons = Vec::new();
+                        let view = frame.as_frame(&mut polygons);
+                        m.check(&view).ok().map(|rep| rep.missed_objects() as u64)
+                    }))),
+                })
+                .collect::<Result<_, String>>()?;
+            let mut band: Option<Vec<[f32; 3]>> = None;
+            for (run, out) in runs.iter().zip(outs) {
+                match (run, out) {
+                    (Run::Sensor(n, _), RunOut::Sensor(step)) => {
+                        let Some(j) = jobs.get(*n) else { continue };
+                        let frame_metrics = score(&step.outcomes, 1, 1, step.missed);
+                        let counts = match j.kind {
+                            SensorJobKind::Clean => Some(&mut pass.clean),
+                            SensorJobKind::AllBoxes => pass.all.get_mut(j.magnitude),
+                            SensorJobKind::HalfBoxes => {
+                                if let Some(x) = pass.half.get_mut(j.magnitude) {
+                                    add_metrics(x, &frame_metrics);
+                                }
+                                None
+                            }
+                        };
+                        if let Some(c) = counts {
+                            add_metrics(&mut c.metrics, &frame_metrics);
+                            c.nv_monitor += step.nv_monitor;
+                            c.nv_no_points += step.nv_no_points;
+                        }
+                        match j.kind {
+                            SensorJobKind::Clean => {
+                                clean_summary.add_frame(set.key, &params, &df, &step.records, &step.clusters);
+                                consistent_by_frame.push(
+                                    step.records
+                                        .iter()
+                                        .filter(|r| matches!(r.report.sensor.verdict, SensorVerdict::Consistent))
+                                        .map(|r| r.index)
+                                        .collect(),
+                                );
+                            }
+                            SensorJobKind::AllBoxes => {
+                                let consistent = consistent_by_frame.get(k).map_or(&[][..], Vec::as_slice);
+                                if let Some((kk, nn)) = pass.consistent.get_mut(j.magnitude) {
+                                    for r in step
+                                        .records
+                                        .iter()
+                                        .filter(|r| r.in_scope && r.injected && consistent.contains(&r.index))
+                                    {
+                                        *nn += 1;
+                                        *kk += u64::from(matches!(
+                                            r.report.sensor.verdict,
+                                            SensorVerdict::Ghost | SensorVerdict::PositionError
+                                        ));
+                                    }
+                                }
+                                if Some(*n) == last_all {
+                                    let band = band.get_or_insert_with(|| band_points(&df, &params));
+                                    missed_at_largest(set.key, &params, &df, &step.records, band, &mut pass);
+                                }
+                            }
+                            SensorJobKind::HalfBoxes => {}
+                        }
+                    }
+                    (Run::WithoutRoi(_), RunOut::WithoutRoi(Some(n))) => {
+                        if let Some(w) = without_roi.as_mut() {
+                            w.push(n);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            if p == 0 {
+                pass.frames += 1;
+                pass.states += df.frame.objects.len();
+                clean_summary.add_roi(&df);
+            }
+            k += 1;
+        }
+        if k != pass.frames {
+            return Err(format!("{}: the log gave {k} frames in one reading and {} in another", set.name, pass.frames));
+        }
+        for run in runs {
+            if let Run::OneBox(m, r) = run {
+                if let Some(x) = pass.one_box.get_mut(m) {
+                    *x = r.out;
+                }
             }
         }
     }
-    let results: Vec<FrameRun> = jobs
-        .par_iter()
-        .map(|j| {
-            let set = sets.get(j.set).ok_or("no such dataset")?;
-            run_frames(&set.frames, &set.params, j.injection, 1, j.details).map_err(|e| format!("{}: {e}", set.label))
-        })
-        .collect::<Result<_, String>>()?;
-    // The same magnitudes with one box displaced at a time (a condition beside the paper's, see one_box.rs).
-    let one_box: Vec<Vec<OneBox>> =
-        sets.iter().map(|set| one_box_runs(&set.frames, &set.params, mags)).collect::<Result<_, String>>()?;
+    clean_summary.set_without_roi(without_roi);
+    pass.clean_summary = clean_summary;
+    pass.label = format!("{} ({} frames, {} boxes)", set.name, pass.frames, pass.states);
+    Ok(pass)
+}
 
+/// Counts a frame held by the streaming pass while it lives (tests only).
+#[cfg(test)]
+struct AliveGuard;
+
+#[cfg(test)]
+impl AliveGuard {
+    fn new() -> Self {
+        use std::sync::atomic::Ordering;
+        let now = FRAMES_ALIVE.fetch_add(1, Ordering::SeqCst) + 1;
+        FRAMES_PEAK.fetch_max(now, Ordering::SeqCst);
+        Self
+    }
+}
+
+#[cfg(test)]
+impl Drop for AliveGuard {
+    fn drop(&mut self) {
+        FRAMES_ALIVE.fetch_sub(1, std::sync::atomic::Ordering::SeqCst);
+    }
+}
+
+/// The most frames the streaming pass of the set named [`tests::COUNTED`] held at once (tests only).
+#[cfg(test)]
+pub(super) static FRAMES_PEAK: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// The boxes of one frame that the run displacing every box by the largest magnitude did not flag: a table row
+/// each, with the likely cause.
+fn missed_at_largest(
+    key: &str,
+    params: &MonitorParams,
+    df: &DatasetFrame,
+    records: &[StateRecord],
+    band: &[[f32; 3]],
+    pass: &mut SetPass,
+) {
+    for rec in records.iter().filter(|r| r.in_scope && r.injected) {
+        let v = rec.report.sensor.verdict;
+        if matches!(v, SensorVerdict::Ghost | SensorVerdict::PositionError) {
+            continue;
+        }
+        let ds_points = df.extras.get(rec.index).and_then(|e| e.num_points);
+        let pts = box_points(df, rec.index, params);
+        let ev = evidence_in(&region_of(&rec.object, params), df, rec.index, band, params);
+        let (cause, why) = match v {
+            SensorVerdict::NotMonitored(NotMonitoredReason::Occluded) => (
+                "occluded",
+                format!(
+                    "the displaced region is hidden from the sensor (visible fraction {:.0} % < {:.0} %): not \
+                     verifiable",
+                    100.0 * rec.report.sensor.visible_fraction,
+                    100.0 * params.ghost_visible_fraction
+                ),
+            ),
+            SensorVerdict::NotMonitored(r) => ("not monitored", format!("not monitored: {r}")),
+            _ if ds_points == Some(0) => (
+                "no points on the object",
+                format!(
+                    "no LiDAR point on the object (dataset count 0): not verifiable; the displaced region holds {}",
+                    ev.describe()
+                ),
+            ),
+            _ => (
+                ev.dominant(),
+                format!(
+                    "the displaced region (grown by {:.2} m x {:.2} m) still holds occupied cells (eta {:.2}); its \
+                     returns in the height band: {}",
+                    rec.report.sensor.margin_length_m,
+                    rec.report.sensor.margin_width_m,
+                    rec.report.sensor.eta,
+                    ev.describe()
+                ),
+            ),
+        };
+        *pass.causes.entry(cause).or_default() += 1;
+        pass.missed_rows.push(vec![
+            key.to_string(),
+            rec.frame.to_string(),
+            rec.report.id.to_string(),
+            object_label(df, rec.index),
+            format!("{:.1}", range_of(df, rec.index)),
+            ds_points.map_or("n/a".into(), |n| n.to_string()),
+            pts.map_or("n/a".into(), |(a, b)| format!("{a} / {b}")),
+            format!("{v:?}"),
+            why,
+        ]);
+    }
+}
+
+/// Runs the real-sensor experiment and the clean-frame tables on each set, streaming its frames once. Returns the
+/// number of frames of each set; a set without frames adds nothing (the caller says so).
+pub(super) fn sensor_experiments(
+    sets: &mut [SensorSet<'_>],
+    seed: u64,
+    opts: &RealDataOptions,
+    out: &mut RealDataResults,
+) -> Result<Vec<usize>, String> {
+    sensor_experiments_in_passes(sets, seed, opts, out, RUNS_PER_PASS)
+}
+
+/// [`sensor_experiments`] with another number of runs per pass (the results do not depend on it).
+fn sensor_experiments_in_passes(
+    sets: &mut [SensorSet<'_>],
+    seed: u64,
+    opts: &RealDataOptions,
+    out: &mut RealDataResults,
+    runs_per_pass: usize,
+) -> Result<Vec<usize>, String> {
+    let mags = &opts.position_magnitudes_m;
+    let mut passes: Vec<(&SensorSet<'_>, SetPass)> = Vec::new();
+    let mut counts = Vec::new();
+    for (s, set) in sets.iter_mut().enumerate() {
+        let pass = stream_set(set, s, seed, opts, runs_per_pass)?;
+        counts.push(pass.frames);
+        if pass.frames > 0 {
+            passes.push((&*set, pass));
+        }
+    }
+    if passes.is_empty() {
+        return Ok(counts);
+    }
     let mut summary_rows = Vec::new();
     let mut missed_rows = Vec::new();
     let mut clean_rows = Vec::new();
@@ -124,26 +459,10 @@ pub(super) fn sensor_experiments(
     let mut saturation = Vec::new();
     let mut clean_claim = Vec::new();
     let mut cause_notes = Vec::new();
-    for (s, set) in sets.iter().enumerate() {
-        let mine: Vec<(&SensorJob, &FrameRun)> = jobs.iter().zip(&results).filter(|(j, _)| j.set == s).collect();
-        let mut all_runs: Vec<Option<&FrameRun>> = vec![None; mags.len()];
-        let mut half: Vec<Metrics> = vec![Metrics::default(); mags.len()];
-        let mut clean = None;
-        for (j, r) in &mine {
-            match j.kind {
-                SensorJobKind::Clean => clean = Some(*r),
-                SensorJobKind::AllBoxes => {
-                    if let Some(x) = all_runs.get_mut(j.magnitude) {
-                        *x = Some(*r);
-                    }
-                }
-                SensorJobKind::HalfBoxes => {
-                    if let Some(x) = half.get_mut(j.magnitude) {
-                        add_metrics(x, &r.metrics);
-                    }
-                }
-            }
-        }
+    for (set, pass) in passes {
+        let all_runs: Vec<Option<&RunCounts>> = pass.all.iter().map(Some).collect();
+        let half = &pass.half;
+        let clean = Some(&pass.clean);
         // Figure.
         let curve = |label: String, dashed: bool, rate: &dyn Fn(usize) -> Option<Rate>| Curve {
             label,
@@ -153,23 +472,8 @@ pub(super) fn sensor_experiments(
         let all_m = |m: usize, measure: Measure| all_runs.get(m).copied().flatten().map(|r| measure.of(&r.metrics));
         let reps = opts.precision_repeats;
         // Recall over the boxes the monitor finds consistent on the clean frame: detection capability without the
-        // boxes real data flags anyway.
-        let clean_consistent = |frame: usize, index: usize| {
-            clean.is_some_and(|c: &FrameRun| {
-                c.records.iter().any(|r| {
-                    r.frame == frame && r.index == index && matches!(r.report.sensor.verdict, SensorVerdict::Consistent)
-                })
-            })
-        };
-        let consistent_recall = |m: usize| {
-            let run = all_runs.get(m).copied().flatten()?;
-            let (mut k, mut n) = (0u64, 0u64);
-            for r in run.records.iter().filter(|r| r.in_scope && r.injected && clean_consistent(r.frame, r.index)) {
-                n += 1;
-                k += u64::from(matches!(r.report.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError));
-            }
-            Some(Rate::wilson(k, n))
-        };
+        // boxes real data flags anyway (counted frame by frame in the pass).
+        let consistent_recall = |m: usize| pass.consistent.get(m).map(|&(k, n)| Rate::wilson(k, n));
         let curves = vec![
             curve("sensor recall, all boxes (every box displaced)".into(), false, &|m| all_m(m, Measure::SensorRecall)),
             curve("sensor recall, verifiable boxes (every box displaced)".into(), false, &|m| {
@@ -188,12 +492,12 @@ pub(super) fn sensor_experiments(
             curve(
                 "sensor recall, boxes consistent on the clean frame (one box displaced at a time)".into(),
                 false,
-                &|m| one_box.get(s).and_then(|v| v.get(m)).map(OneBox::recall),
+                &|m| pass.one_box.get(m).map(OneBox::recall),
             ),
         ];
         let spec = fig_spec(
             format!("real_position_{}", set.key),
-            format!("Permanent position errors away from the ego, real LiDAR: {} (sensor checks)", set.label),
+            format!("Permanent position errors away from the ego, real LiDAR: {} (sensor checks)", pass.label),
             set.paper_ref,
             "position error [m]",
             vec![
@@ -225,7 +529,7 @@ pub(super) fn sensor_experiments(
         };
         saturation.push(Saturation {
             key: set.key,
-            label: set.label.clone(),
+            label: pass.label.clone(),
             min: sat_min,
             max: sat_max,
             verifiable_min: min_over_sat(ver_c),
@@ -235,7 +539,7 @@ pub(super) fn sensor_experiments(
             from: sat_pts.first().map(|p| p.x),
             one_box: [1.0, 2.0].map(|x| {
                 let m = mags.iter().position(|&y| (y - x).abs() < 1e-9)?;
-                one_box.get(s)?.get(m).copied()
+                pass.one_box.get(m).copied()
             }),
         });
         let highlights = [0.5, 1.0, 1.5, 2.0];
@@ -249,8 +553,7 @@ pub(super) fn sensor_experiments(
         let first_run = all_runs.first().copied().flatten();
         let last_run = all_runs.last().copied().flatten();
         let states = first_run.map_or(0, |r| r.metrics.states_in_scope);
-        let total: usize = set.frames.iter().map(|f| f.frame.objects.len()).sum();
-        let nv_detail = |r: Option<&FrameRun>| {
+        let nv_detail = |r: Option<&RunCounts>| {
             r.map_or("n/a".into(), |r| {
                 format!(
                     "{} of {} ({} monitor not monitored, {} dataset counts 0 points)",
@@ -262,14 +565,14 @@ pub(super) fn sensor_experiments(
             })
         };
         summary_rows.push(vec![
-            set.label.clone(),
-            format!("{states} of {total}"),
+            pass.label.clone(),
+            format!("{states} of {}", pass.states),
             nv_detail(first_run),
             nv_detail(last_run),
             hl(all_c),
             hl(ver_c),
             hl(cons_c),
-            one_box.get(s).map_or("n/a".into(), |v| {
+            Some(&pass.one_box).map_or("n/a".into(), |v| {
                 highlights
                     .iter()
                     .filter_map(|&x| {
@@ -294,65 +597,9 @@ pub(super) fn sensor_experiments(
         ]);
         out.figures.push(fig);
 
-        // Boxes not detected at the largest magnitude (why recall saturates).
-        let mut causes: BTreeMap<&'static str, u64> = BTreeMap::new();
-        if let Some(run) = last_run {
-            let mut band_cache: BTreeMap<usize, Vec<[f32; 3]>> = BTreeMap::new();
-            for rec in run.records.iter().filter(|r| r.in_scope && r.injected) {
-                let v = rec.report.sensor.verdict;
-                if matches!(v, SensorVerdict::Ghost | SensorVerdict::PositionError) {
-                    continue;
-                }
-                let Some(df) = set.frames.get(rec.frame) else { continue };
-                let ds_points = df.extras.get(rec.index).and_then(|e| e.num_points);
-                let pts = box_points(df, rec.index, &set.params);
-                let band = band_cache.entry(rec.frame).or_insert_with(|| band_points(df, &set.params));
-                let ev = evidence_in(&region_of(&rec.object, &set.params), df, rec.index, band, &set.params);
-                let (cause, why) = match v {
-                    SensorVerdict::NotMonitored(NotMonitoredReason::Occluded) => (
-                        "occluded",
-                        format!(
-                            "the displaced region is hidden from the sensor (visible fraction {:.0} % < {:.0} %): not \
-                             verifiable",
-                            100.0 * rec.report.sensor.visible_fraction,
-                            100.0 * set.params.ghost_visible_fraction
-                        ),
-                    ),
-                    SensorVerdict::NotMonitored(r) => ("not monitored", format!("not monitored: {r}")),
-                    _ if ds_points == Some(0) => (
-                        "no points on the object",
-                        format!(
-                            "no LiDAR point on the object (dataset count 0): not verifiable; the displaced region \
-                             holds {}",
-                            ev.describe()
-                        ),
-                    ),
-                    _ => (
-                        ev.dominant(),
-                        format!(
-                            "the displaced region (grown by {:.2} m x {:.2} m) still holds occupied cells (eta {:.2}); \
-                             its returns in the height band: {}",
-                            rec.report.sensor.margin_length_m,
-                            rec.report.sensor.margin_width_m,
-                            rec.report.sensor.eta,
-                            ev.describe()
-                        ),
-                    ),
-                };
-                *causes.entry(cause).or_default() += 1;
-                missed_rows.push(vec![
-                    set.key.to_string(),
-                    rec.frame.to_string(),
-                    rec.report.id.to_string(),
-                    object_label(df, rec.index),
-                    format!("{:.1}", range_of(df, rec.index)),
-                    ds_points.map_or("n/a".into(), |n| n.to_string()),
-                    pts.map_or("n/a".into(), |(a, b)| format!("{a} / {b}")),
-                    format!("{v:?}"),
-                    why,
-                ]);
-            }
-        }
+        // Boxes not detected at the largest magnitude (why recall saturates), found in the pass.
+        let SetPass { missed_rows: set_missed, causes, clean_summary, frames, states: total, .. } = pass;
+        missed_rows.extend(set_missed);
         if let Some(row) = summary_rows.last_mut() {
             let c = causes.iter().map(|(k, n)| format!("{k} {n}")).collect::<Vec<_>>().join(", ");
             cause_notes.push(format!("{} {}", set.key, if c.is_empty() { "none" } else { &c }));
@@ -361,7 +608,8 @@ pub(super) fn sensor_experiments(
 
         // Clean frames.
         if let Some(run) = clean {
-            let (row, flagged, fa) = clean_summary(set, run);
+            let (row, flagged, fa) =
+                clean_summary.finish(set.key, &set.roi, frames, total, run.metrics.missed_object_alarms);
             clean_rows.push(row);
             flagged_rows.extend(flagged);
             clean_claim.push(fa);
@@ -542,7 +790,7 @@ pub(super) fn sensor_experiments(
             met: None,
         });
     }
-    Ok(())
+    Ok(counts)
 }
 
 /// "1.0 m: 92 % (46/50), 2.0 m: ..." of the one-box runs, with the collateral alarms.
@@ -559,5 +807,111 @@ fn one_box_text(v: &[Option<OneBox>; 2]) -> String {
         "n/a".into()
     } else {
         parts.join(", ")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::Ordering;
+
+    use pmon_monitor::{Isometry3, ObjectClass, ObjectState, Pose2};
+    use pmon_recording::{OwnedCloud, RecordedFrame};
+
+    use super::*;
+
+    /// The name of the set whose frames the pass counts.
+    pub(super) const COUNTED: &str = "counted stream";
+
+    /// Frame `k` of a long drive: two boxes passing the ego, filled with returns, ground rings around them.
+    fn frame(k: usize) -> DatasetFrame {
+        let t = k as f32 * 0.1;
+        let obj = |id: u64, class, x_m: f32, y_m: f32, length_m: f32| ObjectState {
+            id,
+            class,
+            x_m,
+            y_m,
+            heading_rad: 0.0,
+            speed_mps: 1.0,
+            length_m,
+            width_m: length_m.min(1.8),
+            uncertainty: None,
+        };
+        let objects =
+            vec![obj(1, ObjectClass::Pedestrian, 8.0 + t, 4.0, 0.6), obj(2, ObjectClass::Car, -12.0 + t, -5.0, 4.0)];
+        let mut points = Vec::new();
+        for o in &objects {
+            for i in 0..10 {
+                for j in 0..6 {
+                    for h in 0..4 {
+                        let x = o.x_m - 0.5 * o.length_m + o.length_m * (i as f32 + 0.5) / 10.0;
+                        let y = o.y_m - 0.5 * o.width_m + o.width_m * (j as f32 + 0.5) / 6.0;
+                        points.push([x, y, 0.5 + 0.3 * h as f32 - 1.8]);
+                    }
+                }
+            }
+        }
+        for r in 1..40 {
+            for a in 0..180 {
+                let (s, c) = (a as f32 * std::f32::consts::PI / 90.0).sin_cos();
+                points.push([r as f32 * c, r as f32 * s, -1.8]);
+            }
+        }
+        let mut f = RecordedFrame::empty(k as u64, f64::from(t) + 1.0, Pose2 { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 });
+        f.cloud =
+            Some(OwnedCloud { points_in_sensor: points, ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8) });
+        f.objects = objects;
+        DatasetFrame { frame: f, extras: Vec::new() }
+    }
+
+    fn results(name: &str, n: usize, per_pass: usize, readings: &std::cell::Cell<usize>) -> (Vec<usize>, String) {
+        let params = MonitorParams { ground_z_m: 0.0, ..MonitorParams::PAPER };
+        let opts = RealDataOptions {
+            position_magnitudes_m: vec![1.0, 2.0],
+            speed_magnitudes_mps: vec![],
+            precision_repeats: 2,
+        };
+        let mut set = SensorSet {
+            key: "test",
+            name: name.into(),
+            paper_ref: "test",
+            params,
+            frames: Box::new(|| {
+                readings.set(readings.get() + 1);
+                let stream: FrameStream<'_> = Box::new((0..n).map(|k| {
+                    // The pass has let go of the previous frame before it asks for the next.
+                    if name == COUNTED {
+                        assert_eq!(FRAMES_ALIVE.load(Ordering::SeqCst), 0, "frame {k} read while another is held");
+                    }
+                    Ok(Cow::Owned(frame(k)))
+                }));
+                Ok(stream)
+            }),
+            roi: "none".into(),
+        };
+        let mut out =
+            RealDataResults { figures: Vec::new(), claims: Vec::new(), notes: Vec::new(), tables: Vec::new() };
+        let counts =
+            sensor_experiments_in_passes(std::slice::from_mut(&mut set), 3, &opts, &mut out, per_pass).unwrap();
+        let json = serde_json::to_string(&out).unwrap();
+        (counts, json)
+    }
+
+    #[test]
+    fn a_long_log_is_streamed_one_frame_at_a_time_in_bounded_passes() {
+        let readings = std::cell::Cell::new(0);
+        let n = 60;
+        let (counts, json) = results(COUNTED, n, 4, &readings);
+        assert_eq!(counts, vec![n]);
+        // Held at once: one frame, whatever the length of the log.
+        assert_eq!(FRAMES_PEAK.load(Ordering::SeqCst), 1);
+        assert_eq!(FRAMES_ALIVE.load(Ordering::SeqCst), 0);
+        // Runs: the clean run, per magnitude every box and 2 halves (7), 2 one-box runs, the check without the
+        // ROI: 10 runs, one reading of the log per 4 of them.
+        assert_eq!(readings.get(), 3);
+        assert!(json.contains(&format!("{COUNTED} ({n} frames, {} boxes)", 2 * n)), "{json}");
+        // All runs in one pass (one reading) give the same results: the passes change nothing but the memory.
+        let once = std::cell::Cell::new(0);
+        assert_eq!(results("zq-stream", n, RUNS_PER_PASS, &once).1.replace("zq-stream", COUNTED), json);
+        assert_eq!(once.get(), 1);
     }
 }
