@@ -852,19 +852,7 @@ mod tests {
     use super::*;
     use crate::frame::{Isometry3, PointCloud, Pose2};
 
-    /// A small deterministic generator (xorshift64*).
-    struct Rng(u64);
-    impl Rng {
-        fn unit(&mut self) -> f32 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 40) as f32 / (1u64 << 24) as f32
-        }
-        fn range(&mut self, lo: f32, hi: f32) -> f32 {
-            lo + (hi - lo) * self.unit()
-        }
-    }
+    use super::roi::tests::Rng;
 
     /// The returns of the ROI's edge cells found through the recorded cells and the bit set of marked cells (the
     /// optimised path) give the same clusters, reports and cell flags as the straightforward pass over the sweep
@@ -884,7 +872,7 @@ mod tests {
                 let (cx, cy) = (rng.range(-40.0, 40.0), rng.range(-40.0, 40.0));
                 let (sx, sy) = (rng.range(0.1, 1.5), rng.range(0.1, 1.5));
                 for _ in 0..40 {
-                    let z = if rng.unit() < 0.3 { rng.range(-0.2, 0.1) } else { rng.range(0.3, 1.8) };
+                    let z = if rng.range(0.0, 1.0) < 0.3 { rng.range(-0.2, 0.1) } else { rng.range(0.3, 1.8) };
                     points.push([cx + rng.range(-sx, sx), cy + rng.range(-sy, sy), z - 1.8]);
                 }
             }

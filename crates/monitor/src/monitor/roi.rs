@@ -315,12 +315,12 @@ pub fn roi_index_mismatch(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use alloc::vec;
 
-    /// A small deterministic generator (xorshift64*).
-    struct Rng(u64);
+    /// A small deterministic generator (xorshift64*); the monitor's own tests use it too.
+    pub(in crate::monitor) struct Rng(pub(in crate::monitor) u64);
     impl Rng {
         fn next(&mut self) -> u64 {
             self.0 ^= self.0 >> 12;
@@ -329,7 +329,7 @@ mod tests {
             self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
         }
         /// Uniform in `[lo, hi)`.
-        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        pub(in crate::monitor) fn range(&mut self, lo: f32, hi: f32) -> f32 {
             lo + (hi - lo) * ((self.next() >> 40) as f32 / (1u64 << 24) as f32)
         }
         fn below(&mut self, n: u64) -> u64 {
