@@ -823,11 +823,9 @@ impl Av2Sweeps {
 pub fn open_log_deferred(dir: &Path, opts: &ReadOptions) -> Result<(Dataset, Av2Sweeps), DatasetError> {
     let (mut ds, mut sweeps) = open_log_with(dir, opts, true)?;
     crate::roi::finish(&mut ds, &opts.roi);
-    if opts.ground == GroundMode::Local && !ds.info.notes.iter().any(|n| n.starts_with(GROUND_NOTE_PREFIX)) {
+    if crate::ground::levels_locally(&ds, opts.ground) {
         let n = (0..ds.frames.len()).filter(|&i| sweeps.has_sweep(i)).count();
-        if n > 0 {
-            ds.info.notes.push(format!("{GROUND_NOTE_PREFIX}{}", crate::ground::local_note(n)));
-        }
+        crate::ground::push_local_note(&mut ds, n);
         sweeps.level_local = true;
     }
     crate::check_finite(&ds)?;

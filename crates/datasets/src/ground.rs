@@ -236,7 +236,7 @@ pub fn level_cloud(
 /// own ground surface for [`GroundMode::Auto`] and say so in a note starting with [`GROUND_NOTE_PREFIX`]); adds
 /// a note saying what was done.
 pub fn finish(ds: &mut crate::Dataset, mode: GroundMode) {
-    if mode != GroundMode::Local || ds.info.notes.iter().any(|n| n.starts_with(GROUND_NOTE_PREFIX)) {
+    if !levels_locally(ds, mode) {
         return;
     }
     let (ground_z_m, ego) = (ds.info.ground_z_m, ds.info.format.ego_footprint_m());
@@ -247,6 +247,17 @@ pub fn finish(ds: &mut crate::Dataset, mode: GroundMode) {
             sweeps += 1;
         }
     }
+    push_local_note(ds, sweeps);
+}
+
+/// True when [`finish`] levels the dataset's sweeps with the local estimate: [`GroundMode::Local`], and no reader
+/// applied a ground surface of its own (its note). Also asked by readers that level each sweep as it is read.
+pub(crate) fn levels_locally(ds: &crate::Dataset, mode: GroundMode) -> bool {
+    mode == GroundMode::Local && !ds.info.notes.iter().any(|n| n.starts_with(GROUND_NOTE_PREFIX))
+}
+
+/// Adds the note of [`local_note`] for `sweeps` levelled sweeps (none for zero).
+pub(crate) fn push_local_note(ds: &mut crate::Dataset, sweeps: usize) {
     if sweeps > 0 {
         ds.info.notes.push(format!("{GROUND_NOTE_PREFIX}{}", local_note(sweeps)));
     }
