@@ -19,6 +19,7 @@ class Params:
     conflict_association_m: float
     ghost_visible_fraction: float
     visibility_bins: int
+    spill_over_fit: str
     motion_limits: Dict[str, Any]
     per_class_limits: Dict[str, Any]
     gamma_plaus: float

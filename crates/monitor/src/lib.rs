@@ -33,7 +33,8 @@ pub mod verdict;
 
 pub use frame::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty};
 pub use params::{
-    ClassMotionLimits, ClassTrackerNoise, MonitorParams, MotionLimits, ParamError, PlausibilityMode, TrackerNoise,
+    ClassMotionLimits, ClassTrackerNoise, MonitorParams, MotionLimits, ParamError, PlausibilityMode, SpillOverFit,
+    TrackerNoise,
 };
 pub use verdict::{
     ClusterReport, Conditions, FrameError, FrameReport, GridStats, ImplausibilityKind, MotionOutcome, MotionVerdict,
@@ -53,6 +54,6 @@ pub mod theory;
 pub mod visibility;
 
 pub use grid::{CellState, GridGeometry, OccupancyGrid};
-pub use monitor::{object_is_valid, Monitor, SpillOverFit, Stage};
+pub use monitor::{object_is_valid, Monitor, Stage};
 pub use rasterize::Rasterizer;
 pub use region::Region;

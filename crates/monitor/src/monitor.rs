@@ -8,7 +8,7 @@ use crate::grid::{
     GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_RETURN_IN_ROI, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE,
     FLAG_STATIC, FLAG_VISITED,
 };
-use crate::params::{MonitorParams, ParamError};
+use crate::params::{MonitorParams, ParamError, SpillOverFit};
 use crate::plausibility::TrackTable;
 use crate::region::Region;
 use crate::verdict::{
@@ -55,20 +55,6 @@ impl Stage {
             Self::Verdicts => "verdicts",
         }
     }
-}
-
-/// How spill-over (attribution step 5, docs/attribution.md) decides whether a cluster left over and a confirmed
-/// object's own evidence together fit the object's box ([`Monitor::set_spill_over_fit`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum SpillOverFit {
-    /// Over the occupied cells: the box's own occupied cells and the cluster's cells. The default.
-    #[default]
-    Occupied,
-    /// Over every return: also the hit cells the box owns that hold too few hits to be occupied, and the hit cells
-    /// next to the cluster that no object explains. Off by default: on the clean nuScenes and KITTI frames it
-    /// removes two of the four clean boxes flagged (nuScenes pedestrian 28, KITTI car 6), at a cost in simulated
-    /// and real recall measured in docs/attribution.md ("Spill-over over every return").
-    EveryReturn,
 }
 
 /// Per-object state of the sensor checks within one frame.
@@ -206,7 +192,7 @@ impl Monitor {
             stats: GridStats::default(),
             sensor_status: None,
             rasterizer: crate::rasterize::Rasterizer::default(),
-            spill_over_fit: SpillOverFit::default(),
+            spill_over_fit: params.spill_over_fit,
             roi: RoiIndex::new(geometry),
             point_cells: Vec::with_capacity(max_points),
             edge_bits: alloc::vec![0; cells / 64 + 1],
@@ -360,9 +346,11 @@ impl Monitor {
     }
 
     /// Selects how spill-over decides the fit of a left-over cluster with a confirmed object's own evidence
-    /// ([`SpillOverFit`]; the default counts occupied cells only). Takes effect from the next frame.
+    /// ([`SpillOverFit`]; the default counts occupied cells only), as the params key `spill_over_fit` does.
+    /// Takes effect from the next frame; [`Monitor::params`] reports it.
     pub fn set_spill_over_fit(&mut self, fit: SpillOverFit) {
         self.spill_over_fit = fit;
+        self.params.spill_over_fit = fit;
     }
 
     /// Points -> grid: transform into the ego frame, keep the height band, count hits, fill the visibility map

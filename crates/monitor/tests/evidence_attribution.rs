@@ -105,12 +105,16 @@ fn a_wall_is_too_large_to_be_a_pedestrians_evidence() {
 /// its cell occupied, where the row continues beyond the cluster, or at the box's far end, is not: the returns
 /// then span more than the box, so the cluster is unlabelled returns next to a clean box (a missed object), as on
 /// the clean nuScenes and KITTI frames (docs/attribution.md). The rule is [`SpillOverFit::EveryReturn`], off by
-/// default: with the default fit (occupied cells only) all three frames flag the box.
+/// default: with the default fit (occupied cells only) all three frames flag the box. The rule is chosen by the
+/// params key `spill_over_fit`; [`Monitor::set_spill_over_fit`] gives the same verdicts.
 #[test]
 fn spill_over_counts_every_return_not_only_the_occupied_cells() {
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let every = MonitorParams { spill_over_fit: SpillOverFit::EveryReturn, ..MonitorParams::default() };
+    let mut m = Monitor::new(every).unwrap();
+    let mut by_setter = Monitor::new(MonitorParams::default()).unwrap();
+    by_setter.set_spill_over_fit(SpillOverFit::EveryReturn);
+    assert_eq!(*by_setter.params(), every);
     let mut default = Monitor::new(MonitorParams::default()).unwrap();
-    m.set_spill_over_fit(SpillOverFit::EveryReturn);
     // 0.5 m cells with edges on multiples of 0.5 m: the box and its grown region (0.4 m margins) reach from
     // x = 13.55 to 14.95; the cells centred at x = 14.25 and 14.75 are its own, 15.25 and 15.75 a conflict.
     let ped = object(1, 14.25, 0.25, 0.0, 0.6, 0.6);
@@ -123,6 +127,8 @@ fn spill_over_counts_every_return_not_only_the_occupied_cells() {
     }
     row.extend(ground_points(45.0));
     let (r, missed) = run_frame(&mut m, &[ped], &row);
+    let (r2, missed2) = run_frame(&mut by_setter, &[ped], &row);
+    assert_eq!((r2[0].sensor.verdict, missed2), (r[0].sensor.verdict, missed), "the setter");
     assert!(r[0].sensor.eta_own >= 0.8, "{:?}", r[0].sensor);
     assert_eq!(
         r[0].sensor.verdict,
@@ -137,6 +143,8 @@ fn spill_over_counts_every_return_not_only_the_occupied_cells() {
         let (r, missed) = run_frame(&mut m, &[ped], &pts);
         assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "one return {what}: {:?}", r[0].sensor);
         assert_eq!(missed, 1, "one return {what}: the cluster is a missed object");
+        let (r2, missed2) = run_frame(&mut by_setter, &[ped], &pts);
+        assert_eq!((r2[0].sensor.verdict, missed2), (r[0].sensor.verdict, missed), "the setter: {what}");
         let (r, missed) = run_frame(&mut default, &[ped], &pts);
         assert_eq!(
             r[0].sensor.verdict,
