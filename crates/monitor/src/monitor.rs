@@ -99,9 +99,9 @@ pub struct Monitor {
     candidates: Vec<([f32; 4], u8)>,
     /// Objects with a region as `(left edge of the region's bounding box, index)`, sorted: the pair loops look
     /// only at the objects whose boxes can reach a cluster along x. And the tracks whose evidence stood apart
-    /// last frame (looked at for every cluster).
+    /// last frame (looked at for every cluster), with where their offset puts that evidence now.
     by_x: Vec<(f32, u32)>,
-    displaced: Vec<u32>,
+    displaced: Vec<(u32, [f32; 2])>,
     /// Widest region bounding box of the frame, metres.
     widest_m: f32,
     /// Candidate (distance, cluster, object, group) pairs of the evidence assignment; the group is the connected

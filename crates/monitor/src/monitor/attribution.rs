@@ -240,8 +240,11 @@ impl Monitor {
                     self.by_x.push((entry.0[0], index));
                     self.widest_m = self.widest_m.max(entry.0[2] - entry.0[0]);
                 }
+                // With where its offset puts its evidence now (the clusters below are tested against it first).
                 if entry.1 & CANDIDATE_DISPLACED != 0 && self.displaced.len() < self.displaced.capacity() {
-                    self.displaced.push(index);
+                    if let (Some(region), Some((_, r))) = (s.region, s.recalled) {
+                        self.displaced.push((index, [region.footprint.cx + r[0], region.footprint.cy + r[1]]));
+                    }
                 }
             }
         }
@@ -256,10 +259,13 @@ impl Monitor {
             // A track whose evidence stood apart from it last frame: its evidence is expected where the offset puts
             // it now (the cost is how far the cluster is from there).
             for m in 0..self.displaced.len() {
-                let Some(j) = self.displaced.get(m).map(|&j| j as usize) else { continue };
-                let Some(s) = self.scratch.get(j) else { continue };
-                let (Some(region), Some((_, r))) = (s.region, s.recalled) else { continue };
-                let expected = [region.footprint.cx + r[0], region.footprint.cy + r[1]];
+                let Some((j, expected)) = self.displaced.get(m).map(|&(j, e)| (j as usize, e)) else { continue };
+                // Most clusters are far from where a track's evidence is expected: the bounds test of
+                // `cluster_point_distance` first, before the track's region is looked at (the same pairs).
+                if self.point_far(cb, expected, follow) {
+                    continue;
+                }
+                let Some(region) = self.scratch.get(j).and_then(|s| s.region) else { continue };
                 // Followed only while the evidence stays within the gate of the box: a remembered offset is updated
                 // every frame, and without this bound a track could follow a neighbour's evidence walking away.
                 let within_gate = |m: &Self| m.cluster_distance(k, &region.grown, gate).is_some();
@@ -720,16 +726,23 @@ impl Monitor {
     /// Distance from a cluster's cells to a point, metres (no cell comes nearer than touching), or `None` beyond
     /// `reach`.
     pub(super) fn cluster_point_distance(&self, k: usize, p: [f32; 2], reach: f32) -> Option<f32> {
-        let geometry = self.grid.geometry;
-        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         let cb = self.clusters.get(k)?.bounds_m;
-        let gap_x = (cb[0] - p[0]).max(p[0] - cb[2]).max(0.0);
-        let gap_y = (cb[1] - p[1]).max(p[1] - cb[3]).max(0.0);
-        if gap_x.max(gap_y) - half_diagonal > reach {
+        if self.point_far(cb, p, reach) {
             return None;
         }
         let d = self.nearest_cell_distance(k, |x, y| libm::hypotf(x - p[0], y - p[1]));
         (d <= reach).then_some(d)
+    }
+
+    /// True when a cluster's bounds (of cell centres) and a point are more than `reach` apart, cells included (the
+    /// lower bound [`Monitor::cluster_point_distance`] tests first).
+    #[inline]
+    pub(super) fn point_far(&self, cluster_bounds: [f32; 4], p: [f32; 2], reach: f32) -> bool {
+        let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * self.grid.geometry.cell_size_m;
+        let cb = cluster_bounds;
+        let gap_x = (cb[0] - p[0]).max(p[0] - cb[2]).max(0.0);
+        let gap_y = (cb[1] - p[1]).max(p[1] - cb[3]).max(0.0);
+        gap_x.max(gap_y) - half_diagonal > reach
     }
 
     /// Cells of cluster `k`.
