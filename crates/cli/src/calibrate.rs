@@ -255,11 +255,12 @@ mod tests {
     #[test]
     fn calibrated_parameters_on_benign_tracker_output() {
         // The bed's default tracker (correlated jitter and speed noise): calibrated on one run, scored on
-        // another seed. The goal of issue #11 is <= 1 per mille; measured 0.9-1.8 per mille (60 s per scene): the
-        // tighter estimated sigmas expose the simulated pedestrians' instant starts, stops and turnarounds
-        // (10-17 m/s^2, heading changes of pi while walking: true motion that no physical limit admits, labelled
-        // benign) and echoes of drop-outs and flips in the following baselines. The assertion is the measured
-        // level with a margin, NOT the goal (docs/plausibility.md lists the goal as missed).
+        // another seed. The goal of issue #11 is <= 1 per mille over the bed; measured 0.84 per mille over the three
+        // scenes (0.65-1.07 per scene, 60 s each; 1.36 before the held flip asked the box's motion): the tighter
+        // estimated sigmas expose the simulated pedestrians' instant starts and stops (10-17 m/s^2, true motion
+        // that no physical limit admits, labelled benign), true speeds hidden by warm-ups below the bed's 1 m/s
+        // label, and echoes of drop-outs in the following baselines. Per scene the assertion is the measured
+        // level with a margin; over the three scenes it is the goal.
         let train = crate::tracker_bed::object_scenes(31, 60.0).unwrap();
         let test = crate::tracker_bed::object_scenes(32, 60.0).unwrap();
         let mut results = Vec::new();
@@ -271,10 +272,13 @@ mod tests {
             results.push(r);
         }
         eprintln!("{}", pmon_campaign::tracker_eval::bed_table(&results));
+        let (alarms, judged) =
+            results.iter().fold((0, 0), |(a, j), r| (a + r.all.benign_alarms, j + r.all.benign_judged));
+        assert!(alarms * 1000 <= judged, "{alarms} false alarms on {judged} benign states: above 1 per mille");
         for r in &results {
             let fa = r.all.false_alarm_rate();
             assert!(r.all.benign_judged > 10_000, "{}: {:?}", r.scene, r.all);
-            assert!(fa.value <= 2.5e-3, "{}: {:.2} per mille {:?}", r.scene, 1000.0 * fa.value, r.all);
+            assert!(fa.value <= 1.5e-3, "{}: {:.2} per mille {:?}", r.scene, 1000.0 * fa.value, r.all);
             assert!(r.all.recall().value >= 0.9, "{}: {:?}", r.scene, r.all);
         }
     }

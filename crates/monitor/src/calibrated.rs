@@ -8,7 +8,9 @@
 //!    `|D| - z sigma_D > pi / 2` is a *heading flip*; otherwise `|D| / dt - z sigma_D / dt > omega_max` is a
 //!    *turn rate* beyond the limit (`z`: the two-sided normal quantile of `false_alarm_probability`). After a
 //!    state called flipped, the new heading is also compared with the newest not-flipped state within
-//!    `baseline_s`: a heading that stays flipped is a flip in each frame.
+//!    `baseline_s`: a heading that stays flipped is a flip in each frame, as long as the box's motion since the
+//!    first flipped state agrees with the old heading at least as well as with the new one (an object that
+//!    really turned around moves along its new heading).
 //! 2. **Acceleration** `(v1 - v0) / dt` against `a_acc`, `a_br` with margin `z hypot(sigma_v0, sigma_v1) / dt`
 //!    (skipped while the new speed is in its warm-up; at the first initialised speed after a warm-up the
 //!    warm-up's 0 carries the warm-up sigma, and an alarm names the warm-up's speed error).
@@ -557,6 +559,58 @@ fn add_velocity_cov(cov: &mut [f64; 3], w: f64, (s, c): (f64, f64), sv: f64, sc:
     cov[2] += a * s * s + b * c * c;
 }
 
+/// For a heading that may stay flipped: does the box's motion from the history's state `f` (the first state
+/// called flipped) to `s1` (with its [`Entry::unit`]) agree better with the reported headings than with the
+/// headings turned by pi? The two hypotheses predict opposite displacements, `a` (the trapezoid of the reported
+/// velocities from `f` to `s1`) and `-a`, with the same covariance `S` (both positions and every velocity: a
+/// velocity's covariance is the same along `u` and along `-u`), so the new headings fit better, `(d - a)^T S^-1
+/// (d - a) < (d + a)^T S^-1 (d + a)`, exactly when `a^T S^-1 d > 0`, `d` the observed displacement. Before the
+/// test each component of `d` along and across `s1`'s box is shrunk towards 0 by half the change of the box's
+/// length and width since `f` (a re-fit moves the reference point without the object moving, which is no
+/// evidence of a turn). A tie (no motion, or no usable covariance) is not a turn: the flip stays reported.
+fn turn_explains_motion(h: &History, f: usize, s1: &Entry) -> bool {
+    let n = h.len();
+    let Some(sf) = h.get(f) else { return false };
+    let sq = |x: f32| f64::from(x) * f64::from(x);
+    let mut a = [0.0f64; 2];
+    let mut cov = [sq(sf.sx_m) + sq(s1.sx_m), 0.0, sq(sf.sy_m) + sq(s1.sy_m)];
+    let mut prev: Option<&Entry> = None;
+    let mut prev_w = 0.0f64;
+    let add = |e: &Entry, w: f64, a: &mut [f64; 2], cov: &mut [f64; 3]| {
+        let v = f64::from(e.v_mps);
+        let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
+        a[0] += w * v * c;
+        a[1] += w * v * s;
+        let sv = f64::from(e.sv_mps);
+        add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
+    };
+    for j in f..=n {
+        let e = if j < n { h.get(j).unwrap_or(s1) } else { s1 };
+        if let Some(p) = prev {
+            let half = 0.5 * (e.t_s - p.t_s);
+            add(p, prev_w + half, &mut a, &mut cov);
+            prev_w = half;
+        }
+        prev = Some(e);
+    }
+    if let Some(p) = prev {
+        add(p, prev_w, &mut a, &mut cov);
+    }
+    let (s, c) = (f64::from(s1.unit[1]), f64::from(s1.unit[0]));
+    let d = refit_allowance(
+        [s1.x_m - sf.x_m, s1.y_m - sf.y_m],
+        (s, c),
+        f64::from(s1.length_m - sf.length_m),
+        f64::from(s1.width_m - sf.width_m),
+    );
+    let det = cov[0] * cov[2] - cov[1] * cov[1];
+    if det.is_nan() || det <= 0.0 {
+        return false;
+    }
+    let agreement = (cov[2] * a[0] * d[0] - cov[1] * (a[0] * d[1] + a[1] * d[0]) + cov[0] * a[1] * d[1]) / det;
+    agreement > 0.0
+}
+
 /// Runs the calibrated rule for the new state `s1` against the track's history (newest last; must not be
 /// empty, and `s1.t_s` must be later than the newest state: the caller checks).
 #[must_use]
@@ -623,17 +677,26 @@ pub(crate) fn check_calibrated_sc(
     // 1b. A heading that stays flipped: after a state called flipped, the new heading is compared with the
     // newest state before it that was not flipped (within the baseline, heading defined there): a tracker that
     // keeps the flipped heading for several frames reports a flipped heading in each of them, although the
-    // heading is steady from one flipped frame to the next.
+    // heading is steady from one flipped frame to the next. It is called flipped again only when the box's
+    // motion since the first flipped state agrees with the old heading at least as well as with the new one
+    // (see [`turn_explains_motion`]): an object that really turned around moves along its new heading.
+    let s1u = Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 };
     if kind.is_none() && s0.flipped && !s1.warmup && v1 >= heading_min_speed_mps {
-        let reference = (0..n)
-            .rev()
-            .filter_map(|i| h.get(i))
-            .take_while(|e| s1.t_s - e.t_s <= baseline_s + 1e-9)
-            .find(|e| !e.flipped && !e.warmup);
-        if let Some(r) = reference.filter(|r| f64::from(r.v_mps) >= heading_min_speed_mps) {
+        let mut reference = None;
+        for i in (0..n).rev() {
+            let Some(e) = h.get(i) else { break };
+            if s1.t_s - e.t_s > baseline_s + 1e-9 {
+                break;
+            }
+            if !e.flipped && !e.warmup {
+                reference = Some((i, e));
+                break;
+            }
+        }
+        if let Some((ri, r)) = reference.filter(|(_, r)| f64::from(r.v_mps) >= heading_min_speed_mps) {
             let d = wrap_difference(f64::from(s1.heading_rad) - f64::from(r.heading_rad));
             let m = gates.factor(own_heading) * norm(r.heading_sigma(), s1.heading_sigma());
-            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 {
+            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 && !turn_explains_motion(h, ri + 1, &s1u) {
                 fired = fired.union(Conditions::TURN_RATE);
                 kind = Some(ImplausibilityKind::HeadingFlip);
                 error_size = libm::fabs(d);
@@ -700,7 +763,6 @@ pub(crate) fn check_calibrated_sc(
     ];
     // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no
     // velocity); each velocity weighs half of its two adjacent intervals.
-    let s1u = Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 };
     let mut prev: Option<&Entry> = None;
     let mut prev_w = 0.0f64;
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
@@ -1038,6 +1100,77 @@ mod tests {
         // A steady heading after a real alarm-free history stays plausible (no flip without a flipped state).
         let h = track(2.0, 8);
         assert!(run(&h, &e(0.8, 1.6, 2.0)).fired.is_empty());
+    }
+
+    /// Checks `states` one after the other against `h` (pushing each with its verdict, as the track table does);
+    /// returns each state's kind.
+    fn run_sequence(h: &mut History, states: &[Entry]) -> alloc::vec::Vec<Option<ImplausibilityKind>> {
+        states
+            .iter()
+            .map(|s| {
+                let c = run(h, s);
+                let mut s = *s;
+                s.suspect = !c.fired.is_empty();
+                s.flipped = c.kind == Some(ImplausibilityKind::HeadingFlip);
+                h.push(s);
+                c.kind
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_car_whose_heading_stays_flipped_is_still_a_flip_in_each_frame() {
+        // A car at 10 m/s whose tracker reports the heading turned by pi for three frames while the box keeps
+        // moving forwards: each flipped frame and the return are flips, also when the box is re-fitted during the
+        // flip (length 4.5 -> 3.15 m with the front end fixed: the centre moves 0.68 m backwards, towards the
+        // reported, flipped heading).
+        use core::f64::consts::PI;
+        for refit in [false, true] {
+            let mut h = track(10.0, 8);
+            let states: alloc::vec::Vec<Entry> = (0..4)
+                .map(|k| {
+                    let t = (8 + k) as f64 * 0.1;
+                    let mut s = e(t, 10.0 * t, 10.0);
+                    if k < 3 {
+                        s.heading_rad = PI as f32;
+                        if refit {
+                            s.length_m = 3.15;
+                            s.x_m -= 0.675;
+                        }
+                    }
+                    s
+                })
+                .collect();
+            let kinds = run_sequence(&mut h, &states);
+            assert_eq!(kinds, [Some(ImplausibilityKind::HeadingFlip); 4], "re-fit {refit}: {kinds:?}");
+        }
+    }
+
+    #[test]
+    fn a_pedestrian_that_turns_around_is_not_a_flip_once_it_walks_back() {
+        // A pedestrian at 1.2 m/s that turns around within one frame (a turn no physical limit admits, so the
+        // first state after it is an alarm), then walks back along the new heading: the following states are not
+        // flipped headings (the box moves along the new heading), at 10 and 20 Hz.
+        use core::f64::consts::PI;
+        for dt in [0.1, 0.05] {
+            let mut h = History::default();
+            for k in 0..8 {
+                let t = k as f64 * dt;
+                h.push(e(t, 1.2 * t, 1.2));
+            }
+            let x_turn = 1.2 * 7.0 * dt;
+            let states: alloc::vec::Vec<Entry> = (1..=5)
+                .map(|k| {
+                    let t = (7 + k) as f64 * dt;
+                    let mut s = e(t, x_turn - 1.2 * k as f64 * dt, 1.2);
+                    s.heading_rad = PI as f32;
+                    s
+                })
+                .collect();
+            let kinds = run_sequence(&mut h, &states);
+            assert_eq!(kinds[0], Some(ImplausibilityKind::HeadingFlip), "dt {dt}: {kinds:?}");
+            assert!(kinds[1..].iter().all(Option::is_none), "dt {dt}: {kinds:?}");
+        }
     }
 
     #[test]
