@@ -144,9 +144,9 @@ pub(super) const RUNS_PER_PASS: usize = 16;
 /// (`PMON_PASS_BUDGET_MB` overrides it; the results do not depend on it).
 pub const PASS_BUDGET_BYTES: usize = 256 << 20;
 
-/// What one run alive in a pass is counted as against the budget, bytes: measured (docs/campaigns.md: peak
-/// resident memory of `pmon evaluate` on the AV2 extract, 16 runs per pass against 2, about 8 MB a run with the
-/// paper's 0.5 m cells over 100 m and 99,000-point sweeps).
+/// What one run alive in a pass is counted as against the budget, bytes: an upper estimate (docs/campaigns.md:
+/// peak resident memory of `pmon evaluate` on the AV2 extract with `--threads 1`, 136 MB with 16 runs per pass
+/// against 56 MB with 1, about 5 MB a run with the paper's 0.5 m cells over 100 m and 99,000-point sweeps).
 pub const RUN_BYTES: usize = 8 << 20;
 
 /// The memory budget of a set's passes: `PMON_PASS_BUDGET_MB` (MiB) when set and a number, else
