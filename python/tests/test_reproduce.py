@@ -1,5 +1,5 @@
-"""`pmon reproduce --scheduler`: the paper's simulated experiments (the plan of `pmon reproduce --quick`), one task
-per run, on a Dask LocalCluster of 2 workers give the results.json, paper-vs-pmon.md and CSVs of the
+"""`pmon reproduce --scheduler`: the paper's simulated experiments (the plan of `pmon reproduce --smoke`: every
+figure of --quick, fewer points), one task per run, on a Dask LocalCluster of 2 workers give the results.json, paper-vs-pmon.md and CSVs of the
 single-process run byte for byte, the timing fields masked (and only those); a resumed run runs only the missing
 tasks (the same result files). The progress display across the cluster: a tqdm bar on a terminal, lines otherwise, nothing when quiet."""
 
@@ -14,9 +14,10 @@ import pytest
 
 from pmon import campaign
 
-# The plan of --quick (every figure, its coarser sweeps) over 1 s scenes, to keep the test short; no real data
-# (that part runs in the driving process whatever the scheduler).
-ARGS = ["reproduce", "--quick", "--duration-s", "1", "--seed", "5"]
+# The smoke plan (every figure and every curve of --quick, three points per sweep: 68 runs against --quick's 264)
+# over 1 s scenes, to keep CI short; no real data (that part runs in the driving process whatever the scheduler).
+# The comparison is the same as with --quick: every run a task on the cluster, the bytes of every report file.
+ARGS = ["reproduce", "--smoke", "--duration-s", "1", "--seed", "5"]
 
 # The timing fields of `pmon reproduce`'s outputs: the run's wall time, the measured latency (its number and its
 # row of the claims table, verdict included); latency.csv is left out.
@@ -70,7 +71,7 @@ def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_
     p = reproduce(pmon_bin, tmp_path, out, "--scheduler", address)
     tasks = json.loads((tmp_path / "dask.run" / "tasks.json").read_text())
     n = len(tasks)
-    assert n > 200 and len({t["id"] for t in tasks}) == n
+    assert n > 50 and len({t["id"] for t in tasks}) == n
     # Not a terminal: a line per finished task, naming the worker that ran it; both workers ran tasks.
     lines = [line for line in p.stderr.splitlines() if re.match(r"\[\d+/\d+\] ", line)]
     assert len(lines) == n and f"[{n}/{n}]" in p.stderr, p.stderr[-2000:]
@@ -79,7 +80,7 @@ def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_
     assert report(out) == local_report
     # The claims are the local run's (the masks hid nothing else) and the figures have points.
     res = json.loads((out / "results.json").read_text())
-    assert res["runs"] > 200 and all(f["curves"] for f in res["figures"])
+    assert res["runs"] > 50 and len(res["figures"]) == 11 and all(f["curves"] for f in res["figures"])
     # Resume: three results deleted; the runner runs those three only and writes the same bytes again.
     results = tmp_path / "dask.run" / "results"
     before = {f.name: f.read_bytes() for f in results.iterdir()}
@@ -98,7 +99,7 @@ def test_ray_gives_the_single_process_bytes(pmon_bin, tmp_path, local_report):
     out = tmp_path / "ray"
     p = reproduce(pmon_bin, tmp_path, out, "--scheduler", "ray-local:2")
     n = len(json.loads((tmp_path / "ray.run" / "tasks.json").read_text()))
-    assert n > 200 and f"[{n}/{n}]" in p.stderr, p.stderr[-2000:]
+    assert n > 50 and f"[{n}/{n}]" in p.stderr, p.stderr[-2000:]
     assert report(out) == local_report
 
 

@@ -11,9 +11,10 @@ use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
 
 use pmon_monitor::{Isometry3, ObjectClass, ObjectState, Pose2};
-use pmon_recording::{OwnedCloud, RecordedFrame};
+use pmon_recording::RecordedFrame;
 
 use crate::geometry::{inverse, mat_vec, wrap_angle, Box3, Mat3};
+use crate::sweeps::{SweepFile, SweepFormat};
 use crate::util::{f32_of, finite_difference_speeds, list_dir, parse_f64, read_bytes, read_text};
 use crate::{Dataset, DatasetError, DatasetFormat, DatasetFrame, DatasetInfo, ObjectExtra, ReadOptions, SpeedSource};
 
@@ -243,6 +244,17 @@ fn object_of(id: u64, label: &KittiLabel, b: &Box3, speed_mps: f32, track_key: S
 /// # Errors
 /// Missing directories, a label without its calibration, malformed or truncated files.
 pub fn open_object(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError> {
+    open_object_with(dir, opts, false).map(|(ds, _)| ds)
+}
+
+/// [`open_object`]; with `defer` the sweeps are not read but returned per frame (the frames' clouds `None`), for
+/// [`crate::sweeps::open_deferred`]. Without `defer` each sweep is read where it always was (so the errors come
+/// in the same order).
+pub(crate) fn open_object_with(
+    dir: &Path,
+    opts: &ReadOptions,
+    defer: bool,
+) -> Result<(Dataset, Vec<Option<SweepFile>>), DatasetError> {
     let velo_dir = dir.join("velodyne");
     let label_dir = dir.join("label_2");
     let calib_dir = dir.join("calib");
@@ -251,6 +263,7 @@ pub fn open_object(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetErr
         return Err(DatasetError::malformed(&velo_dir, "no `.bin` sweeps"));
     }
     let mut frames = Vec::new();
+    let mut files = Vec::new();
     let mut notes = vec![
         format!(
             "ego frame = Velodyne frame moved down by {VELODYNE_HEIGHT_M} m to the ground (ego_from_sensor = \
@@ -297,11 +310,16 @@ pub fn open_object(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetErr
         } else {
             missing_labels += 1;
         }
-        let cloud = if opts.load_clouds {
-            Some(OwnedCloud { points_in_sensor: read_velodyne(velo)?, ego_from_sensor: ego_from_velodyne() })
-        } else {
-            None
+        let file = opts.load_clouds.then(|| SweepFile {
+            path: velo.clone(),
+            format: SweepFormat::KittiVelodyne,
+            ego_from_sensor: ego_from_velodyne(),
+        });
+        let cloud = match &file {
+            Some(f) if !defer => Some(f.read()?),
+            _ => None,
         };
+        files.push(if defer { file } else { None });
         #[allow(clippy::cast_precision_loss)] // frame numbers < 2^53
         let mut frame = RecordedFrame::empty(frames.len() as u64, number as f64, Pose2::default());
         frame.objects = objects;
@@ -312,7 +330,7 @@ pub fn open_object(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetErr
     if missing_labels > 0 {
         notes.push(format!("{missing_labels} sweeps have no label file (no objects)"));
     }
-    Ok(Dataset {
+    let ds = Dataset {
         info: DatasetInfo {
             name: dir.file_name().and_then(|s| s.to_str()).unwrap_or("kitti").to_string(),
             format: DatasetFormat::KittiObject,
@@ -324,7 +342,8 @@ pub fn open_object(dir: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetErr
             notes,
         },
         frames,
-    })
+    };
+    Ok((ds, files))
 }
 
 /// Reads a KITTI tracking label file `.../label_02/SSSS.txt` (17 columns with frame and track id) into

@@ -28,6 +28,7 @@ pub mod kitti;
 pub mod motion;
 pub mod nuscenes;
 pub mod roi;
+pub mod sweeps;
 mod util;
 
 use std::path::{Path, PathBuf};
@@ -35,6 +36,7 @@ use std::path::{Path, PathBuf};
 pub use error::DatasetError;
 pub use geometry::{points_in_box, Box3};
 use pmon_recording::{RecordedFrame, RecordingMeta};
+pub use sweeps::{open_deferred, DeferredSweeps};
 
 /// Which reader produced a [`Dataset`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

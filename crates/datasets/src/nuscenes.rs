@@ -10,10 +10,11 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use pmon_monitor::{ObjectClass, ObjectState};
-use pmon_recording::{OwnedCloud, RecordedFrame};
+use pmon_recording::RecordedFrame;
 use serde::Deserialize;
 
 use crate::geometry::{wrap_angle, Rigid3};
+use crate::sweeps::{SweepFile, SweepFormat};
 use crate::util::{f32_of, finite_difference_speeds, list_dir, python_json_to_strict, read_bytes, read_text};
 use crate::{Dataset, DatasetError, DatasetFormat, DatasetFrame, DatasetInfo, ObjectExtra, ReadOptions, SpeedSource};
 
@@ -97,6 +98,16 @@ struct ConvertedInstance {
 /// # Errors
 /// I/O errors, JSON that does not match the layout, non-rigid transforms, boxes with 7 values missing.
 pub fn open_converted(path: &Path, opts: &ReadOptions) -> Result<Dataset, DatasetError> {
+    open_converted_with(path, opts, false).map(|(ds, _)| ds)
+}
+
+/// [`open_converted`]; with `defer` the sweep is not read but returned (the frame's cloud `None`), for
+/// [`crate::sweeps::open_deferred`].
+pub(crate) fn open_converted_with(
+    path: &Path,
+    opts: &ReadOptions,
+    defer: bool,
+) -> Result<(Dataset, Vec<Option<SweepFile>>), DatasetError> {
     let json_path = if path.is_dir() { path.join("sample_annotations.json") } else { path.to_path_buf() };
     let dir = json_path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
     let text = read_text(&json_path)?;
@@ -165,11 +176,13 @@ pub fn open_converted(path: &Path, opts: &ReadOptions) -> Result<Dataset, Datase
         });
     }
     let lidar_path = dir.join(&s.lidar_file);
-    if opts.load_clouds {
-        frame.cloud = Some(OwnedCloud {
-            points_in_sensor: read_pcd_bin(&lidar_path)?,
-            ego_from_sensor: ego_from_lidar.to_isometry3(),
-        });
+    let file = opts.load_clouds.then(|| SweepFile {
+        path: lidar_path,
+        format: SweepFormat::NuScenesPcdBin,
+        ego_from_sensor: ego_from_lidar.to_isometry3(),
+    });
+    if let (Some(f), false) = (&file, defer) {
+        frame.cloud = Some(f.read()?);
     }
     let mut notes = vec![
         "ego frame = nuScenes ego frame (rear-axle centre on the ground): ground_z_m = 0; points stay in \
@@ -186,7 +199,7 @@ pub fn open_converted(path: &Path, opts: &ReadOptions) -> Result<Dataset, Datase
     if invalid > 0 {
         notes.push(format!("{invalid} boxes flagged bbox_3d_isvalid = false (kept)"));
     }
-    Ok(Dataset {
+    let ds = Dataset {
         info: DatasetInfo {
             name: if s.sample_token.is_empty() { "nuscenes".into() } else { s.sample_token.clone() },
             format: DatasetFormat::NuScenesConverted,
@@ -198,7 +211,8 @@ pub fn open_converted(path: &Path, opts: &ReadOptions) -> Result<Dataset, Datase
             notes,
         },
         frames: vec![DatasetFrame { frame, extras }],
-    })
+    };
+    Ok((ds, vec![if defer { file } else { None }]))
 }
 
 // -------------------------------------------------------------------------------------------------------------
@@ -403,6 +417,17 @@ fn seconds_of_us(us: i64) -> f64 {
 /// # Errors
 /// Missing or malformed tables, dangling tokens, non-unit quaternions, malformed sweeps.
 pub fn open_v1(path: &Path, scene: Option<&str>, opts: &ReadOptions) -> Result<Dataset, DatasetError> {
+    open_v1_with(path, scene, opts, false).map(|(ds, _)| ds)
+}
+
+/// [`open_v1`]; with `defer` the sweeps are not read but returned per frame (the frames' clouds `None`), for
+/// [`crate::sweeps::open_deferred`]. Without `defer` each sweep is read where it always was.
+pub(crate) fn open_v1_with(
+    path: &Path,
+    scene: Option<&str>,
+    opts: &ReadOptions,
+    defer: bool,
+) -> Result<(Dataset, Vec<Option<SweepFile>>), DatasetError> {
     let (table_dir, root) = locate_tables(path)?;
     let t = Tables::read(&table_dir)?;
     let tp = |name: &str| table_dir.join(name);
@@ -503,6 +528,7 @@ pub fn open_v1(path: &Path, scene: Option<&str>, opts: &ReadOptions) -> Result<D
         instance_obs.keys().enumerate().map(|(i, k)| (*k, u64::try_from(i + 1).unwrap_or(u64::MAX))).collect();
 
     let mut frames = Vec::new();
+    let mut files = Vec::new();
     let mut no_speed = 0usize;
     let mut missing_sweeps = 0usize;
     for s in &samples {
@@ -577,17 +603,25 @@ pub fn open_v1(path: &Path, scene: Option<&str>, opts: &ReadOptions) -> Result<D
                 accel_mps2: None,
             });
         }
+        let mut file = None;
         if opts.load_clouds {
             let sweep = root.join(&sd.filename);
             if sweep.exists() {
-                frame.cloud = Some(OwnedCloud {
-                    points_in_sensor: read_pcd_bin(&sweep)?,
+                let f = SweepFile {
+                    path: sweep,
+                    format: SweepFormat::NuScenesPcdBin,
                     ego_from_sensor: ego_from_lidar.to_isometry3(),
-                });
+                };
+                if defer {
+                    file = Some(f);
+                } else {
+                    frame.cloud = Some(f.read()?);
+                }
             } else {
                 missing_sweeps += 1;
             }
         }
+        files.push(file);
         frames.push(DatasetFrame { frame, extras });
     }
     let mut notes = vec![
@@ -605,7 +639,7 @@ pub fn open_v1(path: &Path, scene: Option<&str>, opts: &ReadOptions) -> Result<D
     if missing_sweeps > 0 {
         notes.push(format!("{missing_sweeps} samples have no sweep file on disk (frames without a cloud)"));
     }
-    Ok(Dataset {
+    let ds = Dataset {
         info: DatasetInfo {
             name: scene.map_or_else(
                 || table_dir.file_name().and_then(|s| s.to_str()).unwrap_or("nuscenes").to_string(),
@@ -620,7 +654,8 @@ pub fn open_v1(path: &Path, scene: Option<&str>, opts: &ReadOptions) -> Result<D
             notes,
         },
         frames,
-    })
+    };
+    Ok((ds, files))
 }
 
 #[cfg(test)]

@@ -269,3 +269,12 @@ fn v1_tables_reject_dangling_tokens_and_bad_quaternions() {
     let err = open(&spec).unwrap_err().to_string();
     assert!(err.contains("category.json"), "{err}");
 }
+
+#[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
+fn v1_deferred_sweeps_are_the_sweeps_of_open() {
+    let Some(src) = data("nuscenes") else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    write_tables(&src, tmp.path());
+    common::assert_deferred_same(&format!("nuscenes-v1:{}#scene-0001", tmp.path().display()));
+}

@@ -394,3 +394,19 @@ fn recording_round_trip_of_a_dataset() {
     assert_eq!(frames.len(), ds.frames.len());
     assert_eq!(frames[5].objects, ds.frames[5].frame.objects);
 }
+
+#[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
+fn deferred_sweeps_are_the_sweeps_of_open() {
+    let (Some(kitti), Some(nus), Some(av2)) =
+        (data("kitti/object/training"), data("nuscenes"), data("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede"))
+    else {
+        return;
+    };
+    common::assert_deferred_same(&format!("kitti:{}", kitti.display()));
+    common::assert_deferred_same(&format!("nuscenes:{}", nus.display()));
+    common::assert_deferred_same(&format!("av2:{}", av2.display()));
+    let (ds, sweeps) = pmon_datasets::open_deferred("commonroad:/nonexistent/c.xml", &ReadOptions::default())
+        .map_or((None, None), |(d, s)| (Some(d), Some(s)));
+    assert!(ds.is_none() && sweeps.is_none());
+}

@@ -22,10 +22,12 @@ use std::fs;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
-use pmon_datasets::av2::{open_log_deferred, Av2Sweeps};
 use pmon_datasets::ground::GroundMode;
 use pmon_datasets::roi::RoiOptions;
-use pmon_datasets::{open_with, Dataset, DatasetFormat, DatasetFrame, DatasetInfo, ReadOptions, SpeedSource};
+use pmon_datasets::{
+    open_deferred, open_with, Dataset, DatasetFormat, DatasetFrame, DatasetInfo, DeferredSweeps, ReadOptions,
+    SpeedSource,
+};
 use pmon_monitor::MonitorParams;
 use pmon_recording::RecordedFrame;
 use serde::{Deserialize, Serialize};
@@ -453,10 +455,9 @@ fn open_log(task: &LogTask, load_clouds: bool) -> Result<(Dataset, MonitorParams
 enum SensorSource {
     /// A pmon recording: read frame by frame from its `frames.jsonl`, once per pass.
     Recording(PathBuf),
-    /// An Argoverse 2 log: its annotations, poses and map read first, then one sweep per frame, once per pass.
-    Av2(Box<(Dataset, Av2Sweeps)>),
-    /// A dataset read whole by its reader; its frames are lent one by one.
-    Loaded(Dataset),
+    /// A dataset's log (Argoverse 2, KITTI object frames, nuScenes keyframe or v1.0 scene): its annotations, poses
+    /// and map read first ([`open_deferred`]), then one sweep per frame, once per pass.
+    Deferred(Box<(Dataset, DeferredSweeps)>),
 }
 
 impl SensorSource {
@@ -467,23 +468,16 @@ impl SensorSource {
             let params = recording_params(&path, task.params)?;
             return Ok((Self::Recording(path), params, "none".to_string()));
         }
-        if task.family == "av2" {
-            let dir = task.spec.strip_prefix("av2:").unwrap_or(&task.spec);
-            let roi =
-                RoiOptions { grid_half_extent_m: 0.5 * f64::from(task.params.grid_size_m), ..RoiOptions::default() };
-            let opts = ReadOptions { load_clouds: true, roi, ground: GroundMode::Auto };
-            let (ds, sweeps) = open_log_deferred(Path::new(dir), &opts).map_err(|e| e.to_string())?;
-            let params = MonitorParams {
-                ground_z_m: ds.info.ground_z_m,
-                ego_footprint_m: ds.info.format.ego_footprint_m(),
-                ..task.params
-            };
-            let roi = ds.roi_note().map_or_else(|| "none".to_string(), roi_label);
-            return Ok((Self::Av2(Box::new((ds, sweeps))), params, roi));
-        }
-        let (ds, params) = open_log(task, true)?;
+        let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(task.params.grid_size_m), ..RoiOptions::default() };
+        let opts = ReadOptions { load_clouds: true, roi, ground: GroundMode::Auto };
+        let (ds, sweeps) = open_deferred(&task.spec, &opts).map_err(|e| e.to_string())?;
+        let params = MonitorParams {
+            ground_z_m: ds.info.ground_z_m,
+            ego_footprint_m: ds.info.format.ego_footprint_m(),
+            ..task.params
+        };
         let roi = ds.roi_note().map_or_else(|| "none".to_string(), roi_label);
-        Ok((Self::Loaded(ds), params, roi))
+        Ok((Self::Deferred(Box::new((ds, sweeps))), params, roi))
     }
 
     /// One reading of the frames with a LiDAR sweep.
@@ -497,7 +491,7 @@ impl SensorSource {
                     Err(e) => Some(Err(e.to_string())),
                 }))
             }
-            Self::Av2(log) => {
+            Self::Deferred(log) => {
                 let (ds, sweeps) = &**log;
                 Box::new(ds.frames.iter().enumerate().filter(|(i, _)| sweeps.has_sweep(*i)).map(|(i, f)| {
                     let cloud = sweeps.cloud(i).map_err(|e| e.to_string())?;
@@ -506,9 +500,6 @@ impl SensorSource {
                         extras: f.extras.clone(),
                     }))
                 }))
-            }
-            Self::Loaded(ds) => {
-                Box::new(ds.frames.iter().filter(|f| f.frame.cloud.is_some()).map(|f| Ok(Cow::Borrowed(f))))
             }
         })
     }

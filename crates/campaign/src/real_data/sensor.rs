@@ -133,11 +133,61 @@ fn sensor_jobs(s: usize, seed: u64, opts: &RealDataOptions) -> Vec<SensorJob> {
     jobs
 }
 
-/// Runs (each with its own monitor, a few MB) alive at once in a pass over a set's frames. The full sweeps have
-/// 242 runs per set (221 sensor runs, 20 one-box runs, the check without the ROI): they are streamed through in
-/// passes of this many, so that memory holds this many monitors and one frame, whatever the log's length and the
-/// sweeps; the price is one reading of the log per pass (16 passes for the full sweeps, 1 for the smoke ones).
+/// Runs (each with its own monitor, a few MB) alive at once in a pass over a set's frames when the pass size is
+/// fixed ([`PassSize::Runs`], tests). The full sweeps have 242 runs per set (221 sensor runs, 20 one-box runs, the
+/// check without the ROI); `pmon evaluate` and `pmon reproduce` size their passes from a memory budget instead
+/// ([`PassSize::Budget`], [`pass_budget_bytes`]).
+#[cfg(test)]
 pub(super) const RUNS_PER_PASS: usize = 16;
+
+/// Default memory budget of one set's passes, bytes: the frames held plus the runs alive
+/// (`PMON_PASS_BUDGET_MB` overrides it; the results do not depend on it).
+pub const PASS_BUDGET_BYTES: usize = 256 << 20;
+
+/// What one run alive in a pass is counted as against the budget, bytes: an upper estimate (docs/campaigns.md:
+/// peak resident memory of `pmon evaluate` on the AV2 extract with `--threads 1`, 136 MB with 16 runs per pass
+/// against 56 MB with 1, about 5 MB a run with the paper's 0.5 m cells over 100 m and 99,000-point sweeps).
+pub const RUN_BYTES: usize = 8 << 20;
+
+/// The memory budget of a set's passes: `PMON_PASS_BUDGET_MB` (MiB) when set and a number, else
+/// [`PASS_BUDGET_BYTES`].
+#[must_use]
+pub fn pass_budget_bytes() -> usize {
+    std::env::var("PMON_PASS_BUDGET_MB")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .map_or(PASS_BUDGET_BYTES, |mb| mb.saturating_mul(1 << 20))
+}
+
+/// How many runs a pass over a set's frames holds.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum PassSize {
+    /// This many runs per pass, every pass a reading of the log (tests).
+    #[cfg_attr(not(test), allow(dead_code))]
+    Runs(usize),
+    /// From a memory budget, bytes. The first pass (as many runs as rayon threads) reads the log and keeps its
+    /// frames while their size stays within half the budget: if the whole log fits, the other passes go over the
+    /// kept frames (no further reading), as many runs as threads each, so memory is the frames and a few monitors.
+    /// If it does not, the kept frames are dropped and the other passes stream the log, each holding as many runs
+    /// as the budget less the largest frame leaves room for ([`RUN_BYTES`] each; at least the threads).
+    Budget(usize),
+}
+
+/// Bytes a frame holds (its points, objects, extras and ROI); 0 for a borrowed frame (held anyway by its owner).
+#[expect(clippy::ptr_arg, reason = "whether the frame is borrowed or owned is what counts")]
+fn frame_bytes(df: &Cow<'_, DatasetFrame>) -> usize {
+    match df {
+        Cow::Borrowed(_) => 0,
+        Cow::Owned(f) => {
+            let points =
+                f.frame.cloud.as_ref().map_or(0, |c| c.points_in_sensor.len() * std::mem::size_of::<[f32; 3]>());
+            let objects = f.frame.objects.len() * std::mem::size_of::<pmon_monitor::ObjectState>();
+            let extras = f.extras.len() * std::mem::size_of::<pmon_datasets::ObjectExtra>();
+            let roi: usize = f.frame.roi_in_ego.iter().map(|p| std::mem::size_of_val(p.as_slice())).sum();
+            std::mem::size_of::<DatasetFrame>() + points + objects + extras + roi
+        }
+    }
+}
 
 /// One run of a pass.
 enum Run {
@@ -173,7 +223,7 @@ fn stream_set(
     s: usize,
     seed: u64,
     opts: &RealDataOptions,
-    runs_per_pass: usize,
+    size: PassSize,
 ) -> Result<SetPass, String> {
     let mags = &opts.position_magnitudes_m;
     let params = set.params;
@@ -199,7 +249,21 @@ fn stream_set(
     let mut without_roi: Option<Vec<u64>> = None;
     // The boxes consistent on each clean frame (the clean run comes first, in the first pass).
     let mut consistent_by_frame: Vec<Vec<usize>> = Vec::new();
-    for (p, batch) in ids.chunks(runs_per_pass.max(1)).enumerate() {
+    let threads = rayon::current_num_threads().max(1);
+    // The frames kept by the first pass (owned ones; `None` once they outgrow half the budget, or not asked for).
+    let mut cache: Option<Vec<DatasetFrame>> = None;
+    let mut keep: Option<Vec<DatasetFrame>> = matches!(size, PassSize::Budget(_)).then(Vec::new);
+    let (mut kept_bytes, mut largest) = (0usize, 0usize);
+    let (mut start, mut p) = (0usize, 0usize);
+    while start < ids.len() {
+        let per_pass = match size {
+            PassSize::Runs(n) => n.max(1),
+            PassSize::Budget(_) if p == 0 || cache.is_some() => threads,
+            PassSize::Budget(b) => (b.saturating_sub(largest) / RUN_BYTES).max(threads),
+        };
+        let end = start.saturating_add(per_pass).min(ids.len());
+        let batch = ids.get(start..end).ok_or("internal: no such runs")?;
+        start = end;
         let mut runs: Vec<Run> = batch
             .iter()
             .map(|id| {
@@ -222,7 +286,10 @@ fn stream_set(
         if let Some(Run::WithoutRoi(m)) = runs.last() {
             without_roi = m.as_ref().map(|_| Vec::new());
         }
-        let frames = (set.frames)()?;
+        let frames: Box<dyn Iterator<Item = Result<Cow<'_, DatasetFrame>, String>> + '_> = match cache.as_ref() {
+            Some(c) => Box::new(c.iter().map(|f| Ok(Cow::Borrowed(f)))),
+            None => Box::new((set.frames)()?.map(|r| r.map(|c: Cow<'_, DatasetFrame>| c))),
+        };
         let mut k = 0usize;
         for df in frames {
             let df = df?;
@@ -312,6 +379,16 @@ fn stream_set(
                 pass.frames += 1;
                 pass.states += df.frame.objects.len();
                 clean_summary.add_roi(&df);
+                let bytes = frame_bytes(&df);
+                largest = largest.max(bytes);
+                kept_bytes = kept_bytes.saturating_add(bytes);
+                let room = matches!(size, PassSize::Budget(b) if kept_bytes <= b / 2);
+                match (&mut keep, df) {
+                    (Some(kept), Cow::Owned(f)) if room => kept.push(f),
+                    // A borrowed frame: the set is in memory already, and reading it again costs nothing.
+                    (Some(_), Cow::Borrowed(_)) if room => {}
+                    _ => keep = None,
+                }
             }
             k += 1;
         }
@@ -325,6 +402,11 @@ fn stream_set(
                 }
             }
         }
+        if p == 0 {
+            // Every frame kept (or borrowed): the other passes go over them; otherwise they read the log again.
+            cache = keep.take().filter(|kept| kept.len() == pass.frames);
+        }
+        p += 1;
     }
     clean_summary.set_without_roi(without_roi);
     pass.clean_summary = clean_summary;
@@ -428,22 +510,22 @@ pub(super) fn sensor_experiments(
     opts: &RealDataOptions,
     out: &mut RealDataResults,
 ) -> Result<Vec<usize>, String> {
-    sensor_experiments_in_passes(sets, seed, opts, out, RUNS_PER_PASS)
+    sensor_experiments_in_passes(sets, seed, opts, out, PassSize::Budget(pass_budget_bytes()))
 }
 
-/// [`sensor_experiments`] with another number of runs per pass (the results do not depend on it).
+/// [`sensor_experiments`] with another pass size (the results do not depend on it).
 fn sensor_experiments_in_passes(
     sets: &mut [SensorSet<'_>],
     seed: u64,
     opts: &RealDataOptions,
     out: &mut RealDataResults,
-    runs_per_pass: usize,
+    size: PassSize,
 ) -> Result<Vec<usize>, String> {
     let mags = &opts.position_magnitudes_m;
     let mut passes: Vec<(&SensorSet<'_>, SetPass)> = Vec::new();
     let mut counts = Vec::new();
     for (s, set) in sets.iter_mut().enumerate() {
-        let pass = stream_set(set, s, seed, opts, runs_per_pass)?;
+        let pass = stream_set(set, s, seed, opts, size)?;
         counts.push(pass.frames);
         if pass.frames > 0 {
             passes.push((&*set, pass));
@@ -863,7 +945,7 @@ mod tests {
         DatasetFrame { frame: f, extras: Vec::new() }
     }
 
-    fn results(name: &str, n: usize, per_pass: usize, readings: &std::cell::Cell<usize>) -> (Vec<usize>, String) {
+    fn results(name: &str, n: usize, per_pass: PassSize, readings: &std::cell::Cell<usize>) -> (Vec<usize>, String) {
         let params = MonitorParams { ground_z_m: 0.0, ..MonitorParams::PAPER };
         let opts = RealDataOptions {
             position_magnitudes_m: vec![1.0, 2.0],
@@ -900,7 +982,7 @@ mod tests {
     fn a_long_log_is_streamed_one_frame_at_a_time_in_bounded_passes() {
         let readings = std::cell::Cell::new(0);
         let n = 60;
-        let (counts, json) = results(COUNTED, n, 4, &readings);
+        let (counts, json) = results(COUNTED, n, PassSize::Runs(4), &readings);
         assert_eq!(counts, vec![n]);
         // Held at once: one frame, whatever the length of the log.
         assert_eq!(FRAMES_PEAK.load(Ordering::SeqCst), 1);
@@ -911,7 +993,27 @@ mod tests {
         assert!(json.contains(&format!("{COUNTED} ({n} frames, {} boxes)", 2 * n)), "{json}");
         // All runs in one pass (one reading) give the same results: the passes change nothing but the memory.
         let once = std::cell::Cell::new(0);
-        assert_eq!(results("zq-stream", n, RUNS_PER_PASS, &once).1.replace("zq-stream", COUNTED), json);
+        assert_eq!(results("zq-stream", n, PassSize::Runs(RUNS_PER_PASS), &once).1.replace("zq-stream", COUNTED), json);
         assert_eq!(once.get(), 1);
+    }
+
+    #[test]
+    fn the_pass_size_from_a_memory_budget_changes_the_readings_not_the_results() {
+        let n = 60;
+        let same = |name: &str, size: PassSize| {
+            let readings = std::cell::Cell::new(0);
+            let (counts, json) = results(name, n, size, &readings);
+            assert_eq!(counts, vec![n]);
+            (json.replace(name, COUNTED), readings.get())
+        };
+        let (reference, _) = same("zq-budget-ref", PassSize::Runs(RUNS_PER_PASS));
+        let threads = rayon::current_num_threads().max(1);
+        // The 60 frames (about 90 kB each) fit in half of 64 MiB: read once, kept, the other passes over them.
+        let (json, readings) = same("zq-budget-fits", PassSize::Budget(64 << 20));
+        assert_eq!((json == reference, readings), (true, 1));
+        // Nothing fits: the first pass (as many runs as threads) and then passes of as many runs as threads (the
+        // budget leaves room for none), each a reading: 10 runs.
+        let (json, readings) = same("zq-budget-none", PassSize::Budget(0));
+        assert_eq!((json == reference, readings), (true, 1 + (10 - threads.min(10)).div_ceil(threads)));
     }
 }

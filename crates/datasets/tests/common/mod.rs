@@ -45,3 +45,27 @@ pub fn angle_diff_mod(a: f64, b: f64, period: f64) -> f64 {
     let d = (a - b).rem_euclid(period);
     d.min(period - d)
 }
+
+/// `open_deferred` then each frame's sweep read when asked gives the frames of `open_with` bit for bit (the
+/// campaign streams them this way), with the dataset's ground surface and with the local estimate.
+pub fn assert_deferred_same(spec: &str) {
+    use pmon_datasets::ground::GroundMode;
+    use pmon_datasets::{DatasetFormat, ReadOptions};
+    for ground in [GroundMode::Auto, GroundMode::Local] {
+        let opts = ReadOptions { ground, ..ReadOptions::default() };
+        let whole = pmon_datasets::open_with(spec, &opts).unwrap();
+        let (mut ds, sweeps) = pmon_datasets::open_deferred(spec, &opts).unwrap();
+        assert!(ds.frames.iter().all(|f| f.frame.cloud.is_none()), "{spec}");
+        let mut with_sweep = 0;
+        for (i, f) in ds.frames.iter_mut().enumerate() {
+            assert_eq!(sweeps.has_sweep(i), whole.frames[i].frame.cloud.is_some(), "{spec} frame {i}");
+            f.frame.cloud = sweeps.cloud(i).unwrap();
+            with_sweep += usize::from(f.frame.cloud.is_some());
+        }
+        assert!(with_sweep > 0, "{spec}");
+        assert!(ds.frames == whole.frames, "{spec} {ground:?}: the frames differ");
+        if ds.info.format != DatasetFormat::Argoverse2 {
+            assert_eq!(ds.info, whole.info, "{spec} {ground:?}");
+        }
+    }
+}
