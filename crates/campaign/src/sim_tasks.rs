@@ -336,6 +336,22 @@ mod tests {
         assert!(a.iter().zip(&c).all(|(x, y)| x.spec.injection.seed != y.spec.injection.seed));
     }
 
+    /// Adding a params key must not redraw every run: a key added later (`spill_over_fit`) stays out of the
+    /// identity at its default, and the seeds of the paper's default plan stay those of before (pinned: the
+    /// first run of the smoke plan at campaign seed 7, the same bytes `pmon reproduce` wrote before the key).
+    #[test]
+    fn a_params_key_added_at_its_default_keeps_the_identities() {
+        let params = MonitorParams::default();
+        let a = plan(Scale::Smoke, IDS, &params, 7);
+        let id = run_identity("pedestrians", &a[0].spec);
+        assert!(!id.contains("spill_over_fit"), "{id}");
+        assert_eq!(a[0].spec.injection.seed, 5_901_858_983_376_117_566, "{id}");
+        let every = MonitorParams { spill_over_fit: pmon_monitor::SpillOverFit::EveryReturn, ..params };
+        let b = plan(Scale::Smoke, IDS, &every, 7);
+        assert!(run_identity("pedestrians", &b[0].spec).contains("\"spill_over_fit\":\"every_return\""));
+        assert_ne!(a[0].spec.injection.seed, b[0].spec.injection.seed);
+    }
+
     #[test]
     fn tasks_cover_every_run_and_share_identical_ones() {
         let params = MonitorParams::default();
