@@ -559,6 +559,43 @@ fn add_velocity_cov(cov: &mut [f64; 3], w: f64, (s, c): (f64, f64), sv: f64, sc:
     cov[2] += a * s * s + b * c * c;
 }
 
+/// The displacement the reported velocities predict from the history's state `from` to `last` (the new state,
+/// with its [`Entry::unit`]), by the trapezoid over `from`, the states after it and `last` (each velocity weighs
+/// half of its two adjacent intervals), and its covariance: both positions' and every velocity's. With
+/// `skip_flipped`, a state after `from` whose heading was called flipped lends no velocity.
+fn trapezoid(h: &History, from: &Entry, b: usize, last: &Entry, skip_flipped: bool) -> ([f64; 2], [f64; 3]) {
+    let n = h.len();
+    let sq = |x: f32| f64::from(x) * f64::from(x);
+    let mut pred = [0.0f64; 2];
+    let mut cov = [sq(from.sx_m) + sq(last.sx_m), 0.0, sq(from.sy_m) + sq(last.sy_m)];
+    let mut prev: Option<&Entry> = None;
+    let mut prev_w = 0.0f64;
+    let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
+        let v = f64::from(e.v_mps);
+        let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
+        pred[0] += w * v * c;
+        pred[1] += w * v * s;
+        let sv = f64::from(e.sv_mps);
+        add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
+    };
+    for j in b..=n {
+        let e = if j < n { h.get(j).unwrap_or(last) } else { last };
+        if skip_flipped && j != b && j < n && e.flipped {
+            continue;
+        }
+        if let Some(p) = prev {
+            let half = 0.5 * (e.t_s - p.t_s);
+            add(p, prev_w + half, &mut pred, &mut cov);
+            prev_w = half;
+        }
+        prev = Some(e);
+    }
+    if let Some(p) = prev {
+        add(p, prev_w, &mut pred, &mut cov);
+    }
+    (pred, cov)
+}
+
 /// For a heading that may stay flipped: does the box's motion from the history's state `f` (the first state
 /// called flipped) to `s1` (with its [`Entry::unit`]) agree better with the reported headings than with the
 /// headings turned by pi? The two hypotheses predict opposite displacements, `a` (the trapezoid of the reported
@@ -569,33 +606,8 @@ fn add_velocity_cov(cov: &mut [f64; 3], w: f64, (s, c): (f64, f64), sv: f64, sc:
 /// length and width since `f` (a re-fit moves the reference point without the object moving, which is no
 /// evidence of a turn). A tie (no motion, or no usable covariance) is not a turn: the flip stays reported.
 fn turn_explains_motion(h: &History, f: usize, s1: &Entry) -> bool {
-    let n = h.len();
     let Some(sf) = h.get(f) else { return false };
-    let sq = |x: f32| f64::from(x) * f64::from(x);
-    let mut a = [0.0f64; 2];
-    let mut cov = [sq(sf.sx_m) + sq(s1.sx_m), 0.0, sq(sf.sy_m) + sq(s1.sy_m)];
-    let mut prev: Option<&Entry> = None;
-    let mut prev_w = 0.0f64;
-    let add = |e: &Entry, w: f64, a: &mut [f64; 2], cov: &mut [f64; 3]| {
-        let v = f64::from(e.v_mps);
-        let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
-        a[0] += w * v * c;
-        a[1] += w * v * s;
-        let sv = f64::from(e.sv_mps);
-        add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
-    };
-    for j in f..=n {
-        let e = if j < n { h.get(j).unwrap_or(s1) } else { s1 };
-        if let Some(p) = prev {
-            let half = 0.5 * (e.t_s - p.t_s);
-            add(p, prev_w + half, &mut a, &mut cov);
-            prev_w = half;
-        }
-        prev = Some(e);
-    }
-    if let Some(p) = prev {
-        add(p, prev_w, &mut a, &mut cov);
-    }
+    let (a, cov) = trapezoid(h, sf, f, s1, false);
     let (s, c) = (f64::from(s1.unit[1]), f64::from(s1.unit[0]));
     let d = refit_allowance(
         [s1.x_m - sf.x_m, s1.y_m - sf.y_m],
@@ -755,39 +767,8 @@ pub(crate) fn check_calibrated_sc(
     }
     let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
-    let mut pred = [0.0f64; 2];
-    let mut cov = [
-        f64::from(sb.sx_m) * f64::from(sb.sx_m) + f64::from(s1.sx_m) * f64::from(s1.sx_m),
-        0.0,
-        f64::from(sb.sy_m) * f64::from(sb.sy_m) + f64::from(s1.sy_m) * f64::from(s1.sy_m),
-    ];
-    // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no
-    // velocity); each velocity weighs half of its two adjacent intervals.
-    let mut prev: Option<&Entry> = None;
-    let mut prev_w = 0.0f64;
-    let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
-        let v = f64::from(e.v_mps);
-        let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
-        pred[0] += w * v * c;
-        pred[1] += w * v * s;
-        let sv = f64::from(e.sv_mps);
-        add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
-    };
-    for j in b..=n {
-        let e = if j < n { h.get(j).unwrap_or(s1) } else { &s1u };
-        if j != b && j < n && e.flipped {
-            continue;
-        }
-        if let Some(p) = prev {
-            let half = 0.5 * (e.t_s - p.t_s);
-            add(p, prev_w + half, &mut pred, &mut cov);
-            prev_w = half;
-        }
-        prev = Some(e);
-    }
-    if let Some(p) = prev {
-        add(p, prev_w, &mut pred, &mut cov);
-    }
+    // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no velocity).
+    let (pred, cov) = trapezoid(h, &sb, b, &s1u, true);
     let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
     let r = refit_allowance(raw, u1, f64::from(s1.length_m - sb.length_m), f64::from(s1.width_m - sb.width_m));
     let d2 = mahalanobis2(r, cov);
