@@ -241,32 +241,58 @@ pub fn open(spec: &str) -> Result<Dataset, DatasetError> {
 /// # Errors
 /// An unknown scheme, or any error of the reader.
 pub fn open_with(spec: &str, opts: &ReadOptions) -> Result<Dataset, DatasetError> {
-    let spec_err = |message: String| DatasetError::Spec { spec: spec.to_string(), message };
-    let Some((scheme, rest)) = spec.split_once(':') else {
-        return Err(spec_err(format!("expected `scheme:path`, scheme one of: {}", SCHEMES.join(", "))));
-    };
-    if rest.is_empty() {
-        return Err(spec_err("the path is empty".into()));
-    }
-    let mut ds = match scheme {
-        "kitti" => kitti::open_object(Path::new(rest), opts),
-        "kitti-tracking" => kitti::open_tracking(Path::new(rest)),
-        "nuscenes" => nuscenes::open_converted(Path::new(rest), opts),
-        "nuscenes-v1" => {
-            let (path, scene) = match rest.rsplit_once('#') {
-                Some((p, s)) if !s.is_empty() => (p, Some(s)),
-                _ => (rest, None),
-            };
-            nuscenes::open_v1(Path::new(path), scene, opts)
-        }
-        "av2" => av2::open_log(Path::new(rest), opts),
-        "commonroad" => commonroad::open_scenario(Path::new(rest)),
-        other => Err(spec_err(format!("unknown scheme `{other}`, expected one of: {}", SCHEMES.join(", ")))),
+    let mut ds = match Spec::parse(spec)? {
+        Spec::Kitti(p) => kitti::open_object(p, opts),
+        Spec::KittiTracking(p) => kitti::open_tracking(p),
+        Spec::NuScenes(p) => nuscenes::open_converted(p, opts),
+        Spec::NuScenesV1(p, scene) => nuscenes::open_v1(p, scene, opts),
+        Spec::Av2(p) => av2::open_log(p, opts),
+        Spec::CommonRoad(p) => commonroad::open_scenario(p),
     }?;
     roi::finish(&mut ds, &opts.roi);
     ground::finish(&mut ds, opts.ground);
     check_finite(&ds)?;
     Ok(ds)
+}
+
+/// A dataset spec `scheme:path` taken apart ([`open_with`] and [`sweeps::open_deferred`] read the same specs).
+pub(crate) enum Spec<'a> {
+    Kitti(&'a Path),
+    KittiTracking(&'a Path),
+    NuScenes(&'a Path),
+    /// The path and the scene after `#`, if any.
+    NuScenesV1(&'a Path, Option<&'a str>),
+    Av2(&'a Path),
+    CommonRoad(&'a Path),
+}
+
+impl<'a> Spec<'a> {
+    /// # Errors
+    /// No `scheme:`, an empty path or an unknown scheme, naming the spec and the schemes known.
+    pub(crate) fn parse(spec: &'a str) -> Result<Self, DatasetError> {
+        let spec_err = |message: String| DatasetError::Spec { spec: spec.to_string(), message };
+        let Some((scheme, rest)) = spec.split_once(':') else {
+            return Err(spec_err(format!("expected `scheme:path`, scheme one of: {}", SCHEMES.join(", "))));
+        };
+        if rest.is_empty() {
+            return Err(spec_err("the path is empty".into()));
+        }
+        let path = Path::new(rest);
+        Ok(match scheme {
+            "kitti" => Spec::Kitti(path),
+            "kitti-tracking" => Spec::KittiTracking(path),
+            "nuscenes" => Spec::NuScenes(path),
+            "nuscenes-v1" => match rest.rsplit_once('#') {
+                Some((p, s)) if !s.is_empty() => Spec::NuScenesV1(Path::new(p), Some(s)),
+                _ => Spec::NuScenesV1(path, None),
+            },
+            "av2" => Spec::Av2(path),
+            "commonroad" => Spec::CommonRoad(path),
+            other => {
+                return Err(spec_err(format!("unknown scheme `{other}`, expected one of: {}", SCHEMES.join(", "))))
+            }
+        })
+    }
 }
 
 /// Every reader's values end up as f32: one beyond f32's range (or NaN) would become an infinity the monitor

@@ -4,14 +4,14 @@
 //! `frame.cloud` (the same file reader, the same extrinsic, the same levelling). A campaign then holds one sweep
 //! at a time instead of the whole log's (`pmon evaluate`'s sensor tasks, docs/campaigns.md).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use pmon_monitor::Isometry3;
 use pmon_recording::OwnedCloud;
 
 use crate::av2::Av2Sweeps;
 use crate::ground::{level_cloud, SectorGroundOptions};
-use crate::{av2, commonroad, kitti, nuscenes, Dataset, DatasetError, ReadOptions, SCHEMES};
+use crate::{av2, commonroad, kitti, nuscenes, Dataset, DatasetError, ReadOptions, Spec};
 
 /// The file format of a sweep read by [`SweepFile::read`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,30 +103,16 @@ impl DeferredSweeps {
 /// # Errors
 /// An unknown scheme, or any error of the reader except those of the sweep files.
 pub fn open_deferred(spec: &str, opts: &ReadOptions) -> Result<(Dataset, DeferredSweeps), DatasetError> {
-    let spec_err = |message: String| DatasetError::Spec { spec: spec.to_string(), message };
-    let Some((scheme, rest)) = spec.split_once(':') else {
-        return Err(spec_err(format!("expected `scheme:path`, scheme one of: {}", SCHEMES.join(", "))));
-    };
-    if rest.is_empty() {
-        return Err(spec_err("the path is empty".into()));
-    }
-    let (mut ds, files) = match scheme {
-        "av2" => {
-            let (ds, sweeps) = av2::open_log_deferred(Path::new(rest), opts)?;
+    let (mut ds, files) = match Spec::parse(spec)? {
+        Spec::Av2(p) => {
+            let (ds, sweeps) = av2::open_log_deferred(p, opts)?;
             return Ok((ds, DeferredSweeps { source: Source::Av2(Box::new(sweeps)) }));
         }
-        "kitti" => kitti::open_object_with(Path::new(rest), opts, true)?,
-        "kitti-tracking" => (kitti::open_tracking(Path::new(rest))?, Vec::new()),
-        "nuscenes" => nuscenes::open_converted_with(Path::new(rest), opts, true)?,
-        "nuscenes-v1" => {
-            let (path, scene) = match rest.rsplit_once('#') {
-                Some((p, s)) if !s.is_empty() => (p, Some(s)),
-                _ => (rest, None),
-            };
-            nuscenes::open_v1_with(Path::new(path), scene, opts, true)?
-        }
-        "commonroad" => (commonroad::open_scenario(Path::new(rest))?, Vec::new()),
-        other => return Err(spec_err(format!("unknown scheme `{other}`, expected one of: {}", SCHEMES.join(", ")))),
+        Spec::Kitti(p) => kitti::open_object_with(p, opts, true)?,
+        Spec::KittiTracking(p) => (kitti::open_tracking(p)?, Vec::new()),
+        Spec::NuScenes(p) => nuscenes::open_converted_with(p, opts, true)?,
+        Spec::NuScenesV1(p, scene) => nuscenes::open_v1_with(p, scene, opts, true)?,
+        Spec::CommonRoad(p) => (commonroad::open_scenario(p)?, Vec::new()),
     };
     crate::roi::finish(&mut ds, &opts.roi);
     // What ground::finish does after the reader, per sweep as it is read.
