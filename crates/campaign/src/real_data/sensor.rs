@@ -149,14 +149,18 @@ pub const PASS_BUDGET_BYTES: usize = 256 << 20;
 /// against 56 MB with 1, about 5 MB a run with the paper's 0.5 m cells over 100 m and 99,000-point sweeps).
 pub const RUN_BYTES: usize = 8 << 20;
 
-/// The memory budget of a set's passes: `PMON_PASS_BUDGET_MB` (MiB) when set and a number, else
-/// [`PASS_BUDGET_BYTES`].
-#[must_use]
-pub fn pass_budget_bytes() -> usize {
-    std::env::var("PMON_PASS_BUDGET_MB")
-        .ok()
-        .and_then(|v| v.trim().parse::<usize>().ok())
-        .map_or(PASS_BUDGET_BYTES, |mb| mb.saturating_mul(1 << 20))
+/// The memory budget of a set's passes: `PMON_PASS_BUDGET_MB` (MiB) when set, else [`PASS_BUDGET_BYTES`].
+///
+/// # Errors
+/// `PMON_PASS_BUDGET_MB` set to something other than a whole number of MiB (named, not silently ignored).
+pub fn pass_budget_bytes() -> Result<usize, String> {
+    match std::env::var("PMON_PASS_BUDGET_MB") {
+        Err(std::env::VarError::NotPresent) => Ok(PASS_BUDGET_BYTES),
+        Ok(v) => v.trim().parse::<usize>().map(|mb| mb.saturating_mul(1 << 20)).map_err(|_| {
+            format!("PMON_PASS_BUDGET_MB: `{v}` is not a whole number of MiB (unset it for the default, 256)")
+        }),
+        Err(e) => Err(format!("PMON_PASS_BUDGET_MB: {e}")),
+    }
 }
 
 /// How many runs a pass over a set's frames holds.
@@ -510,7 +514,7 @@ pub(super) fn sensor_experiments(
     opts: &RealDataOptions,
     out: &mut RealDataResults,
 ) -> Result<Vec<usize>, String> {
-    sensor_experiments_in_passes(sets, seed, opts, out, PassSize::Budget(pass_budget_bytes()))
+    sensor_experiments_in_passes(sets, seed, opts, out, PassSize::Budget(pass_budget_bytes()?))
 }
 
 /// [`sensor_experiments`] with another pass size (the results do not depend on it).
