@@ -23,7 +23,7 @@ pub mod peers;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use pmon_monitor::{FrameError, Monitor, MonitorParams, ParamError, Rasterizer, Stage};
+use pmon_monitor::{FrameError, Join, Monitor, MonitorParams, ParamError, Rasterizer, Stage};
 use serde::{Deserialize, Serialize};
 
 pub use frames::{Sequence, SyntheticSpec};
@@ -38,14 +38,41 @@ pub fn timed_check<'m>(
     monitor: &'m mut Monitor,
     frame: &pmon_monitor::Frame<'_>,
 ) -> Result<(pmon_monitor::FrameReport<'m>, [f64; 5]), FrameError> {
+    timed_check_with(monitor, frame, None)
+}
+
+/// [`Join`] on rayon's global pool (`rayon::join`): the two halves of [`Monitor::check_split`]'s rasterize stage
+/// on two threads.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayonJoin;
+
+impl Join for RayonJoin {
+    fn join(&self, a: &mut (dyn FnMut() + Send), b: &mut (dyn FnMut() + Send)) {
+        rayon::join(a, b);
+    }
+}
+
+/// [`timed_check`], through [`Monitor::check_split`] with `join` when given.
+///
+/// # Errors
+/// As [`Monitor::check`].
+pub fn timed_check_with<'m>(
+    monitor: &'m mut Monitor,
+    frame: &pmon_monitor::Frame<'_>,
+    join: Option<&dyn Join>,
+) -> Result<(pmon_monitor::FrameReport<'m>, [f64; 5]), FrameError> {
     let mut marks: [Option<Instant>; 5] = [None; 5];
     let t0 = Instant::now();
-    let report = monitor.check_with_stages(frame, &mut |s| {
+    let mut on_stage = |s| {
         let now = Instant::now();
         if let Some(m) = Stage::ALL.iter().position(|x| *x == s).and_then(|k| marks.get_mut(k)) {
             *m = Some(now);
         }
-    })?;
+    };
+    let report = match join {
+        Some(join) => monitor.check_split_with_stages(frame, join, &mut on_stage)?,
+        None => monitor.check_with_stages(frame, &mut on_stage)?,
+    };
     let mut row = [0.0; 5];
     let mut prev = t0;
     for (slot, mark) in row.iter_mut().zip(marks) {
@@ -73,6 +100,9 @@ pub struct BenchOptions {
     pub rasterizer: Rasterizer,
     /// Measure only the cases whose name contains one of these (all cases when empty).
     pub only: Vec<String>,
+    /// Rasterize sweeps of at least `pmon_monitor::split::SPLIT_MIN_POINTS` points in two halves on two
+    /// threads ([`Monitor::check_split`] with [`RayonJoin`]; the same verdicts). Off: one thread.
+    pub split: bool,
 }
 
 impl Default for BenchOptions {
@@ -87,6 +117,7 @@ impl Default for BenchOptions {
             worst_case: true,
             rasterizer: Rasterizer::Blocked,
             only: Vec::new(),
+            split: false,
         }
     }
 }
@@ -328,6 +359,13 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
     if !machine.optimized_build {
         notes.push("DEBUG BUILD: figures are not representative; build with --release".to_string());
     }
+    if opts.split {
+        notes.push(format!(
+            "--split: sweeps of at least {} points are rasterized in two halves on two threads (Monitor::check_split, \
+             rayon); the figures are wall time on two cores, not the one-core figures of the goals",
+            pmon_monitor::split::SPLIT_MIN_POINTS
+        ));
+    }
 
     // Real data first: a malformed file fails the run before anything slow happens.
     let real = if opts.real_data { real_sequences(opts, &mut notes)? } else { RealSequences::default() };
@@ -522,6 +560,10 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     }
     let mut monitor = Monitor::new(p).map_err(|source| BenchError::Params { case: def.name.clone(), source })?;
     monitor.set_rasterizer(opts.rasterizer);
+    if opts.split {
+        monitor.enable_split();
+    }
+    let join: Option<&dyn Join> = if opts.split { Some(&RayonJoin) } else { None };
     let seq = def.sequence;
     let n = seq.frames.len().max(1);
     let frame_err = |source| BenchError::Frame { case: def.name.clone(), source };
@@ -541,7 +583,7 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     for i in n..n + opts.iterations {
         let mut roi = Vec::new();
         let Some(frame) = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi) else { break };
-        let (report, row) = timed_check(&mut monitor, &frame).map_err(frame_err)?;
+        let (report, row) = timed_check_with(&mut monitor, &frame, join).map_err(frame_err)?;
         points.push(report.grid.points_total);
         in_band.push(report.grid.points_in_band);
         cells_hit.push(report.grid.cells_hit);

@@ -13,6 +13,7 @@ fn quick() -> BenchOptions {
         worst_case: false,
         rasterizer: pmon_monitor::Rasterizer::Blocked,
         only: Vec::new(),
+        split: false,
     }
 }
 
@@ -121,4 +122,25 @@ fn only_selects_cases_by_name() {
         run_bench(&BenchOptions { only: vec!["synthetic-32".into(), "objects-30/".into()], ..quick() }).unwrap();
     let names: Vec<&str> = report.cases.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["synthetic-32/0.5m", "objects-30/no-cloud", "objects-30/no-cloud/calibrated"]);
+}
+
+#[test]
+fn split_runs_the_same_frames_on_two_threads_and_says_so() {
+    let only = vec!["synthetic-64/0.5m".to_string(), "synthetic-32".to_string()];
+    let one = run_bench(&BenchOptions { only: only.clone(), ..quick() }).unwrap();
+    let two = run_bench(&BenchOptions { only, split: true, ..quick() }).unwrap();
+    assert_eq!(one.cases.len(), 2);
+    for (a, b) in one.cases.iter().zip(&two.cases) {
+        assert_eq!(a.name, b.name);
+        // The medians of the frame statistics: the same points in band, hit cells and clusters.
+        assert_eq!(
+            (a.points, a.points_in_band, a.cells_hit, a.clusters),
+            (b.points, b.points_in_band, b.cells_hit, b.clusters),
+            "{}",
+            a.name
+        );
+        assert!(b.points as usize >= pmon_monitor::split::SPLIT_MIN_POINTS, "{}: large enough to be split", b.name);
+    }
+    assert!(two.notes.iter().any(|n| n.starts_with("--split")), "{:?}", two.notes);
+    assert!(!one.notes.iter().any(|n| n.starts_with("--split")), "{:?}", one.notes);
 }

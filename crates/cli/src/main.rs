@@ -89,6 +89,10 @@ enum Command {
         /// this folder, for the numpy and PCL peers (crates/bench/peers, docs/performance.md).
         #[arg(long)]
         export_peers: Option<std::path::PathBuf>,
+        /// Rasterize each sweep of at least 16,384 points in two halves on two threads (`Monitor::check_split`:
+        /// bit-identical verdicts; docs/performance.md). Without it every case runs on one thread.
+        #[arg(long)]
+        split: bool,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -188,6 +192,7 @@ fn main() -> ExitCode {
             rasterizer,
             only,
             export_peers,
+            split,
         } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
@@ -201,6 +206,7 @@ fn main() -> ExitCode {
                     RasterizerArg::Scalar => pmon_monitor::Rasterizer::Scalar,
                 },
                 only,
+                split,
             };
             if let Some(dir) = export_peers {
                 return match pmon_bench::peers::export_peers(&dir, &opts) {

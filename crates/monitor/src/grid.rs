@@ -345,6 +345,16 @@ impl OccupancyGrid {
         }
     }
 
+    /// Adds `other`'s hits to this grid, cell by cell in `other`'s order of first touch: the grid one pass over
+    /// this grid's points and then `other`'s would give (counts saturate at the same maximum; cells new to this
+    /// grid join its touched list in `other`'s order). Flags are not copied. For the rasterize stage on two
+    /// threads (`crate::split`); `other` must have the same geometry.
+    pub(crate) fn absorb(&mut self, other: &OccupancyGrid) {
+        for &c in other.touched() {
+            let _ = self.add_run(c, u32::from(other.hits(c)));
+        }
+    }
+
     /// `n` hits on one cell: the same as `n` calls of [`OccupancyGrid::add_hit`]. False when no hit was recorded
     /// (outside the grid, or a new cell while the touched list is full).
     #[inline(always)]

@@ -50,6 +50,7 @@ pub mod motion;
 pub mod plausibility;
 mod rasterize;
 pub mod region;
+pub mod split;
 pub mod theory;
 pub mod visibility;
 
@@ -57,3 +58,4 @@ pub use grid::{CellState, GridGeometry, OccupancyGrid};
 pub use monitor::{object_is_valid, Monitor, Stage};
 pub use rasterize::Rasterizer;
 pub use region::Region;
+pub use split::{Join, Sequential};

@@ -129,6 +129,8 @@ pub struct Monitor {
     /// The cells marked `FLAG_ROI_EDGE` this frame as bits (one more bit than cells, never set, for `NO_CELL`);
     /// empty between frames.
     edge_bits: Vec<u64>,
+    /// The second half's buffers of the rasterize stage on two threads ([`Monitor::enable_split`]).
+    split: Option<crate::split::SecondHalf>,
 }
 
 /// Checks an object's state: finite values, sizes in `(0, max]`, speed `>= 0`, valid uncertainties.
@@ -196,6 +198,7 @@ impl Monitor {
             roi: RoiIndex::new(geometry),
             point_cells: Vec::with_capacity(max_points),
             edge_bits: alloc::vec![0; cells / 64 + 1],
+            split: None,
             params,
         })
     }
@@ -247,6 +250,49 @@ impl Monitor {
         self.check_with_stages(frame, &mut |_| {})
     }
 
+    /// Allocates a second grid, visibility map and point buffer, so that [`Monitor::check_split`] can rasterize
+    /// a sweep on two threads (about `cells^2 x 3 + max_points x 4` bytes more). Call it once, after
+    /// [`Monitor::new`]; again, it does nothing. [`Monitor::check`] is unaffected.
+    pub fn enable_split(&mut self) {
+        if self.split.is_none() {
+            let max_points = self.params.max_points as usize;
+            self.split = Some(crate::split::SecondHalf {
+                grid: OccupancyGrid::new(self.grid.geometry, self.params.hit_probability, max_points),
+                visibility: VisibilityMap::new(self.params.visibility_bins),
+                cells: Vec::with_capacity(max_points),
+            });
+        }
+    }
+
+    /// [`Monitor::check`], with the rasterize stage of a large sweep (at least
+    /// [`crate::split::SPLIT_MIN_POINTS`] points) cut in two halves that `join` runs, on two threads if it
+    /// likes: the same reports, bit for bit, as [`Monitor::check`] (the argument is in `crate::split`). Runs
+    /// on the calling thread alone when [`Monitor::enable_split`] was not called, for smaller sweeps, and with
+    /// the scalar rasterizer. Allocates nothing.
+    ///
+    /// # Errors
+    /// As [`Monitor::check`].
+    pub fn check_split(
+        &mut self,
+        frame: &Frame<'_>,
+        join: &dyn crate::split::Join,
+    ) -> Result<FrameReport<'_>, FrameError> {
+        self.check_inner(frame, &mut |_| {}, Some(join))
+    }
+
+    /// [`Monitor::check_split`], calling `on_stage` as each [`Stage`] ends (see [`Monitor::check_with_stages`]).
+    ///
+    /// # Errors
+    /// As [`Monitor::check`].
+    pub fn check_split_with_stages(
+        &mut self,
+        frame: &Frame<'_>,
+        join: &dyn crate::split::Join,
+        on_stage: &mut dyn FnMut(Stage),
+    ) -> Result<FrameReport<'_>, FrameError> {
+        self.check_inner(frame, on_stage, Some(join))
+    }
+
     /// [`Monitor::check`], calling `on_stage` as each [`Stage`] ends (for profiling: the caller reads its
     /// own clock; the core has none).
     ///
@@ -257,12 +303,21 @@ impl Monitor {
         frame: &Frame<'_>,
         on_stage: &mut dyn FnMut(Stage),
     ) -> Result<FrameReport<'_>, FrameError> {
+        self.check_inner(frame, on_stage, None)
+    }
+
+    fn check_inner(
+        &mut self,
+        frame: &Frame<'_>,
+        on_stage: &mut dyn FnMut(Stage),
+        join: Option<&dyn crate::split::Join>,
+    ) -> Result<FrameReport<'_>, FrameError> {
         let n = frame.objects.len();
         if n > self.params.max_objects as usize {
             return Err(FrameError::TooManyObjects { got: n, max: self.params.max_objects });
         }
         self.begin_frame(frame);
-        self.rasterize(frame);
+        self.rasterize(frame, join);
         self.mark_scenery(frame);
         on_stage(Stage::Rasterize);
         self.object_regions(frame);
@@ -370,10 +425,11 @@ impl Monitor {
         }
     }
 
-    fn rasterize(&mut self, frame: &Frame<'_>) {
+    fn rasterize(&mut self, frame: &Frame<'_>, join: Option<&dyn crate::split::Join>) {
         use crate::rasterize::{
             rasterize_blocked, rasterize_blocked_recording, rasterize_scalar, rasterize_scalar_recording, Rasterizer,
         };
+        use crate::split::{rasterize_split, Half, SPLIT_MIN_POINTS};
         self.point_cells.clear();
         let Some(cloud) = frame.cloud.filter(|_| self.sensor_status.is_none()) else { return };
         let t = cloud.ego_from_sensor;
@@ -382,17 +438,32 @@ impl Monitor {
         let (points, grid, visibility) = (cloud.points_in_sensor, &mut self.grid, &mut self.visibility);
         // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
         let cells = &mut self.point_cells;
-        let in_band = match (self.rasterizer, frame.roi_in_ego.is_empty()) {
-            (Rasterizer::Blocked, true) => rasterize_blocked(points, &t, band, grid, visibility, true),
-            (Rasterizer::BlockedBaseline, true) => rasterize_blocked(points, &t, band, grid, visibility, false),
-            (Rasterizer::Scalar, true) => rasterize_scalar(points, &t, band, grid, visibility),
-            (Rasterizer::Blocked, false) => {
-                rasterize_blocked_recording(points, &t, band, grid, visibility, true, cells)
+        let record = !frame.roi_in_ego.is_empty();
+        let wide = match self.rasterizer {
+            Rasterizer::Blocked => Some(true),
+            Rasterizer::BlockedBaseline => Some(false),
+            Rasterizer::Scalar => None,
+        };
+        let split = self.split.as_mut().filter(|_| points.len() >= SPLIT_MIN_POINTS);
+        let in_band = match (join, split, wide) {
+            (Some(join), Some(second), Some(wide)) => {
+                let first = Half { grid, visibility, cells };
+                let second =
+                    Half { grid: &mut second.grid, visibility: &mut second.visibility, cells: &mut second.cells };
+                rasterize_split(points, &t, band, first, second, wide, record, join)
             }
-            (Rasterizer::BlockedBaseline, false) => {
-                rasterize_blocked_recording(points, &t, band, grid, visibility, false, cells)
-            }
-            (Rasterizer::Scalar, false) => rasterize_scalar_recording(points, &t, band, grid, visibility, cells),
+            _ => match (self.rasterizer, !record) {
+                (Rasterizer::Blocked, true) => rasterize_blocked(points, &t, band, grid, visibility, true),
+                (Rasterizer::BlockedBaseline, true) => rasterize_blocked(points, &t, band, grid, visibility, false),
+                (Rasterizer::Scalar, true) => rasterize_scalar(points, &t, band, grid, visibility),
+                (Rasterizer::Blocked, false) => {
+                    rasterize_blocked_recording(points, &t, band, grid, visibility, true, cells)
+                }
+                (Rasterizer::BlockedBaseline, false) => {
+                    rasterize_blocked_recording(points, &t, band, grid, visibility, false, cells)
+                }
+                (Rasterizer::Scalar, false) => rasterize_scalar_recording(points, &t, band, grid, visibility, cells),
+            },
         };
         self.stats.points_total = u32::try_from(cloud.points_in_sensor.len()).unwrap_or(u32::MAX);
         self.stats.points_in_band = in_band;

@@ -116,6 +116,24 @@ impl VisibilityMap {
         }
     }
 
+    /// Folds in a map of the returns that came after this map's (same bins and origin): per bin the farthest of
+    /// both, and `other`'s nearest obstacle only where it is strictly nearer by its bits (a tie keeps this map's,
+    /// which came first): the map one pass over both sets of returns in order gives. For the rasterize stage on
+    /// two threads (`crate::split`).
+    pub(crate) fn absorb(&mut self, other: &VisibilityMap) {
+        for (bin, o) in self.bins.iter_mut().zip(&other.bins) {
+            bin.farthest_return_r2 = if o.farthest_return_r2 > bin.farthest_return_r2 {
+                o.farthest_return_r2
+            } else {
+                bin.farthest_return_r2
+            };
+            if o.nearest_obstacle_r2.to_bits() < bin.nearest_obstacle_r2.to_bits() {
+                bin.nearest_obstacle_r2 = o.nearest_obstacle_r2;
+                bin.nearest_obstacle_cell = o.nearest_obstacle_cell;
+            }
+        }
+    }
+
     /// The three arrays (nearest obstacle r^2, its cell, farthest return r^2), for bit-exact comparisons.
     #[cfg(test)]
     pub(crate) fn arrays(&self) -> (Vec<f32>, Vec<u32>, Vec<f32>) {

@@ -9,6 +9,9 @@
 //! sweeps of the shared data (`PMON_DATA_DIR`, default `<workspace>/../shared/data`; skipped with a message when
 //! absent); plus a property test over random small clouds, grids, bands and extrinsics.
 //!
+//! A fourth monitor runs every frame through [`Monitor::check_split`] on two threads (sweeps of at least
+//! `pmon_monitor::split::SPLIT_MIN_POINTS` points rasterized in two halves): the same reports and grids.
+//!
 //! The bit-exactness of the visibility map itself (both range arrays and the cells) is tested inside the crate
 //! (`src/rasterize.rs`), where the map's arrays are visible.
 #![allow(
@@ -25,9 +28,10 @@
 mod frames;
 
 use frames::{Sequence, Sweep, SyntheticSpec};
+use pmon_monitor::split::SPLIT_MIN_POINTS;
 use pmon_monitor::{
-    ClusterReport, Frame, GridStats, Isometry3, Monitor, MonitorParams, NotMonitoredReason, ObjectClass, ObjectReport,
-    ObjectState, PointCloud, Pose2, Rasterizer,
+    ClusterReport, Frame, GridStats, Isometry3, Join, Monitor, MonitorParams, NotMonitoredReason, ObjectClass,
+    ObjectReport, ObjectState, PointCloud, Pose2, Rasterizer,
 };
 use proptest::prelude::*;
 
@@ -42,8 +46,26 @@ struct Outcome {
     cells: Vec<(u32, u16, u8)>,
 }
 
+/// [`Join`] on two threads (`std::thread::scope`): the rasterize stage's halves at the same time.
+struct Threads;
+
+impl Join for Threads {
+    fn join(&self, a: &mut (dyn FnMut() + Send), b: &mut (dyn FnMut() + Send)) {
+        std::thread::scope(|s| {
+            s.spawn(b);
+            a();
+        });
+    }
+}
+
 fn outcome(monitor: &mut Monitor, frame: &Frame<'_>) -> Result<Outcome, String> {
-    let report = monitor.check(frame).map_err(|e| e.to_string())?;
+    outcome_of(monitor, frame, false)
+}
+
+/// The outcome of [`Monitor::check`], or with `split` of [`Monitor::check_split`] on two threads.
+fn outcome_of(monitor: &mut Monitor, frame: &Frame<'_>, split: bool) -> Result<Outcome, String> {
+    let report = if split { monitor.check_split(frame, &Threads) } else { monitor.check(frame) };
+    let report = report.map_err(|e| e.to_string())?;
     let (objects, clusters, grid, sensor_status) =
         (report.objects.to_vec(), report.clusters.to_vec(), report.grid, report.sensor_status);
     let g = monitor.grid();
@@ -52,11 +74,13 @@ fn outcome(monitor: &mut Monitor, frame: &Frame<'_>) -> Result<Outcome, String> 
 }
 
 /// Monitors with the same parameters, one per rasterizer: the blocked loop with the widest vector unit of this
-/// processor (AVX2 on most x86-64 machines), the blocked loop on the baseline instruction set, the reference.
+/// processor (AVX2 on most x86-64 machines), the blocked loop on the baseline instruction set, the reference;
+/// and the blocked loop with large sweeps cut in two halves on two threads ([`Monitor::check_split`]).
 struct Pair {
     blocked: Monitor,
     baseline: Monitor,
     scalar: Monitor,
+    split: Monitor,
     frames: usize,
 }
 
@@ -67,7 +91,9 @@ impl Pair {
         baseline.set_rasterizer(Rasterizer::BlockedBaseline);
         let mut scalar = Monitor::new(params).unwrap();
         scalar.set_rasterizer(Rasterizer::Scalar);
-        Self { blocked, baseline, scalar, frames: 0 }
+        let mut split = Monitor::new(params).unwrap();
+        split.enable_split();
+        Self { blocked, baseline, scalar, split, frames: 0 }
     }
 
     /// Checks one frame with all three; panics (with `what`) on any difference; returns the blocked outcome.
@@ -75,10 +101,12 @@ impl Pair {
         let a = outcome(&mut self.blocked, frame);
         let b = outcome(&mut self.scalar, frame);
         let c = outcome(&mut self.baseline, frame);
+        let d = outcome_of(&mut self.split, frame, true);
         let isa = Rasterizer::Blocked.instruction_set();
         assert_eq!(a, b, "{what}: blocked ({isa}) and scalar rasterizers differ");
         assert_eq!(format!("{a:?}"), format!("{b:?}"), "{what}: blocked ({isa}) and scalar differ in some bit");
         assert_eq!(format!("{c:?}"), format!("{b:?}"), "{what}: blocked (baseline) and scalar differ in some bit");
+        assert_eq!(format!("{d:?}"), format!("{b:?}"), "{what}: split on two threads and scalar differ in some bit");
         self.frames += 1;
         a
     }
@@ -288,4 +316,29 @@ proptest! {
             let _ = pair.check(&f, "random cloud");
         }
     }
+}
+
+/// Frames with a region of interest (the rasterizer then records each point's cell for the ROI's edge cells):
+/// [`Monitor::check_split`] on two threads gives the reports and grids of [`Monitor::check`], frame after frame.
+#[test]
+fn frames_with_a_region_of_interest_split_identically() {
+    let seq = Sequence::synthetic(&SyntheticSpec { frames: 3, ..SyntheticSpec::BEAMS_64 });
+    // A road 14 m wide along x, and a sidewalk polygon at an angle (edges through many cells).
+    let road: [[f32; 2]; 4] = [[-40.0, -7.0], [40.0, -7.0], [40.0, 7.0], [-40.0, 7.0]];
+    let walk: [[f32; 2]; 4] = [[-10.0, 7.0], [25.0, 9.0], [24.0, 12.5], [-11.0, 10.5]];
+    let roi: [&[[f32; 2]]; 2] = [&road, &walk];
+    let params = MonitorParams { cell_size_m: 0.5, ..MonitorParams::PAPER };
+    let mut one = Monitor::new(params).unwrap();
+    let mut two = Monitor::new(params).unwrap();
+    two.enable_split();
+    let mut split_frames = 0;
+    for i in 0..2 * seq.frames.len() {
+        let f = seq.frame(i, Sequence::timestamp_s(i)).unwrap();
+        let f = Frame { roi_in_ego: &roi, ..f };
+        split_frames += usize::from(f.cloud.is_some_and(|c| c.points_in_sensor.len() >= SPLIT_MIN_POINTS));
+        let a = outcome_of(&mut one, &f, false).unwrap();
+        let b = outcome_of(&mut two, &f, true).unwrap();
+        assert_eq!(format!("{a:?}"), format!("{b:?}"), "frame {i}: split on two threads differs in some bit");
+    }
+    assert_eq!(split_frames, 2 * seq.frames.len(), "every 64-beam sweep is large enough to be split");
 }
