@@ -530,9 +530,27 @@ impl Monitor {
             self.grid.set_flags(idx, FLAG_VISITED);
             self.queue.push(idx);
             let mut head = start;
+            // The 8 neighbours of a cell off the grid's border, in the order of the loops below (same queue).
+            let n_i = i64::from(n);
+            let offsets = [-n_i - 1, -n_i, -n_i + 1, -1, 1, n_i - 1, n_i, n_i + 1];
             while let Some(&c) = self.queue.get(head) {
                 head += 1;
                 let (cx, cy) = (c % n, c / n);
+                if cx > 0 && cy > 0 && cx + 1 < n && cy + 1 < n {
+                    for off in offsets {
+                        let nb = (i64::from(c) + off) as u32;
+                        if self.grid.hits(nb) == 0
+                            || self.grid.probability(nb) <= tau
+                            || self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) != 0
+                            || self.queue.len() >= self.queue.capacity()
+                        {
+                            continue;
+                        }
+                        self.grid.set_flags(nb, FLAG_VISITED);
+                        self.queue.push(nb);
+                    }
+                    continue;
+                }
                 for dy in -1i32..=1 {
                     for dx in -1i32..=1 {
                         if dx == 0 && dy == 0 {
