@@ -105,14 +105,15 @@ impl Monitor {
                 }
             }
             let (px, py) = footprint.nearest_point(cx, cy);
-            match visibility.sight(px, py) {
-                Sight::Visible => {
-                    if visibility.clearance(px, py).is_none_or(|(clearance, _)| clearance > margin) {
+            // One look at the bin for the sight and the clearance (`VisibilityMap::sight_with_clearance`).
+            match visibility.sight_with_clearance(px, py) {
+                (Sight::Visible, clearance) => {
+                    if clearance.is_none_or(|clearance| clearance > margin) {
                         sight.visible += 1;
                     }
                 }
                 // Behind evidence nobody explains, in the region of interest.
-                Sight::Shadowed(c) => {
+                (Sight::Shadowed(c), _) => {
                     if let Some(k) = self.unexplained_at(c) {
                         sight.unexplained_shadow += 1;
                         sight.occluder = k;
@@ -127,7 +128,7 @@ impl Monitor {
                         }
                     }
                 }
-                Sight::Unreached => {}
+                (Sight::Unreached, _) => {}
             }
         });
         sight
