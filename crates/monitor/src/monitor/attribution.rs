@@ -88,12 +88,9 @@ impl Monitor {
         // column): the fractions need no more, and a car at 0.1 m cells would otherwise cost 900 look-ups.
         let span = (range.2 - range.0).max(range.3 - range.1) + 1;
         let stride = span.div_ceil(SIGHT_SAMPLES).max(1);
-        let n = geometry.cells_per_side;
-        geometry.for_each_cell_overlapping(footprint, range, |idx, cx, cy| {
-            if stride > 1 && !((idx % n - range.0).is_multiple_of(stride) && (idx / n - range.1).is_multiple_of(stride))
-            {
-                return;
-            }
+        // Only the sampled rows and columns are walked (the same cells, in the same order, as filtering the walk
+        // of every overlapping cell).
+        geometry.for_each_cell_overlapping_every(footprint, range, stride, |idx, cx, cy| {
             sight.total += 1;
             if grid.probability(idx) > tau && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED {
                 let other = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
