@@ -883,7 +883,13 @@ mod tests {
     /// random polygon edges; and the bit set is empty after every frame.
     #[test]
     fn returns_of_edge_cells_by_recorded_cells_equal_the_pass_over_the_sweep() {
-        let params = MonitorParams::default();
+        // 0.5 m cells (40,000: one prefilter byte per cell) and 0.2 m cells (250,000: cells share bytes).
+        for cell_size_m in [0.5f32, 0.2] {
+            returns_of_edge_cells_equal_with(MonitorParams { cell_size_m, ..MonitorParams::default() });
+        }
+    }
+
+    fn returns_of_edge_cells_equal_with(params: MonitorParams) {
         let mut fast = Monitor::new(params).unwrap();
         let mut slow = Monitor::new(params).unwrap();
         slow.point_cells = Vec::new();
