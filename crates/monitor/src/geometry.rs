@@ -142,10 +142,17 @@ impl OrientedRect {
     /// Euclidean distance from the point to the rectangle (0 inside), metres.
     #[must_use]
     pub fn distance(&self, x: f32, y: f32) -> f32 {
-        let (du, dv) = self.local(x, y);
-        let ou = (du.abs() - self.half_length).max(0.0);
-        let ov = (dv.abs() - self.half_width).max(0.0);
+        let (ou, ov) = self.outside_offsets(x, y);
         libm::hypotf(ou, ov)
+    }
+
+    /// How far the point lies beyond the rectangle along and across it (0 within its extent), metres: the legs
+    /// of [`OrientedRect::distance`].
+    #[must_use]
+    #[inline]
+    pub fn outside_offsets(&self, x: f32, y: f32) -> (f32, f32) {
+        let (du, dv) = self.local(x, y);
+        ((du.abs() - self.half_length).max(0.0), (dv.abs() - self.half_width).max(0.0))
     }
 
     /// The point of the rectangle nearest to `(x, y)`.

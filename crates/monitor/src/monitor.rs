@@ -126,9 +126,11 @@ pub struct Monitor {
     /// In frames with a region of interest: each point's grid cell as the rasterizer found it (`NO_CELL` for
     /// points not in the obstacle band or not in the grid), for the returns of the ROI's edge cells.
     point_cells: Vec<u32>,
-    /// The cells marked `FLAG_ROI_EDGE` this frame as bits (one more bit than cells, never set, for `NO_CELL`);
-    /// empty between frames.
-    edge_bits: Vec<u64>,
+    /// The prefilter of the scan of the recorded cells (`roi_by_returns`): byte `c & 0xFFFF` is 1 when a cell `c`
+    /// marked `FLAG_ROI_EDGE` this frame maps to it ([`EDGE_MAP`] bytes; all 0 between frames). Exact for grids of
+    /// at most 65,535 cells (`NO_CELL` maps to byte 0xFFFF, which no cell then sets); for larger grids cells may
+    /// share a byte, and each candidate is checked against the cell's flags.
+    edge_map: Vec<u8>,
     /// The second half's buffers of the rasterize stage on two threads ([`Monitor::enable_split`]).
     split: Option<crate::split::SecondHalf>,
 }
@@ -157,6 +159,16 @@ const fn sensor_outcome(verdict: SensorVerdict) -> SensorOutcome {
         cluster: None,
         offset_m: [0.0, 0.0],
     }
+}
+
+/// Bytes of the prefilter of the scan of the recorded cells (`Monitor::edge_map`): one per value of a cell's low 16
+/// bits.
+const EDGE_MAP: usize = 1 << 16;
+
+/// The byte of the prefilter that stands for cell `c` (`NO_CELL`: byte 0xFFFF).
+#[inline]
+const fn edge_slot(c: u32) -> usize {
+    (c & 0xFFFF) as usize
 }
 
 impl Monitor {
@@ -197,7 +209,7 @@ impl Monitor {
             spill_over_fit: params.spill_over_fit,
             roi: RoiIndex::new(geometry),
             point_cells: Vec::with_capacity(max_points),
-            edge_bits: alloc::vec![0; cells / 64 + 1],
+            edge_map: alloc::vec![0; EDGE_MAP],
             split: None,
             params,
         })
@@ -589,9 +601,27 @@ impl Monitor {
             self.grid.set_flags(idx, FLAG_VISITED);
             self.queue.push(idx);
             let mut head = start;
+            // The 8 neighbours of a cell off the grid's border, in the order of the loops below (same queue).
+            let n_i = i64::from(n);
+            let offsets = [-n_i - 1, -n_i, -n_i + 1, -1, 1, n_i - 1, n_i, n_i + 1];
             while let Some(&c) = self.queue.get(head) {
                 head += 1;
                 let (cx, cy) = (c % n, c / n);
+                if cx > 0 && cy > 0 && cx + 1 < n && cy + 1 < n {
+                    for off in offsets {
+                        let nb = (i64::from(c) + off) as u32;
+                        if self.grid.hits(nb) == 0
+                            || self.grid.probability(nb) <= tau
+                            || self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) != 0
+                            || self.queue.len() >= self.queue.capacity()
+                        {
+                            continue;
+                        }
+                        self.grid.set_flags(nb, FLAG_VISITED);
+                        self.queue.push(nb);
+                    }
+                    continue;
+                }
                 for dy in -1i32..=1 {
                     for dx in -1i32..=1 {
                         if dx == 0 && dy == 0 {
@@ -656,8 +686,8 @@ impl Monitor {
                     if in_roi {
                         self.grid.clear_flags(c, FLAG_ROI_EDGE);
                     } else if self.grid.flags(c) & FLAG_ROI_EDGE != 0 {
-                        if let Some(w) = self.edge_bits.get_mut((c >> 6) as usize) {
-                            *w |= 1 << (c & 63);
+                        if let Some(b) = self.edge_map.get_mut(edge_slot(c)) {
+                            *b = 1;
                         }
                     }
                 }
@@ -682,10 +712,10 @@ impl Monitor {
         }
         if edge_clusters {
             self.roi_by_returns(frame);
-            // The bit set is empty again for the next frame (every marked cell is in the queue).
+            // The prefilter is empty again for the next frame (every marked cell is in the queue).
             for &c in &self.queue {
-                if let Some(w) = self.edge_bits.get_mut((c >> 6) as usize) {
-                    *w = 0;
+                if let Some(b) = self.edge_map.get_mut(edge_slot(c)) {
+                    *b = 0;
                 }
             }
         }
@@ -702,16 +732,21 @@ impl Monitor {
         let Some(cloud) = frame.cloud else { return };
         let t = cloud.ego_from_sensor;
         let (points, roi) = (cloud.points_in_sensor, frame.roi_in_ego);
-        if self.point_cells.len() == points.len() {
-            // 64 points at a time: which of them lie in a marked cell, as a mask from the bit set (no branch per
-            // point: `NO_CELL` reads the bit of cell `cells`, which is never set), then those points alone.
-            let (bits, sentinel) = (&self.edge_bits, u32::try_from(self.grid.geometry.cell_count()).unwrap_or(NO_CELL));
+        let map = <&[u8; EDGE_MAP]>::try_from(self.edge_map.as_slice()).ok();
+        if let Some(map) = map.filter(|_| self.point_cells.len() == points.len()) {
+            // 64 points at a time: which of them may lie in a marked cell, as a mask from the prefilter (no branch
+            // per point, and no bounds test: a 16-bit index into 65,536 bytes; `NO_CELL` reads byte 0xFFFF), then
+            // those points alone, each checked against its cell's flags (exact also where cells share a byte).
             for (cells, points) in self.point_cells.chunks(64).zip(points.chunks(64)) {
                 let mut marked = 0u64;
-                for (i, &cell) in cells.iter().enumerate() {
-                    let c = cell.min(sentinel);
-                    let word = bits.get((c >> 6) as usize).copied().unwrap_or(0);
-                    marked |= ((word >> (c & 63)) & 1) << i;
+                if let Ok(block) = <&[u32; 64]>::try_from(cells) {
+                    for (i, &cell) in block.iter().enumerate() {
+                        marked |= u64::from(map.get(edge_slot(cell)).copied().unwrap_or(0)) << i;
+                    }
+                } else {
+                    for (i, &cell) in cells.iter().enumerate() {
+                        marked |= u64::from(map.get(edge_slot(cell)).copied().unwrap_or(0)) << i;
+                    }
                 }
                 while marked != 0 {
                     let i = marked.trailing_zeros() as usize;
@@ -919,7 +954,13 @@ mod tests {
     /// random polygon edges; and the bit set is empty after every frame.
     #[test]
     fn returns_of_edge_cells_by_recorded_cells_equal_the_pass_over_the_sweep() {
-        let params = MonitorParams::default();
+        // 0.5 m cells (40,000: one prefilter byte per cell) and 0.2 m cells (250,000: cells share bytes).
+        for cell_size_m in [0.5f32, 0.2] {
+            returns_of_edge_cells_equal_with(MonitorParams { cell_size_m, ..MonitorParams::default() });
+        }
+    }
+
+    fn returns_of_edge_cells_equal_with(params: MonitorParams) {
         let mut fast = Monitor::new(params).unwrap();
         let mut slow = Monitor::new(params).unwrap();
         slow.point_cells = Vec::new();
@@ -972,7 +1013,7 @@ mod tests {
                     undecided += 1;
                 }
             }
-            assert!(fast.edge_bits.iter().all(|&w| w == 0), "frame {frame_no}: bit set not emptied");
+            assert!(fast.edge_map.iter().all(|&b| b == 0), "frame {frame_no}: prefilter not emptied");
         }
         // The frames do exercise the path: edge cells of undecided clusters were marked.
         assert!(undecided > 20, "{undecided} marked edge cells");

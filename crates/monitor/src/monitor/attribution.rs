@@ -88,12 +88,9 @@ impl Monitor {
         // column): the fractions need no more, and a car at 0.1 m cells would otherwise cost 900 look-ups.
         let span = (range.2 - range.0).max(range.3 - range.1) + 1;
         let stride = span.div_ceil(SIGHT_SAMPLES).max(1);
-        let n = geometry.cells_per_side;
-        geometry.for_each_cell_overlapping(footprint, range, |idx, cx, cy| {
-            if stride > 1 && !((idx % n - range.0).is_multiple_of(stride) && (idx / n - range.1).is_multiple_of(stride))
-            {
-                return;
-            }
+        // Only the sampled rows and columns are walked (the same cells, in the same order, as filtering the walk
+        // of every overlapping cell).
+        geometry.for_each_cell_overlapping_every(footprint, range, stride, |idx, cx, cy| {
             sight.total += 1;
             if grid.probability(idx) > tau && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED {
                 let other = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
@@ -105,14 +102,15 @@ impl Monitor {
                 }
             }
             let (px, py) = footprint.nearest_point(cx, cy);
-            match visibility.sight(px, py) {
-                Sight::Visible => {
-                    if visibility.clearance(px, py).is_none_or(|(clearance, _)| clearance > margin) {
+            // One look at the bin for the sight and the clearance (`VisibilityMap::sight_with_clearance`).
+            match visibility.sight_with_clearance(px, py) {
+                (Sight::Visible, clearance) => {
+                    if clearance.is_none_or(|clearance| clearance > margin) {
                         sight.visible += 1;
                     }
                 }
                 // Behind evidence nobody explains, in the region of interest.
-                Sight::Shadowed(c) => {
+                (Sight::Shadowed(c), _) => {
                     if let Some(k) = self.unexplained_at(c) {
                         sight.unexplained_shadow += 1;
                         sight.occluder = k;
@@ -127,7 +125,7 @@ impl Monitor {
                         }
                     }
                 }
-                Sight::Unreached => {}
+                (Sight::Unreached, _) => {}
             }
         });
         sight
@@ -174,24 +172,19 @@ impl Monitor {
         if gap_x.max(gap_y) - half_diagonal > reach || libm::hypotf(gap_x, gap_y) - half_diagonal > reach {
             return None;
         }
-        let d = self.nearest_cell_distance(k, |x, y| region.distance(x, y));
+        let d = self.nearest_cell_distance(k, |x, y| region.outside_offsets(x, y));
         (d <= reach).then_some(d)
     }
 
     /// The smallest `distance(cell centre) - half a cell diagonal` (at least 0) over cluster `k`'s cells: how near
     /// its cells (not their centres) come to something. Stops at 0.
-    fn nearest_cell_distance(&self, k: usize, distance: impl Fn(f32, f32) -> f32) -> f32 {
+    ///
+    /// `offsets(x, y)` gives the two legs whose `hypotf` is the distance from a cell centre (see
+    /// [`nearest_distance`]).
+    fn nearest_cell_distance(&self, k: usize, offsets: impl Fn(f32, f32) -> (f32, f32)) -> f32 {
         let geometry = self.grid.geometry;
         let half_diagonal = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
-        let mut d = f32::INFINITY;
-        for &c in self.cluster_cells(k) {
-            let (x, y) = geometry.cell_center(c);
-            d = d.min((distance(x, y) - half_diagonal).max(0.0));
-            if d <= 0.0 {
-                break;
-            }
-        }
-        d
+        nearest_distance(self.cluster_cells(k).iter().map(|&c| geometry.cell_center(c)), half_diagonal, offsets)
     }
 
     /// Gives the evidence no object explains to the objects it belongs to.
@@ -730,7 +723,7 @@ impl Monitor {
         if self.point_far(cb, p, reach) {
             return None;
         }
-        let d = self.nearest_cell_distance(k, |x, y| libm::hypotf(x - p[0], y - p[1]));
+        let d = self.nearest_cell_distance(k, |x, y| (x - p[0], y - p[1]));
         (d <= reach).then_some(d)
     }
 
@@ -883,6 +876,32 @@ fn footprints_touch(a: &crate::geometry::OrientedRect, b: &crate::geometry::Orie
         || corners(b).iter().any(|&(x, y)| a.distance(x, y) <= tol)
 }
 
+/// The smallest `hypotf(offsets(x, y)) - half_diagonal` (at least 0) over the cell centres `(x, y)`, stopping at 0:
+/// the straightforward minimum, except that a centre whose lower bound cannot lower the minimum found so far gets no
+/// `hypotf`. The bound: `hypotf(a, b) >= max(|a|, |b|)` within its rounding (a few units in the last place), so
+/// `max(|a|, |b|) * (1 - 2^-16)` is below it, and `(bound - half_diagonal).max(0.0)` below the centre's term
+/// (subtraction rounds monotonically): such a centre leaves the minimum as it is (same bits; tested against the
+/// straightforward loop).
+pub(super) fn nearest_distance(
+    centres: impl Iterator<Item = (f32, f32)>,
+    half_diagonal: f32,
+    offsets: impl Fn(f32, f32) -> (f32, f32),
+) -> f32 {
+    const BELOW: f32 = 1.0 - 1.0 / 65536.0;
+    let mut d = f32::INFINITY;
+    for (x, y) in centres {
+        let (a, b) = offsets(x, y);
+        if (a.abs().max(b.abs()) * BELOW - half_diagonal).max(0.0) >= d {
+            continue;
+        }
+        d = d.min((libm::hypotf(a, b) - half_diagonal).max(0.0));
+        if d <= 0.0 {
+            break;
+        }
+    }
+    d
+}
+
 /// The paper's consistency `eta` of report `j`.
 pub(super) fn s_eta(reports: &[ObjectReport], j: usize) -> f32 {
     reports.get(j).map_or(0.0, |r| r.sensor.eta)
@@ -931,4 +950,77 @@ pub(super) fn claim(
         }
     }
     grid.set_flags(idx, FLAG_EXPLAINED);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::OrientedRect;
+
+    /// The straightforward minimum `nearest_distance` skips `hypotf` in.
+    fn nearest_distance_reference(
+        centres: &[(f32, f32)],
+        half_diagonal: f32,
+        distance: impl Fn(f32, f32) -> f32,
+    ) -> f32 {
+        let mut d = f32::INFINITY;
+        for &(x, y) in centres {
+            d = d.min((distance(x, y) - half_diagonal).max(0.0));
+            if d <= 0.0 {
+                break;
+            }
+        }
+        d
+    }
+
+    /// `nearest_distance` equals the straightforward loop bit for bit, to rectangles and to points, on random
+    /// clusters of cell centres (near, touching and far, cells of 0.1 to 1 m, also huge and tiny coordinates).
+    #[test]
+    fn nearest_distance_skips_only_centres_that_cannot_lower_it() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut unit = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut skipped_some = false;
+        for case in 0..4000 {
+            let cell = [0.1f32, 0.2, 0.5, 1.0][case % 4];
+            let hd = core::f32::consts::FRAC_1_SQRT_2 * cell;
+            let scale = [1.0f32, 30.0, 1e-3, 5e4][case / 4 % 4];
+            let (ox, oy) = ((unit() - 0.5) * 60.0 * scale, (unit() - 0.5) * 60.0 * scale);
+            let count = 1 + (unit() * 40.0) as usize;
+            let centres: Vec<(f32, f32)> = (0..count)
+                .map(|_| {
+                    let (i, j) = ((unit() * 12.0) as i32, (unit() * 12.0) as i32);
+                    (ox + (i as f32 + 0.5) * cell, oy + (j as f32 + 0.5) * cell)
+                })
+                .collect();
+            let rect = OrientedRect::new(
+                (unit() - 0.5) * 60.0 * scale,
+                (unit() - 0.5) * 60.0 * scale,
+                (unit() - 0.5) * 7.0,
+                unit() * 3.0 * scale,
+                unit() * 1.5 * scale,
+            );
+            let got = nearest_distance(centres.iter().copied(), hd, |x, y| rect.outside_offsets(x, y));
+            let want = nearest_distance_reference(&centres, hd, |x, y| rect.distance(x, y));
+            assert_eq!(got.to_bits(), want.to_bits(), "case {case}: rectangle {rect:?}");
+            let p = [(unit() - 0.5) * 60.0 * scale, (unit() - 0.5) * 60.0 * scale];
+            let got = nearest_distance(centres.iter().copied(), hd, |x, y| (x - p[0], y - p[1]));
+            let want = nearest_distance_reference(&centres, hd, |x, y| libm::hypotf(x - p[0], y - p[1]));
+            assert_eq!(got.to_bits(), want.to_bits(), "case {case}: point {p:?}");
+            // The bound does skip: some centre's bound is at least the minimum of those before it.
+            let mut best = f32::INFINITY;
+            for &(x, y) in &centres {
+                let (a, b) = (x - p[0], y - p[1]);
+                if (a.abs().max(b.abs()) * (1.0 - 1.0 / 65536.0) - hd).max(0.0) >= best {
+                    skipped_some = true;
+                }
+                best = best.min((libm::hypotf(a, b) - hd).max(0.0));
+            }
+        }
+        assert!(skipped_some);
+    }
 }
