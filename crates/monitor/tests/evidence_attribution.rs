@@ -195,6 +195,74 @@ fn a_hidden_object_is_no_ghost_while_its_uncertainty_allows_the_shadow() {
     assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "stated exact, mostly seen empty: {:?}", r[1].sensor);
 }
 
+/// The uncertainty of a noisy object list: position sigma `s`, nothing else that grows the region.
+fn sigma(s: f32) -> pmon_monitor::Uncertainty {
+    pmon_monitor::Uncertainty { x_m: s, y_m: s, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 }
+}
+
+/// A pedestrian hidden behind a thin post (a listed object) 22 m out, reported 0.8 m beside its place with a
+/// 0.5 m sigma (margin 1.6 m). The post's shadow at 22 m is about 0.36 m to each side: the reported box, and the
+/// box moved by its whole margin either way or along, stand mostly in sight; its true place, half a margin
+/// from the reported one, is in the shadow. The object may stand there: `not_monitored(occluded)`, no ghost.
+/// (The rule tried only the eight extreme places of `A_o` until this round.)
+#[test]
+fn a_hidden_object_is_no_ghost_when_its_place_lies_between_the_extremes_of_its_margin() {
+    let post = object(1, 10.0, 0.0, 0.0, 0.32, 0.32);
+    let mut pts = visible_face_points(&post, 0.01);
+    // Ground returns only where the post does not block them.
+    pts.extend(ground_points(45.0).into_iter().filter(|p| !(p[0] > 9.8 && (p[1] / p[0]).abs() < 0.17 / 9.84)));
+    let truth = object(2, 22.0, 0.0, 0.0, 0.5, 0.5);
+    let reported = pmon_monitor::ObjectState { y_m: 0.8, uncertainty: Some(sigma(0.5)), ..truth };
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let region = m.region_of(&reported).unwrap();
+    assert!((region.margin_width_m - 1.6).abs() < 1e-4, "{region:?}");
+    let r = run(&mut m, &[post, reported], &pts);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
+    assert_eq!(
+        r[1].sensor.verdict,
+        SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded),
+        "{:?}",
+        r[1].sensor
+    );
+    // In open space, the same box far from any shadow is still a ghost.
+    let open = pmon_monitor::ObjectState { id: 3, y_m: -8.0, ..reported };
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run(&mut m, &[post, open], &pts);
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "nothing in open space: {:?}", r[1].sensor);
+}
+
+/// A pedestrian 15 m out, reported 0.6 m to its side and 0.4 m towards the sensor (a 0.3 m sigma: margin 1 m,
+/// so both within it), with a hedge 0.95 m behind its body that its grown region covers. The rays through the
+/// reported box pass beside the body and end on the hedge, more than the margin behind the box: on the box's
+/// own place alone, the free-space test sees it through. But the box moved back and aside by half its margin
+/// stands on the body, whose face hides it: the object may stand there, and it is `consistent`. The same
+/// pedestrian reported 1.5 m towards the sensor (beyond its margin), its evidence still in its region, stays a
+/// position error.
+#[test]
+fn a_box_moved_aside_by_its_noise_is_not_seen_through() {
+    let truth = object(1, 15.0, 0.0, 0.0, 0.5, 0.5);
+    let mut open = visible_face_points(&truth, 0.02);
+    open.extend(ground_points(45.0));
+    let mut pts = visible_face_points(&truth, 0.02);
+    for k in 0..=24 {
+        let y = 0.3 + 0.05 * k as f32;
+        for z in [0.3, 0.6, 0.9, 1.2] {
+            pts.push([15.7, y, z]);
+        }
+    }
+    pts.extend(ground_points(45.0));
+    let aside = pmon_monitor::ObjectState { x_m: 14.6, y_m: 0.6, uncertainty: Some(sigma(0.3)), ..truth };
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run(&mut m, &[aside], &pts);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
+    // Its evidence inside the grown region, the hedge gone: only the free space can flag it.
+    let towards = pmon_monitor::ObjectState { x_m: 13.5, y_m: 0.0, uncertainty: Some(sigma(0.3)), ..truth };
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let (r, missed) = run_frame(&mut m, &[towards], &open);
+    assert_eq!(missed, 0);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "{:?}", r[0].sensor);
+}
+
 /// A track found displaced in one frame keeps its evidence in the next although a neighbour, arriving beside
 /// that evidence with a wide margin (0.3 m sigma), now explains it: the evidence is no conflict any more, but it
 /// lies outside the neighbour's box, where the track's remembered offset puts it, so it still follows the track
