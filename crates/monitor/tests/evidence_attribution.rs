@@ -231,38 +231,6 @@ fn a_hidden_object_is_no_ghost_when_its_place_lies_between_the_extremes_of_its_m
     assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "nothing in open space: {:?}", r[1].sensor);
 }
 
-/// A pedestrian 15 m out, reported 0.6 m to its side and 0.4 m towards the sensor (a 0.3 m sigma: margin 1 m,
-/// so both within it), with a hedge 0.95 m behind its body that its grown region covers. The rays through the
-/// reported box pass beside the body and end on the hedge, more than the margin behind the box: on the box's
-/// own place alone, the free-space test sees it through. But the box moved back and aside by half its margin
-/// stands on the body, whose face hides it: the object may stand there, and it is `consistent`. The same
-/// pedestrian reported 1.5 m towards the sensor (beyond its margin), its evidence still in its region, stays a
-/// position error.
-#[test]
-fn a_box_moved_aside_by_its_noise_is_not_seen_through() {
-    let truth = object(1, 15.0, 0.0, 0.0, 0.5, 0.5);
-    let mut open = visible_face_points(&truth, 0.02);
-    open.extend(ground_points(45.0));
-    let mut pts = visible_face_points(&truth, 0.02);
-    for k in 0..=24 {
-        let y = 0.3 + 0.05 * k as f32;
-        for z in [0.3, 0.6, 0.9, 1.2] {
-            pts.push([15.7, y, z]);
-        }
-    }
-    pts.extend(ground_points(45.0));
-    let aside = pmon_monitor::ObjectState { x_m: 14.6, y_m: 0.6, uncertainty: Some(sigma(0.3)), ..truth };
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
-    let r = run(&mut m, &[aside], &pts);
-    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
-    // Its evidence inside the grown region, the hedge gone: only the free space can flag it.
-    let towards = pmon_monitor::ObjectState { x_m: 13.5, y_m: 0.0, uncertainty: Some(sigma(0.3)), ..truth };
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
-    let (r, missed) = run_frame(&mut m, &[towards], &open);
-    assert_eq!(missed, 0);
-    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "{:?}", r[0].sensor);
-}
-
 /// A track found displaced in one frame keeps its evidence in the next although a neighbour, arriving beside
 /// that evidence with a wide margin (0.3 m sigma), now explains it: the evidence is no conflict any more, but it
 /// lies outside the neighbour's box, where the track's remembered offset puts it, so it still follows the track

@@ -501,47 +501,29 @@ impl Monitor {
     /// region's margin (an object displaced by its stated uncertainty is not caught), and that obstacle is
     /// evidence the object owns (rays that pass beside a box's body, or end on something else, prove
     /// nothing). Points, not cells: the visibility map keeps the ranges of the returns themselves.
-    ///
-    /// And, like a ghost (rule 7 of docs/attribution.md), only where the object cannot be: the box moved to
-    /// every place within its region `A_o` ([`placements`]) must be seen through as well, by the same share of
-    /// its points lying in front of the nearest obstacle of their direction (any obstacle: free space is free
-    /// whatever ends the ray) by more than `delta_safe` (the LiDAR's own noise; the move already spent the
-    /// margin). Without it, a clean pedestrian whose box the noise moved *sideways* by half its margin was seen
-    /// through: the rays that now pass its box beside the body end on returns behind it (a post, a wall) that its
-    /// grown region owns, more than the margin behind the box, and no place of the footprint was tested where it
-    /// stands (4 of the 13 sensor false alarms up to 0.3 m noise of `reproduce --quick`, seeds 7 and 11).
     pub(super) fn seen_through(&self, j: usize, region: &Region) -> bool {
         let fp = &region.footprint;
         let margin = region.margin_length_m.max(region.margin_width_m);
         let tau = self.params.tau_fn;
         let mut free = 0u32;
-        for (x, y) in sample_points(fp) {
-            let Some((clearance, cell)) = self.visibility.clearance(x, y) else { continue };
-            let own = |c: u32| {
-                self.grid.probability(c) > tau
-                    && self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                    && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
-            };
-            // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
-            let near_own = own(cell) || self.grid.geometry.neighbours4(cell).any(own);
-            if clearance > margin && near_own {
-                free += 1;
+        for u in [-0.6f32, 0.0, 0.6] {
+            for v in [-0.6f32, 0.0, 0.6] {
+                let (lu, lv) = (u * fp.half_length, v * fp.half_width);
+                let (x, y) = (fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos);
+                let Some((clearance, cell)) = self.visibility.clearance(x, y) else { continue };
+                let own = |c: u32| {
+                    self.grid.probability(c) > tau
+                        && self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                        && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
+                };
+                // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
+                let near_own = own(cell) || self.grid.geometry.neighbours4(cell).any(own);
+                if clearance > margin && near_own {
+                    free += 1;
+                }
             }
         }
-        let needed = self.params.ghost_visible_fraction * 9.0;
-        if (free as f32) < needed {
-            return false;
-        }
-        let slack = self.params.safety_margin_m;
-        placements(region).all(|moved| {
-            let free = sample_points(&moved)
-                .filter(|&(x, y)| {
-                    self.visibility.sight(x, y) == Sight::Visible
-                        && self.visibility.clearance(x, y).is_none_or(|(clearance, _)| clearance > slack)
-                })
-                .count();
-            free as f32 >= needed
-        })
+        free as f32 >= self.params.ghost_visible_fraction * 9.0
     }
 
     /// True when object `j`'s footprint, moved anywhere within its region `A_o` ([`placements`]: by its margins
@@ -892,18 +874,6 @@ fn footprints_touch(a: &crate::geometry::OrientedRect, b: &crate::geometry::Orie
         || b.contains(a.cx, a.cy)
         || corners(a).iter().any(|&(x, y)| b.distance(x, y) <= tol)
         || corners(b).iter().any(|&(x, y)| a.distance(x, y) <= tol)
-}
-
-/// The 3 x 3 points of a footprint the free-space test looks at: -0.6, 0 and 0.6 of its half length and half
-/// width.
-fn sample_points(fp: &crate::geometry::OrientedRect) -> impl Iterator<Item = (f32, f32)> + '_ {
-    const AT: [f32; 3] = [-0.6, 0.0, 0.6];
-    AT.into_iter().flat_map(move |u| {
-        AT.into_iter().map(move |v| {
-            let (lu, lv) = (u * fp.half_length, v * fp.half_width);
-            (fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos)
-        })
-    })
 }
 
 /// Fractions of its margins by which [`placements`] moves a footprint along and across its axes.
