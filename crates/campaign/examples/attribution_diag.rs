@@ -85,8 +85,83 @@ fn nearest_gap(objects: &[pmon_monitor::ObjectState], i: usize) -> f32 {
     best
 }
 
+/// The geometry of a false alarm (`DETAIL=1`): the noise draw in the box's axes and along the ray against the
+/// margins, the free-space test's 3 x 3 sample points (clearance to the nearest obstacle of their direction and
+/// where that obstacle lies: in the true footprint, in the grown region), and what the sensor saw of the true
+/// place and of the noisy box.
+fn explain_false_alarm(
+    monitor: &Monitor,
+    truth: &pmon_monitor::ObjectState,
+    o: &pmon_monitor::ObjectState,
+    g: &pmon_monitor::Region,
+    run_label: &str,
+) {
+    use pmon_monitor::visibility::Sight;
+    let (s, c) = o.heading_rad.sin_cos();
+    let (nx, ny) = (o.x_m - truth.x_m, o.y_m - truth.y_m);
+    let (nu, nv) = (nx * c + ny * s, -nx * s + ny * c);
+    let r = truth.x_m.hypot(truth.y_m).max(1e-3);
+    let (rx, ry) = (truth.x_m / r, truth.y_m / r);
+    let (radial, tangential) = (nx * rx + ny * ry, -nx * ry + ny * rx);
+    eprintln!(
+        "   run {run_label}: noise (along, across) ({nu:+.2}, {nv:+.2}) m vs margins ({:.2}, {:.2}) = ({:.2}, {:.2}) x margin; radial {radial:+.2} (+: away) tangential {tangential:+.2}",
+        g.margin_length_m,
+        g.margin_width_m,
+        nu.abs() / g.margin_length_m,
+        nv.abs() / g.margin_width_m
+    );
+    let geo = monitor.grid().geometry;
+    let vis = monitor.visibility();
+    let fp = &g.footprint;
+    let margin = g.margin_length_m.max(g.margin_width_m);
+    let mut pts = Vec::new();
+    for u in [-0.6f32, 0.0, 0.6] {
+        for v in [-0.6f32, 0.0, 0.6] {
+            let (lu, lv) = (u * fp.half_length, v * fp.half_width);
+            let (x, y) = (fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos);
+            let text = match vis.clearance(x, y) {
+                None => format!("{:?}", vis.sight(x, y)).chars().take(8).collect(),
+                Some((cl, cell)) => {
+                    let (cx, cy) = geo.cell_center(cell);
+                    format!(
+                        "cl {cl:.2}{} obst@truth {:.2} in-grown {} hits {}",
+                        if cl > margin { "*" } else { "" },
+                        rect_distance(truth, [cx, cy]),
+                        u8::from(g.grown.contains(cx, cy)),
+                        monitor.grid().hits(cell)
+                    )
+                }
+            };
+            pts.push(text);
+        }
+    }
+    eprintln!("   free-space points (margin {margin:.2}, * = free): {}", pts.join(" | "));
+    let sight_of = |cx: f32, cy: f32| {
+        let rect = pmon_monitor::geometry::OrientedRect::new(cx, cy, o.heading_rad, 0.5 * o.length_m, 0.5 * o.width_m);
+        let (mut n, mut visible, mut shadow, mut unreached) = (0, 0, 0, 0);
+        if let Some(range) = geo.cell_range(rect.aabb()) {
+            geo.for_each_cell_overlapping(&rect, range, |_, x, y| {
+                let (px, py) = rect.nearest_point(x, y);
+                n += 1;
+                match vis.sight(px, py) {
+                    Sight::Visible => visible += 1,
+                    Sight::Shadowed(_) => shadow += 1,
+                    Sight::Unreached => unreached += 1,
+                }
+            });
+        }
+        format!("{n} cells: {visible} visible {shadow} shadowed {unreached} unreached")
+    };
+    eprintln!(
+        "   sight of the true place: {}; of the noisy box: {}",
+        sight_of(truth.x_m, truth.y_m),
+        sight_of(o.x_m, o.y_m)
+    );
+}
+
 /// Why a clean object state raised an alarm, or why an injected, verifiable one did not.
 fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
+    let run_label = label(run);
     let spec = &run.spec;
     let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
     let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
@@ -137,6 +212,22 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
             } else {
                 "across"
             };
+            if !injected && confirmed.get(i).copied().unwrap_or(false) {
+                // How often a clean, confirmed box's noise draw exceeds its margin along one of its axes (the
+                // grown region then no longer covers its whole true footprint), against the alarms.
+                if let Some(g) = region {
+                    let (s, c) = o.heading_rad.sin_cos();
+                    let (nx, ny) = (o.x_m - truth.x_m, o.y_m - truth.y_m);
+                    let (nu, nv) = (nx * c + ny * s, -nx * s + ny * c);
+                    let beyond = (nu.abs() / g.margin_length_m).max(nv.abs() / g.margin_width_m);
+                    let key = if beyond > 1.0 {
+                        format!("NOISE beyond margin, alarm {}", u8::from(alarm))
+                    } else {
+                        format!("NOISE within margin, alarm {}", u8::from(alarm))
+                    };
+                    *out.entry(key).or_default() += 1;
+                }
+            }
             if !injected && alarm {
                 let how = match (r.sensor.verdict, r.sensor.cluster) {
                     (SensorVerdict::Ghost, _) => "ghost".to_string(),
@@ -175,6 +266,9 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                         o.length_m,
                         o.width_m
                     );
+                    if let Some(g) = region {
+                        explain_false_alarm(&monitor, truth, o, &g, &run_label);
+                    }
                 }
             }
             if injected && confirmed.get(i).copied().unwrap_or(false) {

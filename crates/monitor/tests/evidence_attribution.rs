@@ -195,6 +195,42 @@ fn a_hidden_object_is_no_ghost_while_its_uncertainty_allows_the_shadow() {
     assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "stated exact, mostly seen empty: {:?}", r[1].sensor);
 }
 
+/// The uncertainty of a noisy object list: position sigma `s`, nothing else that grows the region.
+fn sigma(s: f32) -> pmon_monitor::Uncertainty {
+    pmon_monitor::Uncertainty { x_m: s, y_m: s, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 }
+}
+
+/// A pedestrian hidden behind a thin post (a listed object) 22 m out, reported 0.8 m beside its place with a
+/// 0.5 m sigma (margin 1.6 m). The post's shadow at 22 m is about 0.36 m to each side: the reported box, and the
+/// box moved by its whole margin either way or along, stand mostly in sight; its true place, half a margin
+/// from the reported one, is in the shadow. The object may stand there: `not_monitored(occluded)`, no ghost.
+/// (The rule tried only the eight extreme places of `A_o` until this round.)
+#[test]
+fn a_hidden_object_is_no_ghost_when_its_place_lies_between_the_extremes_of_its_margin() {
+    let post = object(1, 10.0, 0.0, 0.0, 0.32, 0.32);
+    let mut pts = visible_face_points(&post, 0.01);
+    // Ground returns only where the post does not block them.
+    pts.extend(ground_points(45.0).into_iter().filter(|p| !(p[0] > 9.8 && (p[1] / p[0]).abs() < 0.17 / 9.84)));
+    let truth = object(2, 22.0, 0.0, 0.0, 0.5, 0.5);
+    let reported = pmon_monitor::ObjectState { y_m: 0.8, uncertainty: Some(sigma(0.5)), ..truth };
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let region = m.region_of(&reported).unwrap();
+    assert!((region.margin_width_m - 1.6).abs() < 1e-4, "{region:?}");
+    let r = run(&mut m, &[post, reported], &pts);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
+    assert_eq!(
+        r[1].sensor.verdict,
+        SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded),
+        "{:?}",
+        r[1].sensor
+    );
+    // In open space, the same box far from any shadow is still a ghost.
+    let open = pmon_monitor::ObjectState { id: 3, y_m: -8.0, ..reported };
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run(&mut m, &[post, open], &pts);
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "nothing in open space: {:?}", r[1].sensor);
+}
+
 /// A track found displaced in one frame keeps its evidence in the next although a neighbour, arriving beside
 /// that evidence with a wide margin (0.3 m sigma), now explains it: the evidence is no conflict any more, but it
 /// lies outside the neighbour's box, where the track's remembered offset puts it, so it still follows the track
