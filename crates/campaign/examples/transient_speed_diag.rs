@@ -48,12 +48,15 @@ struct State {
 const CAUSES: [&str; 6] =
     ["not judged", "first frame", "after an error", "declared margin", "inflated by a missed error", "own scatter"];
 
+/// Misses of one cause: their number, and per miss the margin (m/s), the implied factor and the true speed.
+type Misses = (u64, Vec<f64>, Vec<f64>, Vec<f64>);
+
 #[derive(Default)]
 struct Tally {
     injected: u64,
     detected: u64,
     /// Per cause: misses, margins (m/s), implied factors, true speeds.
-    misses: BTreeMap<&'static str, (u64, Vec<f64>, Vec<f64>, Vec<f64>)>,
+    misses: BTreeMap<&'static str, Misses>,
     /// Misses with the declared margin: the track's age at `k` (states before it) and its alarms among the
     /// 11 states before `k`.
     declared_age: Vec<f64>,

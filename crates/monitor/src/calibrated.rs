@@ -465,7 +465,7 @@ fn t_quantile(p: f64, nu: u32) -> f64 {
 /// [`History::robust_speed_scale`] takes: `(m + 1) / 2`, the median (the lower one for even `m`).
 #[must_use]
 pub const fn robust_rank(m: u8) -> usize {
-    (m as usize + 1) / 2
+    (m as usize).div_ceil(2)
 }
 
 /// The half-normal distribution function `P(|N| <= q)`.
