@@ -40,6 +40,9 @@ use crate::verdict::{Conditions, ImplausibilityKind};
 /// States kept per track (the current one included once pushed).
 pub const HISTORY: usize = 12;
 
+/// Speed steps kept per track for the robust own scatter ([`History::robust_speed_scale`]).
+pub const SPEED_STEPS: usize = 24;
+
 /// Fewest clean increments in a track's history before its own scatter may narrow a margin.
 pub const OWN_SCATTER_MIN_INCREMENTS: u8 = 5;
 /// Smallest own scatter used, as a fraction of the declared sigma (a track whose speeds never change is not
@@ -129,6 +132,14 @@ pub struct History {
     /// Per state: half the Mahalanobis distance squared of its one-frame position residual (see
     /// [`one_frame_d2`]) under the declared covariance; negative like `steps`.
     pos_steps: [f32; HISTORY],
+    /// The last [`SPEED_STEPS`] speed steps' studentised squares as in `steps`, kept whatever the alarms (not
+    /// kept when either state is in its warm-up), oldest at `speed_start`: the robust own scatter
+    /// ([`History::robust_speed_scale`]) takes an order statistic of these, which the track's errors (missed or
+    /// caught) do not move. (Longer than the states' ring: a median of 23 steps is nearly as tight as the mean of
+    /// squares of 11.)
+    speed_ring: [f32; SPEED_STEPS],
+    speed_start: u8,
+    speed_len: u8,
     start: u8,
     len: u8,
     /// Sum and count of the kept states' clean speed steps (the oldest state's step is not kept).
@@ -197,6 +208,19 @@ fn position_step(prev: Option<&Entry>, e: &Entry) -> f32 {
     }
 }
 
+/// The studentised square of the speed step of `e` from `prev` whatever their alarms (see `History::speed_ring`).
+fn speed_step_any(prev: Option<&Entry>, e: &Entry) -> f32 {
+    let Some(p) = prev.filter(|p| !p.warmup && !e.warmup) else { return -1.0 };
+    let var_v = f64::from(p.sv_mps) * f64::from(p.sv_mps) + f64::from(e.sv_mps) * f64::from(e.sv_mps);
+    let dv = f64::from(e.v_mps) - f64::from(p.v_mps);
+    let q = dv * dv / var_v;
+    if var_v > 0.0 && q.is_finite() {
+        q as f32
+    } else {
+        -1.0
+    }
+}
+
 /// The studentised steps of `e` from `prev` (see `History::steps`).
 fn steps_from(prev: Option<&Entry>, e: &Entry) -> (f32, f32) {
     let Some(p) = prev.filter(|p| clean_pair(p, e)) else { return (-1.0, -1.0) };
@@ -225,6 +249,9 @@ impl History {
         items: [Entry::ZERO; HISTORY],
         steps: [(0.0, 0.0); HISTORY],
         pos_steps: [0.0; HISTORY],
+        speed_ring: [0.0; SPEED_STEPS],
+        speed_start: 0,
+        speed_len: 0,
         start: 0,
         len: 0,
         speed_sum: 0.0,
@@ -281,6 +308,7 @@ impl History {
     /// or negative when `e` raised an alarm.
     pub(crate) fn push_with_unit_and_step(&mut self, e: Entry, pos: f32) {
         let step = steps_from(self.last(), &e);
+        let any = speed_step_any(self.last(), &e);
         self.add_steps(step, 1.0);
         self.add_position_step(pos, 1.0);
         if self.len() >= HISTORY {
@@ -317,6 +345,35 @@ impl History {
         if let Some(slot) = self.pos_steps.get_mut(idx) {
             *slot = pos;
         }
+        if any >= 0.0 {
+            let at = (usize::from(self.speed_start) + usize::from(self.speed_len)) % SPEED_STEPS;
+            if let Some(slot) = self.speed_ring.get_mut(at) {
+                *slot = any;
+            }
+            if usize::from(self.speed_len) < SPEED_STEPS {
+                self.speed_len += 1;
+            } else {
+                self.speed_start = ((usize::from(self.speed_start) + 1) % SPEED_STEPS) as u8;
+            }
+        }
+    }
+
+    /// The robust own scatter of the speed: of the `m` kept speed steps (the last [`SPEED_STEPS`] steps between
+    /// states outside a warm-up, alarms or not), the absolute studentised step of rank [`robust_rank`]`(m)` from
+    /// the smallest (about the median), and `m`. A transient speed error adds two large steps (into it and out of it), which
+    /// move a mean of squares (and, once missed, widen the margin for the next error) but not this order
+    /// statistic while fewer than half of the steps are errors.
+    #[must_use]
+    pub fn robust_speed_scale(&self) -> (f64, u8) {
+        let m = usize::from(self.speed_len);
+        if m < usize::from(OWN_SCATTER_MIN_INCREMENTS) {
+            return (0.0, m as u8);
+        }
+        // (The ring's order does not matter for an order statistic: select in a copy of its filled part.)
+        let mut buf = self.speed_ring;
+        let Some(kept) = buf.get_mut(..m) else { return (0.0, 0) };
+        let (_, q, _) = kept.select_nth_unstable_by(robust_rank(m as u8).saturating_sub(1), f32::total_cmp);
+        (libm::sqrt(f64::from(*q)), m as u8)
     }
 
     fn add_position_step(&mut self, q: f32, sign: f64) {
@@ -404,6 +461,75 @@ fn t_quantile(p: f64, nu: u32) -> f64 {
     libm::exp(0.5 * (lo + hi))
 }
 
+/// The rank (from the smallest, 1-based) of the order statistic of `m` absolute speed steps that
+/// [`History::robust_speed_scale`] takes: `(m + 1) / 2`, the median (the lower one for even `m`).
+#[must_use]
+pub const fn robust_rank(m: u8) -> usize {
+    (m as usize).div_ceil(2)
+}
+
+/// The half-normal distribution function `P(|N| <= q)`.
+fn half_normal_cdf(q: f64) -> f64 {
+    libm::erf(q * core::f64::consts::FRAC_1_SQRT_2)
+}
+
+/// The robust own-scatter test's quantile: `c` with `P(|X| > c Q) = p`, `X` and the `m` steps independent
+/// `N(0, s^2)`, `Q` the `k`-th smallest of the `m` absolute steps ([`robust_rank`]), whatever `s`. `P(|X| > c Q)` is
+/// the integral of `erfc(c q / sqrt 2)` against the density of `Q`,
+/// `m! / ((k - 1)! (m - k)!) F(q)^(k - 1) (1 - F(q))^(m - k) f(q)` (`F`, `f` the half-normal's), by the midpoint
+/// rule on `q = 6 u^2` (64 points, dense near 0 where the tail is decided; within 1e-3 of a 2000-point uniform
+/// rule at `p` = 1e-4 and 0.01), and `c` by bisection in its logarithm.
+fn order_statistic_quantile(p: f64, m: u8, k: usize) -> f64 {
+    const N: usize = 64;
+    const Q_MAX: f64 = 6.0;
+    let (m, k) = (usize::from(m), k.max(1));
+    if k > m {
+        return f64::INFINITY;
+    }
+    // log of m! / ((k - 1)! (m - k)!)
+    let ln_fact = |n: usize| (1..=n).map(|i| libm::log(i as f64)).sum::<f64>();
+    let ln_coef = ln_fact(m) - ln_fact(k - 1) - ln_fact(m - k);
+    let mut q = [0.0f64; N];
+    let mut w = [0.0f64; N];
+    for (i, (qi, wi)) in q.iter_mut().zip(w.iter_mut()).enumerate() {
+        let u = (i as f64 + 0.5) / N as f64;
+        *qi = Q_MAX * u * u;
+        let dq = 2.0 * Q_MAX * u / N as f64;
+        let f = half_normal_cdf(*qi);
+        let density =
+            core::f64::consts::FRAC_2_SQRT_PI * core::f64::consts::FRAC_1_SQRT_2 * libm::exp(-0.5 * *qi * *qi);
+        let ln_rest = (k as f64 - 1.0) * libm::log(f.max(1e-300)) + (m - k) as f64 * libm::log((1.0 - f).max(1e-300));
+        *wi = libm::exp(ln_coef + ln_rest) * density * dq;
+    }
+    let tail = |c: f64| -> f64 {
+        q.iter().zip(w.iter()).map(|(&qi, &wi)| wi * libm::erfc(c * qi * core::f64::consts::FRAC_1_SQRT_2)).sum()
+    };
+    let (mut lo, mut hi) = (0.0f64, libm::log(1e7));
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if tail(libm::exp(mid)) > p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    libm::exp(0.5 * (lo + hi))
+}
+
+/// The half-normal quantile `q` with `P(|N| <= q) = u` (bisection).
+fn half_normal_quantile(u: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if half_normal_cdf(mid) < u {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 /// Degrees of freedom of the own-scatter test with `n` kept steps: consecutive steps of white noise share a
 /// state (correlation -1/2), so the mean of `n` squared steps is worth fewer than `n` independent ones; `n - 1`
 /// is conservative (checked by `own_scatter_gate_keeps_its_false_alarm_probability`).
@@ -425,6 +551,17 @@ pub struct Gates {
     /// `f[n]`: the upper `p` quantile of Fisher's F with 2 and `2 nu` degrees of freedom (`nu` = [`own_dof`]`(n)`),
     /// `nu (p^(-1/nu) - 1)`, for a one-frame position residual against the track's own scatter from `n` kept steps.
     pub f: [f64; HISTORY],
+    /// `t_speed[n]`: as `t`, at `p / 2`: the speed step's own scatter is tested twice (the mean of squares of its
+    /// clean steps and the robust order statistic of every step), each at `p / 2`, so that together they keep the
+    /// `p` of the one test they replace.
+    pub t_speed: [f64; HISTORY],
+    /// `robust[m]`: the robust own-scatter test's quantile ([`order_statistic_quantile`]) at `p / 2` for `m` kept
+    /// speed steps and the rank [`robust_rank`]`(m)`.
+    pub robust: [f64; SPEED_STEPS + 1],
+    /// `robust_floor[m]`: the smallest order statistic used, [`OWN_SCATTER_FLOOR`] times the half-normal's
+    /// quantile at `k / (m + 1)` (about the statistic's typical value at unit scale): a track whose speeds never
+    /// change is not taken to be noise-free, as for the mean of squares.
+    pub robust_floor: [f64; SPEED_STEPS + 1],
 }
 
 impl Gates {
@@ -438,13 +575,50 @@ impl Gates {
             - (2.515_517 + 0.802_853 * t + 0.010_328 * t * t)
                 / (1.0 + 1.432_788 * t + 0.189_269 * t * t + 0.001_308 * t * t * t);
         let mut t = [f64::INFINITY; HISTORY];
+        let mut t_speed = [f64::INFINITY; HISTORY];
         let mut f = [f64::INFINITY; HISTORY];
-        for (n, (q, fq)) in t.iter_mut().zip(f.iter_mut()).enumerate().skip(usize::from(OWN_SCATTER_MIN_INCREMENTS)) {
+        let mut robust = [f64::INFINITY; SPEED_STEPS + 1];
+        let mut robust_floor = [0.0; SPEED_STEPS + 1];
+        for (m, (c, fl)) in
+            robust.iter_mut().zip(robust_floor.iter_mut()).enumerate().skip(usize::from(OWN_SCATTER_MIN_INCREMENTS))
+        {
+            let k = robust_rank(m as u8);
+            *c = order_statistic_quantile(0.5 * p, m as u8, k);
+            *fl = OWN_SCATTER_FLOOR * half_normal_quantile(k as f64 / (m as f64 + 1.0));
+        }
+        for (n, ((q, qs), fq)) in t
+            .iter_mut()
+            .zip(t_speed.iter_mut())
+            .zip(f.iter_mut())
+            .enumerate()
+            .skip(usize::from(OWN_SCATTER_MIN_INCREMENTS))
+        {
             let nu = own_dof(n as u8);
             *q = t_quantile(p, nu);
+            *qs = t_quantile(0.5 * p, nu);
             *fq = f64::from(nu) * (libm::pow(p, -1.0 / f64::from(nu)) - 1.0);
         }
-        Self { chi2_2: -2.0 * libm::log(p), z, t, f }
+        Self { chi2_2: -2.0 * libm::log(p), z, t, f, t_speed, robust, robust_floor }
+    }
+
+    /// The speed step's margin factor (times the declared sigma of the difference): the smallest of `z`, the
+    /// mean-of-squares test's `t_speed[n] rms` (`n` clean steps, `rms` floored at [`OWN_SCATTER_FLOOR`]) and the
+    /// robust test's `robust[m] q` ([`History::robust_speed_scale`]: the order statistic `q` of `m` steps,
+    /// floored at `robust_floor[m]`); each own-scatter test only with at least [`OWN_SCATTER_MIN_INCREMENTS`]
+    /// steps.
+    #[must_use]
+    pub fn speed_factor(&self, (rms, n): (f64, u8), (q, m): (f64, u8)) -> f64 {
+        let mut f = self.z;
+        if n >= OWN_SCATTER_MIN_INCREMENTS {
+            let t = self.t_speed.get(usize::from(n)).copied().unwrap_or(f64::INFINITY);
+            f = f.min(t * rms.max(OWN_SCATTER_FLOOR));
+        }
+        if m >= OWN_SCATTER_MIN_INCREMENTS {
+            let c = self.robust.get(usize::from(m)).copied().unwrap_or(f64::INFINITY);
+            let floor = self.robust_floor.get(usize::from(m)).copied().unwrap_or(0.0);
+            f = f.min(c * q.max(floor));
+        }
+        f
     }
 
     /// The own-position gate on half the one-frame Mahalanobis distance squared: the F quantile times the
@@ -721,7 +895,10 @@ pub(crate) fn check_calibrated_sc(
     let accel = (v1 - v0) / dt;
     // (The own scatter narrows the margin only between initialised speeds: at the end of a warm-up the step
     // is the warm-up's error, judged with the warm-up sigma.)
-    let speed_factor = if s0.warmup || s1.warmup { gates.z } else { gates.factor(own_speed) };
+    // Two estimates of the track's own speed scatter narrow it, each a test at `p`: the mean of squares of the clean
+    // steps (Student's t) and the robust order statistic of every step (which the track's errors do not move).
+    let speed_factor =
+        if s0.warmup || s1.warmup { gates.z } else { gates.speed_factor(own_speed, h.robust_speed_scale()) };
     // The first initialised speed after a warm-up is checked too. The warm-up's 0 is no measurement (the tracker
     // did not know the speed), so the step from it carries only the new speed's sigma: a step beyond
     // `a_acc dt + z sigma_v` says that the object moved at that speed while the tracker reported 0 (a speed error
@@ -1390,6 +1567,103 @@ mod tests {
             assert!(run(&h, &e(dt, 1.4 * dt, 1.4)).fired.is_empty(), "dt {dt}");
             assert!(run(&h, &e(dt, 2.0 * dt, 2.0)).fired.is_empty(), "dt {dt}");
         }
+    }
+
+    #[test]
+    fn robust_speed_scatter_keeps_its_false_alarm_probability() {
+        // The robust own-scatter test alone, without the physical allowance: a new speed step beyond
+        // `robust[m] max(q, floor)` declared sigmas. White speed noise (consecutive steps share a state) and the
+        // tracker bed's Gauss-Markov noise (0.8 per frame), at the declared sigma and 5x below it: the rate must be
+        // `p / 2` (the test's share), neither more (false alarms) nor far less (a test that only looks calibrated).
+        let p = 0.01;
+        let gates = Gates::new(p);
+        for (sigma, rho, seed) in [(0.5, 0.0, 3u64), (0.1, 0.0, 5), (0.5, 0.8, 7), (0.1, 0.8, 9)] {
+            let mut g = normals(seed);
+            let mut h = History::default();
+            let (mut fired, mut judged) = (0usize, 0usize);
+            let mut noise = 0.0f64;
+            for k in 0..60_000 {
+                noise = rho * noise + libm::sqrt(1.0 - rho * rho) * sigma * g();
+                let s = e(k as f64 * 0.1, k as f64, (10.0 + noise) as f32);
+                if let Some(last) = h.last() {
+                    let (q, m) = h.robust_speed_scale();
+                    if m >= OWN_SCATTER_MIN_INCREMENTS {
+                        let c = gates.robust[usize::from(m)];
+                        let step = f64::from(s.v_mps - last.v_mps) / libm::sqrt(0.5);
+                        judged += 1;
+                        fired += usize::from(libm::fabs(step) > c * q.max(gates.robust_floor[usize::from(m)]));
+                    }
+                }
+                h.push(s);
+            }
+            let rate = fired as f64 / judged as f64;
+            #[cfg(feature = "std")]
+            std::println!(
+                "speed noise {sigma} m/s (declared 0.5), correlation {rho}: robust test rate {rate:.4} (p / 2 = {})",
+                p / 2.0
+            );
+            assert!(rate < 1.5 * 0.5 * p && rate > 0.5 * 0.5 * p, "sigma {sigma}, rho {rho}: {rate}");
+        }
+    }
+
+    /// A car at `v` m/s along x (white noise of 0.05 m on the position and 0.05 m/s on the speed, declared as the
+    /// simulator's objects declare theirs: 0.1 m, 1 m/s), sampled every `dt`, with the speed reported `+2 m/s` too
+    /// high at the states `errors` (the campaign's transient errors) that went unnoticed (pushed as alarm-free).
+    fn car_with_missed_errors(v: f64, dt: f64, states: usize, errors: &[usize], seed: u64) -> History {
+        let mut g = normals(seed);
+        let mut h = History::default();
+        for k in 0..states {
+            let t = k as f64 * dt;
+            let dv = if errors.contains(&k) { 2.0 } else { 0.0 };
+            let mut s = e(t, v * t + 0.05 * g(), (v + 0.05 * g() + dv) as f32);
+            s.y_m = 0.05 * g();
+            s.sv_mps = 1.0;
+            h.push(s);
+        }
+        h
+    }
+
+    #[test]
+    fn a_2_mps_transient_error_is_caught_on_a_noisy_track_that_missed_earlier_ones() {
+        // Declared 1 m/s: a single 2 m/s error is within the declared sigma (z hypot(1, 1) = 5.5 m/s at p = 1e-4),
+        // so only the track's own scatter can tell it. Three earlier errors went unnoticed: their six steps of 2 m/s
+        // make the mean of squares of the clean steps (the t-test) as wide as the declared margin; the robust order
+        // statistic of the last 24 steps is not moved by them. (At 10 Hz, `a_acc dt` = 0.7 m/s leaves 1.3 m/s for
+        // the noise: the track's own speed steps must scatter by less than about a tenth of the declared sigma;
+        // with 0.1 m/s of noise it is at the limit.)
+        for dt in [0.1, 0.05] {
+            let n = 30;
+            let h = car_with_missed_errors(8.0, dt, n, &[8, 15, 24], 23);
+            let ((rms, _), _) = h.own_scatter();
+            assert!(rms > 0.5, "the missed errors inflate the mean of squares: {rms}");
+            let t = n as f64 * dt;
+            let mut s = e(t, 8.0 * t, 10.0);
+            s.sv_mps = 1.0;
+            let c = run(&h, &s);
+            assert!(c.fired.contains(Conditions::ACCELERATION), "dt {dt}: {c:?}");
+            assert_eq!(c.kind, Some(ImplausibilityKind::SpeedInconsistent), "dt {dt}: {c:?}");
+            assert!((c.error_size - 2.0).abs() < 0.5, "dt {dt}: the size estimate {}", c.error_size);
+            // Benign: the car accelerates at 6.5 m/s^2 (below a_acc = 7), or its speed is 3 of its own sigmas off.
+            let mut s = e(t, 8.0 * t, (8.0 + 6.5 * dt) as f32);
+            s.sv_mps = 1.0;
+            assert!(run(&h, &s).fired.is_empty(), "dt {dt}: {:?}", run(&h, &s));
+            let mut s = e(t, 8.0 * t, 8.15);
+            s.sv_mps = 1.0;
+            assert!(run(&h, &s).fired.is_empty(), "dt {dt}: {:?}", run(&h, &s));
+        }
+        // A track whose speeds scatter as much as declared (1 m/s): the robust scale is about 1, and the 2 m/s
+        // step stays within the declared margin.
+        let mut g = normals(29);
+        let mut h = History::default();
+        for k in 0..30 {
+            let t = k as f64 * 0.1;
+            let mut s = e(t, 8.0 * t, (8.0 + 1.0 * g()) as f32);
+            s.sv_mps = 1.0;
+            h.push(s);
+        }
+        let mut s = e(3.0, 24.0, 10.0);
+        s.sv_mps = 1.0;
+        assert!(!run(&h, &s).fired.contains(Conditions::ACCELERATION), "{:?}", run(&h, &s));
     }
 
     proptest::proptest! {
