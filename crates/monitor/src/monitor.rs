@@ -183,6 +183,9 @@ impl Monitor {
         let max_objects = params.max_objects as usize;
         let max_clusters = params.max_clusters as usize;
         let cells = geometry.cell_count();
+        let mut tracks = TrackTable::new(max_objects);
+        // The calibrated rule's gates now, not in the first frame (bounded time per frame).
+        tracks.prepare_gates(params.false_alarm_probability);
         Ok(Self {
             grid: OccupancyGrid::new(geometry, params.hit_probability, max_points),
             visibility: VisibilityMap::new(params.visibility_bins),
@@ -201,7 +204,7 @@ impl Monitor {
             clusters: Vec::with_capacity(max_clusters),
             cluster_spans: Vec::with_capacity(max_clusters),
             queue: Vec::with_capacity(max_points.min(cells)),
-            tracks: TrackTable::new(max_objects),
+            tracks,
             memory: EvidenceMemory::new(max_objects),
             stats: GridStats::default(),
             sensor_status: None,
