@@ -89,7 +89,7 @@ enum Command {
         /// this folder, for the numpy and PCL peers (crates/bench/peers, docs/performance.md).
         #[arg(long)]
         export_peers: Option<std::path::PathBuf>,
-        /// Rasterize each sweep of at least 16,384 points in two halves on two threads (`Monitor::check_split`:
+        /// Rasterize each sweep of at least 65,536 points in two halves on two threads (`Monitor::check_split`:
         /// bit-identical verdicts; docs/performance.md). Without it every case runs on one thread.
         #[arg(long)]
         split: bool,

@@ -280,7 +280,7 @@ impl Monitor {
     }
 
     /// [`Monitor::check`], with the rasterize stage of a large sweep (at least
-    /// [`crate::split::SPLIT_MIN_POINTS`] points) cut in two halves that `join` runs, on two threads if it
+    /// [`crate::split::SPLIT_MIN_POINTS`] points, 65,536) cut in two halves that `join` runs, on two threads if it
     /// likes: the same reports, bit for bit, as [`Monitor::check`] (the argument is in `crate::split`). Runs
     /// on the calling thread alone when [`Monitor::enable_split`] was not called, for smaller sweeps, and with
     /// the scalar rasterizer. Allocates nothing.
