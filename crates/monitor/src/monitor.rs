@@ -441,9 +441,7 @@ impl Monitor {
     }
 
     fn rasterize(&mut self, frame: &Frame<'_>, join: Option<&dyn crate::split::Join>) {
-        use crate::rasterize::{
-            rasterize_blocked, rasterize_blocked_recording, rasterize_scalar, rasterize_scalar_recording, Rasterizer,
-        };
+        use crate::rasterize::{rasterize_blocked_into, rasterize_scalar, rasterize_scalar_recording, Rasterizer};
         use crate::split::{rasterize_split, Half, SPLIT_MIN_POINTS};
         self.point_cells.clear();
         let Some(cloud) = frame.cloud.filter(|_| self.sensor_status.is_none()) else { return };
@@ -454,6 +452,7 @@ impl Monitor {
         // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
         let cells = &mut self.point_cells;
         let record = !frame.roi_in_ego.is_empty();
+        // The blocked loop with the wider vector unit or on the baseline; `None`: the scalar reference.
         let wide = match self.rasterizer {
             Rasterizer::Blocked => Some(true),
             Rasterizer::BlockedBaseline => Some(false),
@@ -467,18 +466,9 @@ impl Monitor {
                     Half { grid: &mut second.grid, visibility: &mut second.visibility, cells: &mut second.cells };
                 rasterize_split(points, &t, band, first, second, wide, record, join)
             }
-            _ => match (self.rasterizer, !record) {
-                (Rasterizer::Blocked, true) => rasterize_blocked(points, &t, band, grid, visibility, true),
-                (Rasterizer::BlockedBaseline, true) => rasterize_blocked(points, &t, band, grid, visibility, false),
-                (Rasterizer::Scalar, true) => rasterize_scalar(points, &t, band, grid, visibility),
-                (Rasterizer::Blocked, false) => {
-                    rasterize_blocked_recording(points, &t, band, grid, visibility, true, cells)
-                }
-                (Rasterizer::BlockedBaseline, false) => {
-                    rasterize_blocked_recording(points, &t, band, grid, visibility, false, cells)
-                }
-                (Rasterizer::Scalar, false) => rasterize_scalar_recording(points, &t, band, grid, visibility, cells),
-            },
+            (_, _, Some(wide)) => rasterize_blocked_into(points, &t, band, grid, visibility, wide, record, cells),
+            (_, _, None) if record => rasterize_scalar_recording(points, &t, band, grid, visibility, cells),
+            (_, _, None) => rasterize_scalar(points, &t, band, grid, visibility),
         };
         self.stats.points_total = u32::try_from(cloud.points_in_sensor.len()).unwrap_or(u32::MAX);
         self.stats.points_in_band = in_band;

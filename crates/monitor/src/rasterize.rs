@@ -340,6 +340,26 @@ pub(crate) fn rasterize_blocked(
     blocks_for::<false>(&k, band, points, grid, visibility, wide, &mut Vec::new())
 }
 
+/// [`rasterize_blocked`], or with `record` [`rasterize_blocked_recording`] into `cells`: the blocked loop as the
+/// monitor runs it (and each half of `crate::split` does).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn rasterize_blocked_into(
+    points: &[[f32; 3]],
+    t: &Isometry3,
+    band: Band,
+    grid: &mut OccupancyGrid,
+    visibility: &mut VisibilityMap,
+    wide: bool,
+    record: bool,
+    cells: &mut Vec<u32>,
+) -> u32 {
+    if record {
+        rasterize_blocked_recording(points, t, band, grid, visibility, wide, cells)
+    } else {
+        rasterize_blocked(points, t, band, grid, visibility, wide)
+    }
+}
+
 /// [`blocks_on`] instantiated for the frame: a pure translation or not, with an ego footprint or not.
 fn blocks_for<const RECORD: bool>(
     k: &Pass1,

@@ -25,7 +25,9 @@ use alloc::vec::Vec;
 
 use crate::frame::Isometry3;
 use crate::grid::OccupancyGrid;
-use crate::rasterize::{rasterize_blocked, rasterize_blocked_recording, Band, BLOCK};
+#[cfg(test)]
+use crate::rasterize::{rasterize_blocked, rasterize_blocked_recording};
+use crate::rasterize::{rasterize_blocked_into, Band, BLOCK};
 use crate::visibility::VisibilityMap;
 
 /// Runs two pieces of work, at the same time or one after the other; [`crate::Monitor::check_split`] gives it
@@ -92,20 +94,8 @@ pub(crate) fn rasterize_split(
     {
         let Half { grid: ga, visibility: va, cells: ca } = first;
         let Half { grid: gb, visibility: vb, cells: cb } = second;
-        let mut a = || {
-            in_a = if record {
-                rasterize_blocked_recording(a_points, t, band, ga, va, wide, ca)
-            } else {
-                rasterize_blocked(a_points, t, band, ga, va, wide)
-            };
-        };
-        let mut b = || {
-            in_b = if record {
-                rasterize_blocked_recording(b_points, t, band, gb, vb, wide, cb)
-            } else {
-                rasterize_blocked(b_points, t, band, gb, vb, wide)
-            };
-        };
+        let mut a = || in_a = rasterize_blocked_into(a_points, t, band, ga, va, wide, record, ca);
+        let mut b = || in_b = rasterize_blocked_into(b_points, t, band, gb, vb, wide, record, cb);
         join.join(&mut a, &mut b);
         ga.absorb(gb);
         gb.reset();
