@@ -567,6 +567,21 @@ impl Monitor {
         });
     }
 
+    /// One neighbour of the conflict flood fill: a hit cell whose probability exceeds `tau`, neither explained nor
+    /// visited, joins the queue (while it has room) and is marked visited.
+    #[inline(always)]
+    fn visit_conflict(&mut self, nb: u32, tau: f32) {
+        if self.grid.hits(nb) == 0
+            || self.grid.probability(nb) <= tau
+            || self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) != 0
+            || self.queue.len() >= self.queue.capacity()
+        {
+            return;
+        }
+        self.grid.set_flags(nb, FLAG_VISITED);
+        self.queue.push(nb);
+    }
+
     /// Conflict cells (`kappa > tau_fn`, eq. conflict) grouped into 8-connected clusters.
     fn cluster_conflicts(&mut self, frame: &Frame<'_>) {
         let geometry = self.grid.geometry;
@@ -602,16 +617,7 @@ impl Monitor {
                 let (cx, cy) = (c % n, c / n);
                 if cx > 0 && cy > 0 && cx + 1 < n && cy + 1 < n {
                     for off in offsets {
-                        let nb = (i64::from(c) + off) as u32;
-                        if self.grid.hits(nb) == 0
-                            || self.grid.probability(nb) <= tau
-                            || self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) != 0
-                            || self.queue.len() >= self.queue.capacity()
-                        {
-                            continue;
-                        }
-                        self.grid.set_flags(nb, FLAG_VISITED);
-                        self.queue.push(nb);
+                        self.visit_conflict((i64::from(c) + off) as u32, tau);
                     }
                     continue;
                 }
@@ -624,16 +630,7 @@ impl Monitor {
                         if nx < 0 || ny < 0 || nx >= i64::from(n) || ny >= i64::from(n) {
                             continue;
                         }
-                        let nb = ny as u32 * n + nx as u32;
-                        if self.grid.hits(nb) == 0
-                            || self.grid.probability(nb) <= tau
-                            || self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) != 0
-                            || self.queue.len() >= self.queue.capacity()
-                        {
-                            continue;
-                        }
-                        self.grid.set_flags(nb, FLAG_VISITED);
-                        self.queue.push(nb);
+                        self.visit_conflict(ny as u32 * n + nx as u32, tau);
                     }
                 }
             }
