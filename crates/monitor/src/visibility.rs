@@ -179,19 +179,7 @@ impl VisibilityMap {
     #[must_use]
     #[inline]
     pub fn sight(&self, x: f32, y: f32) -> Sight {
-        let dx = x - self.origin[0];
-        let dy = y - self.origin[1];
-        let r2 = dx * dx + dy * dy;
-        let bin = self.bins.get(self.bin(dx, dy)).copied();
-        let near = bin.map_or(0.0, |b| b.nearest_obstacle_r2);
-        let far = bin.map_or(0.0, |b| b.farthest_return_r2);
-        if r2 >= near {
-            Sight::Shadowed(bin.map_or(NO_CELL, |b| b.nearest_obstacle_cell))
-        } else if r2 <= far {
-            Sight::Visible
-        } else {
-            Sight::Unreached
-        }
+        self.look(x, y).0
     }
 
     /// [`VisibilityMap::sight`] and, for a visible position, [`VisibilityMap::clearance`]'s distance, from one look
@@ -199,23 +187,33 @@ impl VisibilityMap {
     #[must_use]
     #[inline]
     pub fn sight_with_clearance(&self, x: f32, y: f32) -> (Sight, Option<f32>) {
+        let (sight, r2, bin) = self.look(x, y);
+        // Visible means `r2 < near` and `r2 <= far`: `clearance` answers exactly when the bin has an obstacle cell.
+        let clearance = (sight == Sight::Visible)
+            .then_some(bin)
+            .flatten()
+            .filter(|b| b.nearest_obstacle_cell != NO_CELL)
+            .map(|b| libm::sqrtf(b.nearest_obstacle_r2) - libm::sqrtf(r2));
+        (sight, clearance)
+    }
+
+    /// What the sensor saw of a position, its squared range from the sensor and its bin (`None` outside the map).
+    #[inline(always)]
+    fn look(&self, x: f32, y: f32) -> (Sight, f32, Option<Bin>) {
         let dx = x - self.origin[0];
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
         let bin = self.bins.get(self.bin(dx, dy)).copied();
         let near = bin.map_or(0.0, |b| b.nearest_obstacle_r2);
         let far = bin.map_or(0.0, |b| b.farthest_return_r2);
-        if r2 >= near {
-            (Sight::Shadowed(bin.map_or(NO_CELL, |b| b.nearest_obstacle_cell)), None)
+        let sight = if r2 >= near {
+            Sight::Shadowed(bin.map_or(NO_CELL, |b| b.nearest_obstacle_cell))
         } else if r2 <= far {
-            // Here `r2 < near` and `r2 <= far`: `clearance` answers exactly when the bin has an obstacle cell.
-            let clearance = bin
-                .filter(|b| b.nearest_obstacle_cell != NO_CELL)
-                .map(|b| libm::sqrtf(b.nearest_obstacle_r2) - libm::sqrtf(r2));
-            (Sight::Visible, clearance)
+            Sight::Visible
         } else {
-            (Sight::Unreached, None)
-        }
+            Sight::Unreached
+        };
+        (sight, r2, bin)
     }
 
     /// For a visible position, how far in front of the nearest obstacle of its bin it lies, metres, and that
