@@ -185,7 +185,7 @@ impl Monitor {
         let cells = geometry.cell_count();
         let mut tracks = TrackTable::new(max_objects);
         // The calibrated rule's gates now, not in the first frame (bounded time per frame).
-        tracks.prepare_gates(params.false_alarm_probability);
+        let _ = tracks.prepare_gates(params.false_alarm_probability);
         Ok(Self {
             grid: OccupancyGrid::new(geometry, params.hit_probability, max_points),
             visibility: VisibilityMap::new(params.visibility_bins),

@@ -143,11 +143,16 @@ impl TrackTable {
 
     /// Computes the calibrated rule's gates for false-alarm probability `p` now (about 7 M instructions, 2-3 ms:
     /// the quantiles of the robust speed scatter are integrals solved by bisection), so that the first checked
-    /// frame does not pay for them. [`crate::Monitor::new`] calls it; `check_frame` computes them itself when its
-    /// parameters ask for another `p`.
-    pub fn prepare_gates(&mut self, p: f64) {
-        if self.gates.is_none_or(|(q, _)| q.to_bits() != p.to_bits()) {
-            self.gates = Some((p, Gates::new(p)));
+    /// frame does not pay for them; returns them. [`crate::Monitor::new`] calls it, and `check_frame` on every frame
+    /// (computing them only when its parameters ask for another `p`).
+    pub fn prepare_gates(&mut self, p: f64) -> Gates {
+        match self.gates {
+            Some((q, g)) if q.to_bits() == p.to_bits() => g,
+            _ => {
+                let g = Gates::new(p);
+                self.gates = Some((p, g));
+                g
+            }
         }
     }
 
@@ -192,14 +197,7 @@ impl TrackTable {
             }
             return;
         }
-        let gates = match self.gates {
-            Some((q, g)) if q.to_bits() == p.false_alarm_probability.to_bits() => g,
-            _ => {
-                let g = Gates::new(p.false_alarm_probability);
-                self.gates = Some((p.false_alarm_probability, g));
-                g
-            }
-        };
+        let gates = self.prepare_gates(p.false_alarm_probability);
         let pose_sc = libm::sincos(pose.yaw_rad);
         self.order.clear();
         self.order.extend(0..n as u32);
