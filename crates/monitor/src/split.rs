@@ -215,24 +215,35 @@ mod tests {
         }
     }
 
+    /// `pts` (sensor at the origin, identity extrinsic, band -1..1 m, no ego mask, `bins` bins) rasterized in one
+    /// pass and in two halves folded together: each run's grid and visibility map.
+    fn one_pass_and_split(
+        pts: &[[f32; 3]],
+        bins: u32,
+    ) -> ((OccupancyGrid, VisibilityMap), (OccupancyGrid, VisibilityMap)) {
+        let band = Band { lo_m: -1.0, hi_m: 1.0, ego_m: Band::NO_EGO };
+        let t = Isometry3::IDENTITY;
+        let n = pts.len();
+        let (mut g1, mut v1) = (grid(n), VisibilityMap::new(bins));
+        v1.reset([0.0, 0.0]);
+        rasterize_blocked(pts, &t, band, &mut g1, &mut v1, false);
+        let (mut g2, mut v2, mut c2) = (grid(n), VisibilityMap::new(bins), Vec::new());
+        let (mut gb, mut vb, mut cb) = (grid(n), VisibilityMap::new(bins), Vec::new());
+        v2.reset([0.0, 0.0]);
+        let first = Half { grid: &mut g2, visibility: &mut v2, cells: &mut c2 };
+        let second = Half { grid: &mut gb, visibility: &mut vb, cells: &mut cb };
+        rasterize_split(pts, &t, band, first, second, false, false, &Sequential);
+        ((g1, v1), (g2, v2))
+    }
+
     #[test]
     fn a_tie_across_the_halves_keeps_the_first_halfs_obstacle() {
         // (10.2, 10.9) and (10.9, 10.2) have the same r^2 bits, lie in one of 60 bins (45 degrees is mid-bin 7)
         // and in different cells: the nearest obstacle of that bin is the first half's return, as in one pass.
-        let band = Band { lo_m: -1.0, hi_m: 1.0, ego_m: Band::NO_EGO };
-        let t = Isometry3::IDENTITY;
         let mut pts = vec![[-20.0_f32, 3.0, 0.0]; 200];
         pts[5] = [10.2, 10.9, 0.0];
         pts[150] = [10.9, 10.2, 0.0];
-        let (mut g1, mut v1) = (grid(200), VisibilityMap::new(60));
-        v1.reset([0.0, 0.0]);
-        rasterize_blocked(&pts, &t, band, &mut g1, &mut v1, false);
-        let (mut g2, mut v2, mut c2) = (grid(200), VisibilityMap::new(60), Vec::new());
-        let (mut gb, mut vb, mut cb) = (grid(200), VisibilityMap::new(60), Vec::new());
-        v2.reset([0.0, 0.0]);
-        let first = Half { grid: &mut g2, visibility: &mut v2, cells: &mut c2 };
-        let second = Half { grid: &mut gb, visibility: &mut vb, cells: &mut cb };
-        rasterize_split(&pts, &t, band, first, second, false, false, &Sequential);
+        let ((_, v1), (_, v2)) = one_pass_and_split(&pts, 60);
         let geometry = GridGeometry::new(160, 0.5);
         let (first_cell, second_cell) = (geometry.point_to_cell(10.2, 10.9), geometry.point_to_cell(10.9, 10.2));
         assert_ne!(first_cell, second_cell);
@@ -243,18 +254,8 @@ mod tests {
     #[test]
     fn saturated_counts_fold_like_one_pass() {
         // 600 returns in one cell, half in each half: the count saturates the same way.
-        let band = Band { lo_m: -1.0, hi_m: 1.0, ego_m: Band::NO_EGO };
-        let t = Isometry3::IDENTITY;
         let pts = vec![[5.1_f32, 5.1, 0.0]; 600];
-        let (mut g1, mut v1) = (grid(600), VisibilityMap::new(64));
-        v1.reset([0.0, 0.0]);
-        rasterize_blocked(&pts, &t, band, &mut g1, &mut v1, false);
-        let (mut g2, mut v2, mut c2) = (grid(600), VisibilityMap::new(64), Vec::new());
-        let (mut gb, mut vb, mut cb) = (grid(600), VisibilityMap::new(64), Vec::new());
-        v2.reset([0.0, 0.0]);
-        let first = Half { grid: &mut g2, visibility: &mut v2, cells: &mut c2 };
-        let second = Half { grid: &mut gb, visibility: &mut vb, cells: &mut cb };
-        rasterize_split(&pts, &t, band, first, second, false, false, &Sequential);
+        let ((g1, _), (g2, _)) = one_pass_and_split(&pts, 64);
         let c = g1.touched()[0];
         assert_eq!(g1.hits(c), g2.hits(c));
         assert!(g2.hits(c) > 0 && g2.touched() == g1.touched());
