@@ -13,7 +13,8 @@
 //! labels; every check starts with a fresh track memory), as the experiment's one-box curve. With `ONE_BOX=1
 //! HISTORY=1`, only frames that follow another sweep are used, and the previous sweep, clean, is checked right before
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
-//! `SPILL=every` checks with `SpillOverFit::EveryReturn` (spill-over over every return, off by default).
+//! `SPILL=occupied` checks with `SpillOverFit::Occupied` (spill-over fitted over occupied cells only, the default
+//! before issue #10's clean-box round; the default now is every return).
 use std::collections::BTreeMap;
 
 use pmon_campaign::{Direction, Fault, InjectionConfig, Injector};
@@ -36,9 +37,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();
     let mut monitor = Monitor::new(params)?;
     let mut clean_monitor = Monitor::new(params)?;
-    if std::env::var("SPILL").is_ok_and(|v| v == "every") {
-        monitor.set_spill_over_fit(pmon_monitor::SpillOverFit::EveryReturn);
-        clean_monitor.set_spill_over_fit(pmon_monitor::SpillOverFit::EveryReturn);
+    if std::env::var("SPILL").is_ok_and(|v| v == "occupied") {
+        monitor.set_spill_over_fit(pmon_monitor::SpillOverFit::Occupied);
+        clean_monitor.set_spill_over_fit(pmon_monitor::SpillOverFit::Occupied);
     }
     let fault = Fault::PermanentPosition { magnitude_m, direction: Direction::Away };
     let mut cfg = InjectionConfig::new(fault, 7);

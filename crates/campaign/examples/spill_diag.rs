@@ -3,8 +3,8 @@
 //!
 //! For each such box: its size and margins, and every occupied cell within 2 m of its grown region in the box's
 //! axes (`u` along, `v` across, metres from its centre), with its hits, whether it lies in the footprint or only
-//! in the grown region, and whether it belongs to the attributed cluster. `SPILL=every`: with
-//! `SpillOverFit::EveryReturn`.
+//! in the grown region, and whether it belongs to the attributed cluster. `SPILL=occupied`: with
+//! `SpillOverFit::Occupied` (the default is `EveryReturn`).
 use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{open_with, ReadOptions};
 use pmon_monitor::{Monitor, MonitorParams, SensorVerdict};
@@ -19,8 +19,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let params =
         MonitorParams { ground_z_m: ds.info.ground_z_m, ego_footprint_m: ds.info.format.ego_footprint_m(), ..base };
     let mut monitor = Monitor::new(params)?;
-    if std::env::var("SPILL").is_ok_and(|v| v == "every") {
-        monitor.set_spill_over_fit(pmon_monitor::SpillOverFit::EveryReturn);
+    if std::env::var("SPILL").is_ok_and(|v| v == "occupied") {
+        monitor.set_spill_over_fit(pmon_monitor::SpillOverFit::Occupied);
     }
     let g = pmon_monitor::GridGeometry::new(params.grid_cells_per_side(), params.cell_size_m);
     for df in ds.frames.iter().filter(|f| f.frame.cloud.is_some()) {

@@ -95,13 +95,14 @@ pub enum PlausibilityMode {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
 pub enum SpillOverFit {
-    /// Over the occupied cells: the box's own occupied cells and the cluster's cells. The default.
-    #[default]
+    /// Over the occupied cells: the box's own occupied cells and the cluster's cells. The default until issue
+    /// #10's clean-box round; kept for comparison (`spill_over_fit = "occupied"`).
     Occupied,
     /// Over every return: also the hit cells the box owns that hold too few hits to be occupied, and the hit cells
-    /// next to the cluster that no object explains. Off by default: on the clean nuScenes and KITTI frames it
-    /// removes two of the four clean boxes flagged (nuScenes pedestrian 28, KITTI car 6), at a cost in simulated
-    /// and real recall measured in docs/attribution.md ("Spill-over over every return").
+    /// next to the cluster that no object explains. The default: on the clean nuScenes and KITTI frames it
+    /// removes two of the four clean boxes flagged (nuScenes pedestrian 28, KITTI car 6), at a small cost in
+    /// simulated and real recall measured in docs/attribution.md ("Spill-over over every return").
+    #[default]
     EveryReturn,
 }
 
@@ -243,8 +244,9 @@ pub struct MonitorParams {
     /// Azimuth bins of the visibility map used for the occlusion test.
     pub visibility_bins: u32,
     /// How spill-over (attribution step 5) decides whether a left-over cluster and a confirmed object's own
-    /// evidence fit the object's box: `occupied` (occupied cells only, the default) or `every_return` (also the
-    /// sparse hit cells; fewer clean real boxes flagged, some real recall lost: docs/attribution.md).
+    /// evidence fit the object's box: `every_return` (the default: also the sparse hit cells; fewer clean real
+    /// boxes flagged, some real recall lost: docs/attribution.md) or `occupied` (occupied cells only, the
+    /// default before issue #10's clean-box round).
     pub spill_over_fit: SpillOverFit,
 
     // ---- plausibility checks (Table I) ----
@@ -316,7 +318,7 @@ impl MonitorParams {
         conflict_association_m: 2.0,
         ghost_visible_fraction: 0.5,
         visibility_bins: 720,
-        spill_over_fit: SpillOverFit::Occupied,
+        spill_over_fit: SpillOverFit::EveryReturn,
         motion_limits: MotionLimits {
             accel_max_mps2: 7.0,
             brake_max_mps2: -7.0,

@@ -104,17 +104,20 @@ fn a_wall_is_too_large_to_be_a_pedestrians_evidence() {
 /// may be displaced, its evidence reaching over the edge). The same frame with one more return, too sparse to make
 /// its cell occupied, where the row continues beyond the cluster, or at the box's far end, is not: the returns
 /// then span more than the box, so the cluster is unlabelled returns next to a clean box (a missed object), as on
-/// the clean nuScenes and KITTI frames (docs/attribution.md). The rule is [`SpillOverFit::EveryReturn`], off by
-/// default: with the default fit (occupied cells only) all three frames flag the box. The rule is chosen by the
-/// params key `spill_over_fit`; [`Monitor::set_spill_over_fit`] gives the same verdicts.
+/// the clean nuScenes and KITTI frames (docs/attribution.md). The rule is [`SpillOverFit::EveryReturn`], the
+/// default since issue #10's clean-box round: with the older fit (`SpillOverFit::Occupied`, occupied cells only)
+/// all three frames flag the box. The rule is chosen by the params key `spill_over_fit`;
+/// [`Monitor::set_spill_over_fit`] gives the same verdicts.
 #[test]
 fn spill_over_counts_every_return_not_only_the_occupied_cells() {
     let every = MonitorParams { spill_over_fit: SpillOverFit::EveryReturn, ..MonitorParams::default() };
+    assert_eq!(every, MonitorParams::default(), "every return is the default fit");
+    let occupied = MonitorParams { spill_over_fit: SpillOverFit::Occupied, ..MonitorParams::default() };
     let mut m = Monitor::new(every).unwrap();
-    let mut by_setter = Monitor::new(MonitorParams::default()).unwrap();
+    let mut by_setter = Monitor::new(occupied).unwrap();
     by_setter.set_spill_over_fit(SpillOverFit::EveryReturn);
     assert_eq!(*by_setter.params(), every);
-    let mut default = Monitor::new(MonitorParams::default()).unwrap();
+    let mut occupied_only = Monitor::new(occupied).unwrap();
     // 0.5 m cells with edges on multiples of 0.5 m: the box and its grown region (0.4 m margins) reach from
     // x = 13.55 to 14.95; the cells centred at x = 14.25 and 14.75 are its own, 15.25 and 15.75 a conflict.
     let ped = object(1, 14.25, 0.25, 0.0, 0.6, 0.6);
@@ -145,11 +148,11 @@ fn spill_over_counts_every_return_not_only_the_occupied_cells() {
         assert_eq!(missed, 1, "one return {what}: the cluster is a missed object");
         let (r2, missed2) = run_frame(&mut by_setter, &[ped], &pts);
         assert_eq!((r2[0].sensor.verdict, missed2), (r[0].sensor.verdict, missed), "the setter: {what}");
-        let (r, missed) = run_frame(&mut default, &[ped], &pts);
+        let (r, missed) = run_frame(&mut occupied_only, &[ped], &pts);
         assert_eq!(
             r[0].sensor.verdict,
             SensorVerdict::PositionError,
-            "default fit, one return {what}: {:?}",
+            "occupied-cells fit, one return {what}: {:?}",
             r[0].sensor
         );
         assert_eq!(missed, 0);
