@@ -4,6 +4,8 @@ For every state judged by `pmon check FILE --format jsonl`, the recorded speed i
 recorded positions (mean of the one-step differences before and after it). A state counts as *glitched* when any
 of its last six states (the calibrated rule's 0.5 s baseline at 10 Hz) has a recorded speed more than THRESHOLD
 m/s off its positions' speed. Prints the alarms on glitched and on self-consistent states. Standard library only.
+Reads CommonRoad 2018b (`obstacle` with a `role`) and 2020a (`dynamicObstacle`) files. The same rule is in Rust
+(`pmon_datasets::motion::speed_label_glitches`), which `pmon reproduce` uses to judge the clean-track claim.
 
     pmon check commonroad:USA_Lanker-1_1_T-1.xml --format jsonl [--params cal.toml] > out.jsonl
     python3 ngsim_speed_glitches.py USA_Lanker-1_1_T-1.xml out.jsonl [THRESHOLD, default 2.0]
@@ -19,7 +21,8 @@ def tracks_of(xml_path):
     root = ET.parse(xml_path).getroot()
     step = float(root.get("timeStepSize", "0.1"))
     tracks = {}
-    for ob in root.iter("obstacle"):
+    # 2018b files: <obstacle> with a <role>; 2020a files: <dynamicObstacle>.
+    for ob in list(root.iter("obstacle")) + list(root.iter("dynamicObstacle")):
         role = ob.find("role")
         if role is not None and role.text != "dynamic":
             continue

@@ -73,15 +73,22 @@ struct Obs {
     speed: f64,
 }
 
+/// The dataset's frame period: `DatasetInfo::frame_period_s`, or the median gap between its frames (0.1 s
+/// without two frames).
+#[must_use]
+pub fn frame_period(ds: &Dataset) -> f64 {
+    let mut gaps: Vec<f64> =
+        ds.frames.windows(2).filter_map(|w| Some(w.get(1)?.frame.timestamp_s - w.first()?.frame.timestamp_s)).collect();
+    gaps.sort_by(f64::total_cmp);
+    ds.info.frame_period_s.or_else(|| gaps.get(gaps.len() / 2).copied()).unwrap_or(0.1)
+}
+
 /// Per-class extremes of finite-difference motion over the dataset's tracks (object ids), with counts above
 /// `accel_limit_mps2` and above `heading_limit_rad` per 0.2 s. A track's class is that of its first
 /// observation. Needs a frame period (`DatasetInfo::frame_period_s`, or the median frame gap).
 #[must_use]
 pub fn motion_extremes(ds: &Dataset, accel_limit_mps2: f64, heading_limit_rad: f64) -> Vec<MotionExtremes> {
-    let mut gaps: Vec<f64> =
-        ds.frames.windows(2).filter_map(|w| Some(w.get(1)?.frame.timestamp_s - w.first()?.frame.timestamp_s)).collect();
-    gaps.sort_by(f64::total_cmp);
-    let period = ds.info.frame_period_s.or_else(|| gaps.get(gaps.len() / 2).copied()).unwrap_or(0.1);
+    let period = frame_period(ds);
     let max_gap = 1.5 * period;
     // steps for 0.2 s
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // small positive ratio
@@ -156,4 +163,109 @@ pub fn motion_extremes(ds: &Dataset, accel_limit_mps2: f64, heading_limit_rad: f
         }
     }
     out.into_values().collect()
+}
+
+/// Which labelled states sit on a *speed glitch of the labels themselves*: for object `i` of frame `f`,
+/// `out[f][i]` is true when, at this state or at one of the track's states in the `window_s` before it, the
+/// recorded `speed_mps` differs by more than `threshold_mps` from the speed of the recorded positions (the mean of
+/// the one-step position differences to the previous and the next observation, each within 1.5 frame periods).
+///
+/// Such a state is not a clean state: the labels contradict themselves (NGSIM's differentiated video tracks
+/// record speed steps of up to 2.7 m/s in 0.1 s that their positions do not show, docs/plausibility.md), and an
+/// alarm there reports a real error of the data. The same rule as `python/examples/ngsim_speed_glitches.py`
+/// (which reads the CommonRoad XML itself), so the two can be compared.
+#[must_use]
+pub fn speed_label_glitches(
+    frames: &[crate::DatasetFrame],
+    frame_period_s: f64,
+    threshold_mps: f64,
+    window_s: f64,
+) -> Vec<Vec<bool>> {
+    let max_gap = 1.5 * frame_period_s;
+    // Per track: (frame index, object index, t, x, y, recorded speed), in frame order.
+    let mut tracks: BTreeMap<u64, Vec<(usize, usize, Obs)>> = BTreeMap::new();
+    for (fi, f) in frames.iter().enumerate() {
+        let pose = f.frame.world_from_ego;
+        for (oi, o) in f.frame.objects.iter().enumerate() {
+            let (x, y) = pose.transform_point(f64::from(o.x_m), f64::from(o.y_m));
+            let obs = Obs { t: f.frame.timestamp_s, x, y, heading: 0.0, speed: f64::from(o.speed_mps) };
+            tracks.entry(o.id).or_default().push((fi, oi, obs));
+        }
+    }
+    let mut out: Vec<Vec<bool>> = frames.iter().map(|f| vec![false; f.frame.objects.len()]).collect();
+    let step_speed = |a: &Obs, b: &Obs| {
+        let dt = b.t - a.t;
+        (dt > 0.0 && dt <= max_gap).then(|| (b.x - a.x).hypot(b.y - a.y) / dt)
+    };
+    for obs in tracks.values() {
+        // The gap of each state: |recorded speed - speed of its positions|, when it has a neighbour in time.
+        let gaps: Vec<Option<f64>> = (0..obs.len())
+            .map(|i| {
+                let here = &obs.get(i)?.2;
+                let before = i.checked_sub(1).and_then(|j| obs.get(j)).and_then(|p| step_speed(&p.2, here));
+                let after = obs.get(i + 1).and_then(|n| step_speed(here, &n.2));
+                let w: Vec<f64> = [before, after].into_iter().flatten().collect();
+                #[allow(clippy::cast_precision_loss)] // one or two
+                let mean = (!w.is_empty()).then(|| w.iter().sum::<f64>() / w.len() as f64)?;
+                Some((here.speed - mean).abs())
+            })
+            .collect();
+        for (i, (fi, oi, here)) in obs.iter().enumerate() {
+            let glitched = (0..=i)
+                .rev()
+                .take_while(|&j| obs.get(j).is_some_and(|o| here.t - o.2.t <= window_s + 0.5 * frame_period_s))
+                .any(|j| gaps.get(j).copied().flatten().is_some_and(|g| g > threshold_mps));
+            if let Some(slot) = out.get_mut(*fi).and_then(|f| f.get_mut(*oi)) {
+                *slot = glitched;
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use pmon_monitor::{ObjectState, Pose2};
+    use pmon_recording::RecordedFrame;
+
+    use super::*;
+    use crate::DatasetFrame;
+
+    /// A car driving at 10 m/s along x at 10 Hz, its recorded speed `speed(k)` at frame k.
+    fn track(frames: usize, speed: impl Fn(usize) -> f32) -> Vec<DatasetFrame> {
+        (0..frames)
+            .map(|k| {
+                #[allow(clippy::cast_precision_loss)]
+                let t = k as f64 * 0.1;
+                let mut frame = RecordedFrame::empty(k as u64, t, Pose2::default());
+                #[allow(clippy::cast_possible_truncation)]
+                frame.objects.push(ObjectState {
+                    id: 7,
+                    class: ObjectClass::Car,
+                    x_m: (10.0 * t) as f32,
+                    y_m: 0.0,
+                    heading_rad: 0.0,
+                    speed_mps: speed(k),
+                    length_m: 4.5,
+                    width_m: 1.8,
+                    uncertainty: None,
+                });
+                DatasetFrame { frame, extras: vec![Default::default()] }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_recorded_speed_step_marks_its_state_and_the_next_half_second() {
+        // Self-consistent: nothing marked.
+        let clean = speed_label_glitches(&track(20, |_| 10.0), 0.1, 2.0, 0.5);
+        assert!(clean.iter().flatten().all(|g| !g));
+        // Frame 8 records 12.5 m/s while the box moves at 10: frames 8 to 13 (0.5 s) are marked, no other.
+        let glitch = speed_label_glitches(&track(20, |k| if k == 8 { 12.5 } else { 10.0 }), 0.1, 2.0, 0.5);
+        let marked: Vec<usize> = glitch.iter().enumerate().filter(|(_, g)| g[0]).map(|(k, _)| k).collect();
+        assert_eq!(marked, (8..=13).collect::<Vec<_>>());
+        // A step below the threshold marks nothing.
+        let small = speed_label_glitches(&track(20, |k| if k == 8 { 11.5 } else { 10.0 }), 0.1, 2.0, 0.5);
+        assert!(small.iter().flatten().all(|g| !g));
+    }
 }

@@ -410,3 +410,23 @@ fn deferred_sweeps_are_the_sweeps_of_open() {
         .map_or((None, None), |(d, s)| (Some(d), Some(s)));
     assert!(ds.is_none() && sweeps.is_none());
 }
+
+/// The labels' own speed glitches (`motion::speed_label_glitches`: recorded speed more than 2 m/s off the
+/// recorded positions' speed, at the state or in the 0.5 s before it) agree with the independent Python reading of
+/// the CommonRoad XML, `python/examples/ngsim_speed_glitches.py` (its `tracks_of` and `speed_gap`, standard
+/// library only): 78 of Lanker's 938 states and none of US101's 1,271, counted by that script's rule over every
+/// state of every dynamic obstacle.
+#[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
+fn speed_glitches_of_the_ngsim_labels_match_the_python_reading() {
+    let Some(dir) = data("commonroad") else { return };
+    for (stem, states, glitched) in [("USA_Lanker-1_1_T-1", 938, 78), ("USA_US101-4_1_T-1", 1271, 0)] {
+        let ds = open(&format!("commonroad:{}/{stem}.xml", dir.display())).unwrap();
+        let g =
+            pmon_datasets::motion::speed_label_glitches(&ds.frames, pmon_datasets::motion::frame_period(&ds), 2.0, 0.5);
+        let n: usize = g.iter().map(Vec::len).sum();
+        let k = g.iter().flatten().filter(|x| **x).count();
+        eprintln!("{stem}: {k} of {n} states on a speed glitch of the labels");
+        assert_eq!((n, k), (states, glitched), "{stem}");
+    }
+}
