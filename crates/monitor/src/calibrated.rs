@@ -138,6 +138,10 @@ pub struct History {
     /// caught) do not move. (Longer than the states' ring: a median of 23 steps is nearly as tight as the mean of
     /// squares of 11.)
     speed_ring: [f32; SPEED_STEPS],
+    /// The same `speed_len` steps in ascending order ([`f32::total_cmp`]; the steps are finite or `+inf`, never
+    /// NaN), kept beside the ring by each push (one removal and one insertion, at most [`SPEED_STEPS`] moves each),
+    /// so that [`History::robust_speed_scale`] reads its order statistic instead of selecting it.
+    speed_sorted: [f32; SPEED_STEPS],
     speed_start: u8,
     speed_len: u8,
     start: u8,
@@ -151,6 +155,12 @@ pub struct History {
     /// The same for the position steps.
     pos_sum: f64,
     pos_n: u8,
+}
+
+/// An integer whose order is [`f32::total_cmp`]'s order of `x` (the same map `total_cmp` makes).
+fn order_key(x: f32) -> i32 {
+    let b = x.to_bits() as i32;
+    b ^ (((b >> 31) as u32) >> 1) as i32
 }
 
 /// Both states are clean: neither raised an alarm nor is in its warm-up.
@@ -250,6 +260,7 @@ impl History {
         steps: [(0.0, 0.0); HISTORY],
         pos_steps: [0.0; HISTORY],
         speed_ring: [0.0; SPEED_STEPS],
+        speed_sorted: [0.0; SPEED_STEPS],
         speed_start: 0,
         speed_len: 0,
         start: 0,
@@ -346,15 +357,66 @@ impl History {
             *slot = pos;
         }
         if any >= 0.0 {
-            let at = (usize::from(self.speed_start) + usize::from(self.speed_len)) % SPEED_STEPS;
-            if let Some(slot) = self.speed_ring.get_mut(at) {
-                *slot = any;
+            self.push_speed_step(any);
+        }
+    }
+
+    /// Appends a speed step to the ring (dropping the oldest when full) and keeps `speed_sorted` in order: one copy
+    /// of the oldest step's value leaves it (equal under `total_cmp` means equal bits, so which copy does not
+    /// matter), which opens a hole at its place (at the end while the ring is not full); the hole moves towards the
+    /// new step's place, each step over moving one neighbour, and takes the new step.
+    fn push_speed_step(&mut self, any: f32) {
+        let len = usize::from(self.speed_len).min(SPEED_STEPS);
+        let at = (usize::from(self.speed_start) + len) % SPEED_STEPS;
+        let sorted = &mut self.speed_sorted;
+        let mut hole = len;
+        let mut filled = len + 1;
+        if len == SPEED_STEPS {
+            filled = len;
+            let old = self.speed_ring.get(at).map_or(0, |&x| order_key(x));
+            // The first sorted step not below the oldest one: a copy of it.
+            let (mut lo, mut hi) = (0usize, len);
+            while lo < hi {
+                let mid = (lo + hi) / 2;
+                if sorted.get(mid).is_some_and(|&x| order_key(x) < old) {
+                    lo = mid + 1;
+                } else {
+                    hi = mid;
+                }
             }
-            if usize::from(self.speed_len) < SPEED_STEPS {
-                self.speed_len += 1;
-            } else {
-                self.speed_start = ((usize::from(self.speed_start) + 1) % SPEED_STEPS) as u8;
+            hole = lo.min(len - 1);
+        }
+        if let Some(slot) = self.speed_ring.get_mut(at) {
+            *slot = any;
+        }
+        let key = order_key(any);
+        // Down while the step before the hole is above the new one, else up while the step after it is below.
+        while let Some(&p) = hole.checked_sub(1).and_then(|j| sorted.get(j)) {
+            if order_key(p) <= key {
+                break;
             }
+            if let Some(slot) = sorted.get_mut(hole) {
+                *slot = p;
+            }
+            hole -= 1;
+        }
+        while hole + 1 < filled {
+            let Some(&n) = sorted.get(hole + 1) else { break };
+            if order_key(n) >= key {
+                break;
+            }
+            if let Some(slot) = sorted.get_mut(hole) {
+                *slot = n;
+            }
+            hole += 1;
+        }
+        if let Some(slot) = sorted.get_mut(hole) {
+            *slot = any;
+        }
+        if len < SPEED_STEPS {
+            self.speed_len += 1;
+        } else {
+            self.speed_start = ((usize::from(self.speed_start) + 1) % SPEED_STEPS) as u8;
         }
     }
 
@@ -369,11 +431,10 @@ impl History {
         if m < usize::from(OWN_SCATTER_MIN_INCREMENTS) {
             return (0.0, m as u8);
         }
-        // (The ring's order does not matter for an order statistic: select in a copy of its filled part.)
-        let mut buf = self.speed_ring;
-        let Some(kept) = buf.get_mut(..m) else { return (0.0, 0) };
-        let (_, q, _) = kept.select_nth_unstable_by(robust_rank(m as u8).saturating_sub(1), f32::total_cmp);
-        (libm::sqrt(f64::from(*q)), m as u8)
+        // (Read off the steps kept in order: the same value as selecting it in the ring, see
+        // `sorted_steps_give_the_ring_s_order_statistic`.)
+        let Some(&q) = self.speed_sorted.get(robust_rank(m as u8).saturating_sub(1)) else { return (0.0, 0) };
+        (libm::sqrt(f64::from(q)), m as u8)
     }
 
     fn add_position_step(&mut self, q: f32, sign: f64) {
@@ -1666,7 +1727,69 @@ mod tests {
         assert!(!run(&h, &s).fired.contains(Conditions::ACCELERATION), "{:?}", run(&h, &s));
     }
 
+    /// The order statistic as selected in a copy of the ring's filled part (the selection the sorted steps
+    /// replace), with every rank's value for the comparison.
+    fn selected_from_ring(h: &History) -> ([u32; SPEED_STEPS], usize) {
+        let m = usize::from(h.speed_len);
+        let mut out = [0u32; SPEED_STEPS];
+        for (k, o) in out.iter_mut().enumerate().take(m) {
+            let mut buf = h.speed_ring;
+            let (_, q, _) = buf[..m].select_nth_unstable_by(k, f32::total_cmp);
+            *o = q.to_bits();
+        }
+        (out, m)
+    }
+
+    fn check_sorted_against_ring(h: &History) -> Result<(), proptest::test_runner::TestCaseError> {
+        let (selected, m) = selected_from_ring(h);
+        for (k, (got, want)) in h.speed_sorted.iter().zip(selected.iter()).enumerate().take(m) {
+            proptest::prop_assert_eq!(got.to_bits(), *want, "rank {} of {}", k, m);
+        }
+        if m >= usize::from(OWN_SCATTER_MIN_INCREMENTS) {
+            let (q, mm) = h.robust_speed_scale();
+            let want = f32::from_bits(selected[robust_rank(m as u8) - 1]);
+            proptest::prop_assert_eq!(usize::from(mm), m);
+            proptest::prop_assert_eq!(q.to_bits(), libm::sqrt(f64::from(want)).to_bits());
+        }
+        Ok(())
+    }
+
     proptest::proptest! {
+        #[test]
+        fn sorted_steps_give_the_ring_s_order_statistic(
+            // Steps drawn from a few values (ties, zeros, +inf) and from the whole non-negative range, long enough
+            // for several wrap-arounds of the 24-step ring.
+            steps in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::sample::select(vec![0.0f32, -0.0, 1.0, 2.5, f32::MIN_POSITIVE, f32::INFINITY]),
+                    0.0f32..4.0,
+                    proptest::num::f32::POSITIVE | proptest::num::f32::ZERO | proptest::num::f32::SUBNORMAL,
+                ],
+                0..120,
+            )
+        ) {
+            let mut h = History::default();
+            for &q in &steps {
+                h.push_speed_step(q);
+                check_sorted_against_ring(&h)?;
+            }
+        }
+
+        #[test]
+        fn sorted_steps_follow_the_pushed_states(
+            states in proptest::collection::vec((0.0f32..20.0, 0.0f32..2.0, proptest::bool::ANY), 1..100)
+        ) {
+            // Through `History::push`: speed steps of random speeds and sigmas, warm-ups (no step) among them.
+            let mut h = History::default();
+            for (k, &(v, sv, warmup)) in states.iter().enumerate() {
+                let mut s = e(k as f64 * 0.1, k as f64, v);
+                s.sv_mps = sv;
+                s.warmup = warmup;
+                h.push(s);
+                check_sorted_against_ring(&h)?;
+            }
+        }
+
         #[test]
         fn running_scatter_sums_match_a_recount(
             steps in proptest::collection::vec((0.0f32..20.0, -3.2f32..3.2, proptest::bool::ANY, proptest::bool::ANY), 1..60)
