@@ -157,6 +157,18 @@ pub struct History {
     pos_n: u8,
 }
 
+/// `j % cap` for the ring positions here (`j` = a start below `cap` plus an offset of at most `cap`: below
+/// `2 cap`), without a division; any larger `j` (none) is reduced by the division.
+const fn ring_index(j: usize, cap: usize) -> usize {
+    if j < cap {
+        j
+    } else if j < 2 * cap {
+        j - cap
+    } else {
+        j % cap
+    }
+}
+
 /// An integer whose order is [`f32::total_cmp`]'s order of `x` (the same map `total_cmp` makes).
 fn order_key(x: f32) -> i32 {
     let b = x.to_bits() as i32;
@@ -291,7 +303,7 @@ impl History {
         if i >= self.len() {
             return None;
         }
-        self.items.get((usize::from(self.start) + i) % HISTORY)
+        self.items.get(ring_index(usize::from(self.start) + i, HISTORY))
     }
 
     /// The newest state.
@@ -324,7 +336,7 @@ impl History {
         self.add_position_step(pos, 1.0);
         if self.len() >= HISTORY {
             // The oldest state leaves, and with it the step of the state after it.
-            let next = (usize::from(self.start) + 1) % HISTORY;
+            let next = ring_index(usize::from(self.start) + 1, HISTORY);
             if let Some(&old) = self.steps.get(next) {
                 self.add_steps(old, -1.0);
             }
@@ -339,12 +351,12 @@ impl History {
             }
         }
         let idx = if self.len() < HISTORY {
-            let idx = (usize::from(self.start) + self.len()) % HISTORY;
+            let idx = ring_index(usize::from(self.start) + self.len(), HISTORY);
             self.len += 1;
             idx
         } else {
             let idx = usize::from(self.start);
-            self.start = ((usize::from(self.start) + 1) % HISTORY) as u8;
+            self.start = ring_index(usize::from(self.start) + 1, HISTORY) as u8;
             idx
         };
         if let Some(slot) = self.items.get_mut(idx) {
@@ -367,7 +379,7 @@ impl History {
     /// new step's place, each step over moving one neighbour, and takes the new step.
     fn push_speed_step(&mut self, any: f32) {
         let len = usize::from(self.speed_len).min(SPEED_STEPS);
-        let at = (usize::from(self.speed_start) + len) % SPEED_STEPS;
+        let at = ring_index(usize::from(self.speed_start) + len, SPEED_STEPS);
         let sorted = &mut self.speed_sorted;
         let mut hole = len;
         let mut filled = len + 1;
@@ -416,7 +428,7 @@ impl History {
         if len < SPEED_STEPS {
             self.speed_len += 1;
         } else {
-            self.speed_start = ((usize::from(self.speed_start) + 1) % SPEED_STEPS) as u8;
+            self.speed_start = ring_index(usize::from(self.speed_start) + 1, SPEED_STEPS) as u8;
         }
     }
 
@@ -869,10 +881,11 @@ pub fn check_calibrated(
     heading_min_speed_mps: f64,
     baseline_s: f64,
 ) -> CalibratedCheck {
+    let u1 = libm::sincos(f64::from(s1.heading_rad));
     check_calibrated_sc(
         h,
-        s1,
-        libm::sincos(f64::from(s1.heading_rad)),
+        &Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 },
+        u1,
         limits,
         gates,
         heading_min_speed_mps,
@@ -880,7 +893,8 @@ pub fn check_calibrated(
     )
 }
 
-/// [`check_calibrated`] with `u1 = libm::sincos(f64::from(s1.heading_rad))` given (computed once per state).
+/// [`check_calibrated`] with `u1 = libm::sincos(f64::from(s1.heading_rad))` given (computed once per state) and
+/// `s1`'s [`Entry::unit`] set from it (`[u1.1 as f32, u1.0 as f32]`, as [`History::push`] sets it).
 pub(crate) fn check_calibrated_sc(
     h: &History,
     s1: &Entry,
@@ -927,7 +941,8 @@ pub(crate) fn check_calibrated_sc(
     // heading is steady from one flipped frame to the next. It is called flipped again only when the box's
     // motion since the first flipped state agrees with the old heading at least as well as with the new one
     // (see [`turn_explains_motion`]): an object that really turned around moves along its new heading.
-    let s1u = Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 };
+    // (`s1` with its unit vector: the caller set it.)
+    let s1u = s1;
     if kind.is_none() && s0.flipped && !s1.warmup && v1 >= heading_min_speed_mps {
         let mut reference = None;
         for i in (0..n).rev() {
@@ -943,7 +958,7 @@ pub(crate) fn check_calibrated_sc(
         if let Some((ri, r)) = reference.filter(|(_, r)| f64::from(r.v_mps) >= heading_min_speed_mps) {
             let d = wrap_difference(f64::from(s1.heading_rad) - f64::from(r.heading_rad));
             let m = gates.factor(own_heading) * norm(r.heading_sigma(), s1.heading_sigma());
-            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 && !turn_explains_motion(h, ri + 1, &s1u) {
+            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 && !turn_explains_motion(h, ri + 1, s1u) {
                 fired = fired.union(Conditions::TURN_RATE);
                 kind = Some(ImplausibilityKind::HeadingFlip);
                 error_size = libm::fabs(d);
@@ -1006,7 +1021,7 @@ pub(crate) fn check_calibrated_sc(
     let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no velocity).
-    let (pred, cov) = trapezoid(h, &sb, b, &s1u, true);
+    let (pred, cov) = trapezoid(h, &sb, b, s1u, true);
     let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
     let r = refit_allowance(raw, u1, f64::from(s1.length_m - sb.length_m), f64::from(s1.width_m - sb.width_m));
     let d2 = mahalanobis2(r, cov);
@@ -1025,7 +1040,7 @@ pub(crate) fn check_calibrated_sc(
     let mut own_position = None;
     let mut position_step = -1.0f32;
     if n > 0 && clean_pair(&s0, &Entry { suspect: false, ..*s1 }) {
-        let (r1, d1) = one_frame_residual(&s0, &s1u);
+        let (r1, d1) = one_frame_residual(&s0, s1u);
         let q = 0.5 * d1;
         if q.is_finite() {
             position_step = q as f32;
