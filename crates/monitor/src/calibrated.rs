@@ -244,12 +244,16 @@ fn speed_step_any(prev: Option<&Entry>, e: &Entry) -> f32 {
 }
 
 /// The studentised steps of `e` from `prev` (see `History::steps`).
+#[cfg(test)]
 fn steps_from(prev: Option<&Entry>, e: &Entry) -> (f32, f32) {
+    steps_from_any(prev, e, speed_step_any(prev, e))
+}
+
+/// [`steps_from`] with `any = speed_step_any(prev, e)` given: between clean states the speed step is the same
+/// number (the same square over the same variance) where it is finite as an `f32`, so it is not divided out twice.
+fn steps_from_any(prev: Option<&Entry>, e: &Entry, any: f32) -> (f32, f32) {
     let Some(p) = prev.filter(|p| clean_pair(p, e)) else { return (-1.0, -1.0) };
-    let sq = |x: f32| f64::from(x) * f64::from(x);
-    let var_v = sq(p.sv_mps) + sq(e.sv_mps);
-    let dv = f64::from(e.v_mps) - f64::from(p.v_mps);
-    let speed = if var_v > 0.0 { (dv * dv / var_v) as f32 } else { -1.0 };
+    let speed = if any >= 0.0 { any } else { -1.0 };
     let heading = if p.v_mps.min(e.v_mps) >= OWN_HEADING_MIN_SPEED_MPS {
         let (a, b) = (p.heading_sigma(), e.heading_sigma());
         let var_h = a * a + b * b;
@@ -330,8 +334,8 @@ impl History {
     /// [`CalibratedCheck::position_step`] of `e`'s check against this history (the same number, computed once),
     /// or negative when `e` raised an alarm.
     pub(crate) fn push_with_unit_and_step(&mut self, e: Entry, pos: f32) {
-        let step = steps_from(self.last(), &e);
         let any = speed_step_any(self.last(), &e);
+        let step = steps_from_any(self.last(), &e, any);
         self.add_steps(step, 1.0);
         self.add_position_step(pos, 1.0);
         if self.len() >= HISTORY {
@@ -1769,7 +1773,53 @@ mod tests {
         Ok(())
     }
 
+    /// The studentised steps as computed before the speed step was shared with `speed_step_any`.
+    fn steps_from_reference(prev: Option<&Entry>, e: &Entry) -> (f32, f32) {
+        let Some(p) = prev.filter(|p| clean_pair(p, e)) else { return (-1.0, -1.0) };
+        let sq = |x: f32| f64::from(x) * f64::from(x);
+        let var_v = sq(p.sv_mps) + sq(e.sv_mps);
+        let dv = f64::from(e.v_mps) - f64::from(p.v_mps);
+        let speed = if var_v > 0.0 { (dv * dv / var_v) as f32 } else { -1.0 };
+        let heading = if p.v_mps.min(e.v_mps) >= OWN_HEADING_MIN_SPEED_MPS {
+            let (a, b) = (p.heading_sigma(), e.heading_sigma());
+            let var_h = a * a + b * b;
+            let dh = wrap_difference(f64::from(e.heading_rad) - f64::from(p.heading_rad));
+            if var_h > 0.0 {
+                (dh * dh / var_h) as f32
+            } else {
+                -1.0
+            }
+        } else {
+            -1.0
+        };
+        (if speed.is_finite() { speed } else { -1.0 }, if heading.is_finite() { heading } else { -1.0 })
+    }
+
     proptest::proptest! {
+        #[test]
+        fn shared_speed_step_gives_the_same_steps(
+            a in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::sample::select(vec![0.0f32, -0.0, 1.0, 1e-30, 1e30, f32::MAX, f32::INFINITY, f32::NAN]),
+                    -50.0f32..50.0,
+                ],
+                6,
+            ),
+            flags in proptest::collection::vec(proptest::bool::ANY, 4),
+        ) {
+            // Speeds, speed sigmas and headings of two states (with zeros, huge, infinite and NaN values), clean or
+            // not: the shared speed step gives the steps bit for bit as before.
+            let mut p = e(0.0, 0.0, a[0]);
+            let mut q = e(0.1, 1.0, a[1]);
+            (p.sv_mps, q.sv_mps, p.heading_rad, q.heading_rad) = (a[2], a[3], a[4], a[5]);
+            (p.suspect, p.warmup, q.suspect, q.warmup) = (flags[0], flags[1], flags[2], flags[3]);
+            for prev in [None, Some(&p)] {
+                let (x, y) = steps_from(prev, &q);
+                let (xr, yr) = steps_from_reference(prev, &q);
+                proptest::prop_assert_eq!((x.to_bits(), y.to_bits()), (xr.to_bits(), yr.to_bits()));
+            }
+        }
+
         #[test]
         fn sorted_steps_give_the_ring_s_order_statistic(
             // Steps drawn from a few values (ties, zeros, +inf) and from the whole non-negative range, long enough
