@@ -138,6 +138,10 @@ pub struct History {
     /// caught) do not move. (Longer than the states' ring: a median of 23 steps is nearly as tight as the mean of
     /// squares of 11.)
     speed_ring: [f32; SPEED_STEPS],
+    /// The same `speed_len` steps in ascending order ([`f32::total_cmp`]; the steps are finite or `+inf`, never
+    /// NaN), kept beside the ring by each push (one removal and one insertion, at most [`SPEED_STEPS`] moves each),
+    /// so that [`History::robust_speed_scale`] reads its order statistic instead of selecting it.
+    speed_sorted: [f32; SPEED_STEPS],
     speed_start: u8,
     speed_len: u8,
     start: u8,
@@ -151,6 +155,24 @@ pub struct History {
     /// The same for the position steps.
     pos_sum: f64,
     pos_n: u8,
+}
+
+/// `j % cap` for the ring positions here (`j` = a start below `cap` plus an offset of at most `cap`: below
+/// `2 cap`), without a division; any larger `j` (none) is reduced by the division.
+const fn ring_index(j: usize, cap: usize) -> usize {
+    if j < cap {
+        j
+    } else if j < 2 * cap {
+        j - cap
+    } else {
+        j % cap
+    }
+}
+
+/// An integer whose order is [`f32::total_cmp`]'s order of `x` (the same map `total_cmp` makes).
+fn order_key(x: f32) -> i32 {
+    let b = x.to_bits() as i32;
+    b ^ (((b >> 31) as u32) >> 1) as i32
 }
 
 /// Both states are clean: neither raised an alarm nor is in its warm-up.
@@ -222,12 +244,16 @@ fn speed_step_any(prev: Option<&Entry>, e: &Entry) -> f32 {
 }
 
 /// The studentised steps of `e` from `prev` (see `History::steps`).
+#[cfg(test)]
 fn steps_from(prev: Option<&Entry>, e: &Entry) -> (f32, f32) {
+    steps_from_any(prev, e, speed_step_any(prev, e))
+}
+
+/// [`steps_from`] with `any = speed_step_any(prev, e)` given: between clean states the speed step is the same
+/// number (the same square over the same variance) where it is finite as an `f32`, so it is not divided out twice.
+fn steps_from_any(prev: Option<&Entry>, e: &Entry, any: f32) -> (f32, f32) {
     let Some(p) = prev.filter(|p| clean_pair(p, e)) else { return (-1.0, -1.0) };
-    let sq = |x: f32| f64::from(x) * f64::from(x);
-    let var_v = sq(p.sv_mps) + sq(e.sv_mps);
-    let dv = f64::from(e.v_mps) - f64::from(p.v_mps);
-    let speed = if var_v > 0.0 { (dv * dv / var_v) as f32 } else { -1.0 };
+    let speed = if any >= 0.0 { any } else { -1.0 };
     let heading = if p.v_mps.min(e.v_mps) >= OWN_HEADING_MIN_SPEED_MPS {
         let (a, b) = (p.heading_sigma(), e.heading_sigma());
         let var_h = a * a + b * b;
@@ -250,6 +276,7 @@ impl History {
         steps: [(0.0, 0.0); HISTORY],
         pos_steps: [0.0; HISTORY],
         speed_ring: [0.0; SPEED_STEPS],
+        speed_sorted: [0.0; SPEED_STEPS],
         speed_start: 0,
         speed_len: 0,
         start: 0,
@@ -280,7 +307,7 @@ impl History {
         if i >= self.len() {
             return None;
         }
-        self.items.get((usize::from(self.start) + i) % HISTORY)
+        self.items.get(ring_index(usize::from(self.start) + i, HISTORY))
     }
 
     /// The newest state.
@@ -307,13 +334,13 @@ impl History {
     /// [`CalibratedCheck::position_step`] of `e`'s check against this history (the same number, computed once),
     /// or negative when `e` raised an alarm.
     pub(crate) fn push_with_unit_and_step(&mut self, e: Entry, pos: f32) {
-        let step = steps_from(self.last(), &e);
         let any = speed_step_any(self.last(), &e);
+        let step = steps_from_any(self.last(), &e, any);
         self.add_steps(step, 1.0);
         self.add_position_step(pos, 1.0);
         if self.len() >= HISTORY {
             // The oldest state leaves, and with it the step of the state after it.
-            let next = (usize::from(self.start) + 1) % HISTORY;
+            let next = ring_index(usize::from(self.start) + 1, HISTORY);
             if let Some(&old) = self.steps.get(next) {
                 self.add_steps(old, -1.0);
             }
@@ -328,12 +355,12 @@ impl History {
             }
         }
         let idx = if self.len() < HISTORY {
-            let idx = (usize::from(self.start) + self.len()) % HISTORY;
+            let idx = ring_index(usize::from(self.start) + self.len(), HISTORY);
             self.len += 1;
             idx
         } else {
             let idx = usize::from(self.start);
-            self.start = ((usize::from(self.start) + 1) % HISTORY) as u8;
+            self.start = ring_index(usize::from(self.start) + 1, HISTORY) as u8;
             idx
         };
         if let Some(slot) = self.items.get_mut(idx) {
@@ -346,15 +373,66 @@ impl History {
             *slot = pos;
         }
         if any >= 0.0 {
-            let at = (usize::from(self.speed_start) + usize::from(self.speed_len)) % SPEED_STEPS;
-            if let Some(slot) = self.speed_ring.get_mut(at) {
-                *slot = any;
+            self.push_speed_step(any);
+        }
+    }
+
+    /// Appends a speed step to the ring (dropping the oldest when full) and keeps `speed_sorted` in order: one copy
+    /// of the oldest step's value leaves it (equal under `total_cmp` means equal bits, so which copy does not
+    /// matter), which opens a hole at its place (at the end while the ring is not full); the hole moves towards the
+    /// new step's place, each step over moving one neighbour, and takes the new step.
+    fn push_speed_step(&mut self, any: f32) {
+        let len = usize::from(self.speed_len).min(SPEED_STEPS);
+        let at = ring_index(usize::from(self.speed_start) + len, SPEED_STEPS);
+        let sorted = &mut self.speed_sorted;
+        let mut hole = len;
+        let mut filled = len + 1;
+        if len == SPEED_STEPS {
+            filled = len;
+            let old = self.speed_ring.get(at).map_or(0, |&x| order_key(x));
+            // The first sorted step not below the oldest one: a copy of it.
+            let (mut lo, mut hi) = (0usize, len);
+            while lo < hi {
+                let mid = (lo + hi) / 2;
+                if sorted.get(mid).is_some_and(|&x| order_key(x) < old) {
+                    lo = mid + 1;
+                } else {
+                    hi = mid;
+                }
             }
-            if usize::from(self.speed_len) < SPEED_STEPS {
-                self.speed_len += 1;
-            } else {
-                self.speed_start = ((usize::from(self.speed_start) + 1) % SPEED_STEPS) as u8;
+            hole = lo.min(len - 1);
+        }
+        if let Some(slot) = self.speed_ring.get_mut(at) {
+            *slot = any;
+        }
+        let key = order_key(any);
+        // Down while the step before the hole is above the new one, else up while the step after it is below.
+        while let Some(&p) = hole.checked_sub(1).and_then(|j| sorted.get(j)) {
+            if order_key(p) <= key {
+                break;
             }
+            if let Some(slot) = sorted.get_mut(hole) {
+                *slot = p;
+            }
+            hole -= 1;
+        }
+        while hole + 1 < filled {
+            let Some(&n) = sorted.get(hole + 1) else { break };
+            if order_key(n) >= key {
+                break;
+            }
+            if let Some(slot) = sorted.get_mut(hole) {
+                *slot = n;
+            }
+            hole += 1;
+        }
+        if let Some(slot) = sorted.get_mut(hole) {
+            *slot = any;
+        }
+        if len < SPEED_STEPS {
+            self.speed_len += 1;
+        } else {
+            self.speed_start = ring_index(usize::from(self.speed_start) + 1, SPEED_STEPS) as u8;
         }
     }
 
@@ -369,11 +447,10 @@ impl History {
         if m < usize::from(OWN_SCATTER_MIN_INCREMENTS) {
             return (0.0, m as u8);
         }
-        // (The ring's order does not matter for an order statistic: select in a copy of its filled part.)
-        let mut buf = self.speed_ring;
-        let Some(kept) = buf.get_mut(..m) else { return (0.0, 0) };
-        let (_, q, _) = kept.select_nth_unstable_by(robust_rank(m as u8).saturating_sub(1), f32::total_cmp);
-        (libm::sqrt(f64::from(*q)), m as u8)
+        // (Read off the steps kept in order: the same value as selecting it in the ring, see
+        // `sorted_steps_give_the_ring_s_order_statistic`.)
+        let Some(&q) = self.speed_sorted.get(robust_rank(m as u8).saturating_sub(1)) else { return (0.0, 0) };
+        (libm::sqrt(f64::from(q)), m as u8)
     }
 
     fn add_position_step(&mut self, q: f32, sign: f64) {
@@ -808,10 +885,11 @@ pub fn check_calibrated(
     heading_min_speed_mps: f64,
     baseline_s: f64,
 ) -> CalibratedCheck {
+    let u1 = libm::sincos(f64::from(s1.heading_rad));
     check_calibrated_sc(
         h,
-        s1,
-        libm::sincos(f64::from(s1.heading_rad)),
+        &Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 },
+        u1,
         limits,
         gates,
         heading_min_speed_mps,
@@ -819,7 +897,8 @@ pub fn check_calibrated(
     )
 }
 
-/// [`check_calibrated`] with `u1 = libm::sincos(f64::from(s1.heading_rad))` given (computed once per state).
+/// [`check_calibrated`] with `u1 = libm::sincos(f64::from(s1.heading_rad))` given (computed once per state) and
+/// `s1`'s [`Entry::unit`] set from it (`[u1.1 as f32, u1.0 as f32]`, as [`History::push`] sets it).
 pub(crate) fn check_calibrated_sc(
     h: &History,
     s1: &Entry,
@@ -866,7 +945,8 @@ pub(crate) fn check_calibrated_sc(
     // heading is steady from one flipped frame to the next. It is called flipped again only when the box's
     // motion since the first flipped state agrees with the old heading at least as well as with the new one
     // (see [`turn_explains_motion`]): an object that really turned around moves along its new heading.
-    let s1u = Entry { unit: [u1.1 as f32, u1.0 as f32], ..*s1 };
+    // (`s1` with its unit vector: the caller set it.)
+    let s1u = s1;
     if kind.is_none() && s0.flipped && !s1.warmup && v1 >= heading_min_speed_mps {
         let mut reference = None;
         for i in (0..n).rev() {
@@ -882,7 +962,7 @@ pub(crate) fn check_calibrated_sc(
         if let Some((ri, r)) = reference.filter(|(_, r)| f64::from(r.v_mps) >= heading_min_speed_mps) {
             let d = wrap_difference(f64::from(s1.heading_rad) - f64::from(r.heading_rad));
             let m = gates.factor(own_heading) * norm(r.heading_sigma(), s1.heading_sigma());
-            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 && !turn_explains_motion(h, ri + 1, &s1u) {
+            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 && !turn_explains_motion(h, ri + 1, s1u) {
                 fired = fired.union(Conditions::TURN_RATE);
                 kind = Some(ImplausibilityKind::HeadingFlip);
                 error_size = libm::fabs(d);
@@ -945,7 +1025,7 @@ pub(crate) fn check_calibrated_sc(
     let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no velocity).
-    let (pred, cov) = trapezoid(h, &sb, b, &s1u, true);
+    let (pred, cov) = trapezoid(h, &sb, b, s1u, true);
     let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
     let r = refit_allowance(raw, u1, f64::from(s1.length_m - sb.length_m), f64::from(s1.width_m - sb.width_m));
     let d2 = mahalanobis2(r, cov);
@@ -964,7 +1044,7 @@ pub(crate) fn check_calibrated_sc(
     let mut own_position = None;
     let mut position_step = -1.0f32;
     if n > 0 && clean_pair(&s0, &Entry { suspect: false, ..*s1 }) {
-        let (r1, d1) = one_frame_residual(&s0, &s1u);
+        let (r1, d1) = one_frame_residual(&s0, s1u);
         let q = 0.5 * d1;
         if q.is_finite() {
             position_step = q as f32;
@@ -1666,7 +1746,115 @@ mod tests {
         assert!(!run(&h, &s).fired.contains(Conditions::ACCELERATION), "{:?}", run(&h, &s));
     }
 
+    /// The order statistic as selected in a copy of the ring's filled part (the selection the sorted steps
+    /// replace), with every rank's value for the comparison.
+    fn selected_from_ring(h: &History) -> ([u32; SPEED_STEPS], usize) {
+        let m = usize::from(h.speed_len);
+        let mut out = [0u32; SPEED_STEPS];
+        for (k, o) in out.iter_mut().enumerate().take(m) {
+            let mut buf = h.speed_ring;
+            let (_, q, _) = buf[..m].select_nth_unstable_by(k, f32::total_cmp);
+            *o = q.to_bits();
+        }
+        (out, m)
+    }
+
+    fn check_sorted_against_ring(h: &History) -> Result<(), proptest::test_runner::TestCaseError> {
+        let (selected, m) = selected_from_ring(h);
+        for (k, (got, want)) in h.speed_sorted.iter().zip(selected.iter()).enumerate().take(m) {
+            proptest::prop_assert_eq!(got.to_bits(), *want, "rank {} of {}", k, m);
+        }
+        if m >= usize::from(OWN_SCATTER_MIN_INCREMENTS) {
+            let (q, mm) = h.robust_speed_scale();
+            let want = f32::from_bits(selected[robust_rank(m as u8) - 1]);
+            proptest::prop_assert_eq!(usize::from(mm), m);
+            proptest::prop_assert_eq!(q.to_bits(), libm::sqrt(f64::from(want)).to_bits());
+        }
+        Ok(())
+    }
+
+    /// The studentised steps as computed before the speed step was shared with `speed_step_any`.
+    fn steps_from_reference(prev: Option<&Entry>, e: &Entry) -> (f32, f32) {
+        let Some(p) = prev.filter(|p| clean_pair(p, e)) else { return (-1.0, -1.0) };
+        let sq = |x: f32| f64::from(x) * f64::from(x);
+        let var_v = sq(p.sv_mps) + sq(e.sv_mps);
+        let dv = f64::from(e.v_mps) - f64::from(p.v_mps);
+        let speed = if var_v > 0.0 { (dv * dv / var_v) as f32 } else { -1.0 };
+        let heading = if p.v_mps.min(e.v_mps) >= OWN_HEADING_MIN_SPEED_MPS {
+            let (a, b) = (p.heading_sigma(), e.heading_sigma());
+            let var_h = a * a + b * b;
+            let dh = wrap_difference(f64::from(e.heading_rad) - f64::from(p.heading_rad));
+            if var_h > 0.0 {
+                (dh * dh / var_h) as f32
+            } else {
+                -1.0
+            }
+        } else {
+            -1.0
+        };
+        (if speed.is_finite() { speed } else { -1.0 }, if heading.is_finite() { heading } else { -1.0 })
+    }
+
     proptest::proptest! {
+        #[test]
+        fn shared_speed_step_gives_the_same_steps(
+            a in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::sample::select(vec![0.0f32, -0.0, 1.0, 1e-30, 1e30, f32::MAX, f32::INFINITY, f32::NAN]),
+                    -50.0f32..50.0,
+                ],
+                6,
+            ),
+            flags in proptest::collection::vec(proptest::bool::ANY, 4),
+        ) {
+            // Speeds, speed sigmas and headings of two states (with zeros, huge, infinite and NaN values), clean or
+            // not: the shared speed step gives the steps bit for bit as before.
+            let mut p = e(0.0, 0.0, a[0]);
+            let mut q = e(0.1, 1.0, a[1]);
+            (p.sv_mps, q.sv_mps, p.heading_rad, q.heading_rad) = (a[2], a[3], a[4], a[5]);
+            (p.suspect, p.warmup, q.suspect, q.warmup) = (flags[0], flags[1], flags[2], flags[3]);
+            for prev in [None, Some(&p)] {
+                let (x, y) = steps_from(prev, &q);
+                let (xr, yr) = steps_from_reference(prev, &q);
+                proptest::prop_assert_eq!((x.to_bits(), y.to_bits()), (xr.to_bits(), yr.to_bits()));
+            }
+        }
+
+        #[test]
+        fn sorted_steps_give_the_ring_s_order_statistic(
+            // Steps drawn from a few values (ties, zeros, +inf) and from the whole non-negative range, long enough
+            // for several wrap-arounds of the 24-step ring.
+            steps in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::sample::select(vec![0.0f32, -0.0, 1.0, 2.5, f32::MIN_POSITIVE, f32::INFINITY]),
+                    0.0f32..4.0,
+                    proptest::num::f32::POSITIVE | proptest::num::f32::ZERO | proptest::num::f32::SUBNORMAL,
+                ],
+                0..120,
+            )
+        ) {
+            let mut h = History::default();
+            for &q in &steps {
+                h.push_speed_step(q);
+                check_sorted_against_ring(&h)?;
+            }
+        }
+
+        #[test]
+        fn sorted_steps_follow_the_pushed_states(
+            states in proptest::collection::vec((0.0f32..20.0, 0.0f32..2.0, proptest::bool::ANY), 1..100)
+        ) {
+            // Through `History::push`: speed steps of random speeds and sigmas, warm-ups (no step) among them.
+            let mut h = History::default();
+            for (k, &(v, sv, warmup)) in states.iter().enumerate() {
+                let mut s = e(k as f64 * 0.1, k as f64, v);
+                s.sv_mps = sv;
+                s.warmup = warmup;
+                h.push(s);
+                check_sorted_against_ring(&h)?;
+            }
+        }
+
         #[test]
         fn running_scatter_sums_match_a_recount(
             steps in proptest::collection::vec((0.0f32..20.0, -3.2f32..3.2, proptest::bool::ANY, proptest::bool::ANY), 1..60)

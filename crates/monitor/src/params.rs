@@ -134,7 +134,8 @@ impl TrackerNoise {
     /// Position sigma at reported speed `v_mps`, metres.
     #[must_use]
     pub fn position_at(&self, v_mps: f64) -> f64 {
-        let w = libm::exp(-v_mps.max(0.0));
+        // (A standing object, `v <= 0`, or NaN, which `max` takes to 0: `exp(-0) = 1` exactly, without the call.)
+        let w = if v_mps > 0.0 { libm::exp(-v_mps) } else { 1.0 };
         f64::from(self.position_m) + (f64::from(self.standstill_position_m) - f64::from(self.position_m)) * w
     }
 }
@@ -581,6 +582,19 @@ impl core::error::Error for ParamError {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn position_at_skips_exp_only_where_it_is_1() {
+        // The blend as written before the standing object's shortcut, bit for bit.
+        let n = TrackerNoise::DEFAULT;
+        let blend = |v: f64| {
+            let w = libm::exp(-v.max(0.0));
+            f64::from(n.position_m) + (f64::from(n.standstill_position_m) - f64::from(n.position_m)) * w
+        };
+        for v in [0.0, -0.0, -1.0, -1e-300, f64::NAN, f64::NEG_INFINITY, f64::INFINITY, 1e-300, 0.3, 1.0, 30.0, 800.0] {
+            assert_eq!(n.position_at(v).to_bits(), blend(v).to_bits(), "{v}");
+        }
+    }
 
     /// Issue 15 (found by fuzzing): values that passed validation and turned a recording with alarms into 100 %
     /// "not monitored" or "consistent" with exit 0.
