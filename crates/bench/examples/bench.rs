@@ -1,6 +1,7 @@
 //! Runs the latency benchmarks and prints the table (or JSON), like `pmon bench`:
 //! `cargo run --release -p pmon-bench --example bench -- [--json] [--iterations N] [--max-seconds-per-case S]
-//! [--only TEXT]...` (`--only`: the cases whose name contains one of the texts, as `pmon bench --only`).
+//! [--only TEXT]... [--columns]` (`--only`: the cases whose name contains one of the texts, as `pmon bench --only`;
+//! `--columns`: the sweeps handed over as columns, as `pmon bench --columns`).
 
 use std::process::ExitCode;
 
@@ -13,6 +14,7 @@ fn main() -> ExitCode {
     while let Some(arg) = args.next() {
         match arg.as_str() {
             "--json" => json = true,
+            "--columns" => opts.columns = true,
             "--iterations" => match args.next().and_then(|v| v.parse().ok()) {
                 Some(n) => opts.iterations = n,
                 None => {
@@ -37,7 +39,7 @@ fn main() -> ExitCode {
             other => {
                 eprintln!(
                     "unknown argument `{other}`; usage: bench [--json] [--iterations N] [--max-seconds-per-case S] \
-                     [--only TEXT]..."
+                     [--only TEXT]... [--columns]"
                 );
                 return ExitCode::from(2);
             }

@@ -23,7 +23,9 @@ pub mod peers;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use pmon_monitor::{FrameError, Join, Monitor, MonitorParams, ParamError, Rasterizer, Stage};
+use pmon_monitor::{
+    ColumnCloud, FrameError, Join, Monitor, MonitorParams, ParamError, PointColumns, Rasterizer, Stage,
+};
 use serde::{Deserialize, Serialize};
 
 pub use frames::{Sequence, SyntheticSpec};
@@ -61,6 +63,29 @@ pub fn timed_check_with<'m>(
     frame: &pmon_monitor::Frame<'_>,
     join: Option<&dyn Join>,
 ) -> Result<(pmon_monitor::FrameReport<'m>, [f64; 5]), FrameError> {
+    timed_check_of(monitor, frame, None, join)
+}
+
+/// [`timed_check_with`] with the sweep handed over as columns ([`Monitor::check_columns`]; `frame.cloud` is not
+/// read).
+///
+/// # Errors
+/// As [`Monitor::check`].
+pub fn timed_check_columns<'m>(
+    monitor: &'m mut Monitor,
+    frame: &pmon_monitor::Frame<'_>,
+    cloud: &ColumnCloud<'_>,
+    join: Option<&dyn Join>,
+) -> Result<(pmon_monitor::FrameReport<'m>, [f64; 5]), FrameError> {
+    timed_check_of(monitor, frame, Some(cloud), join)
+}
+
+fn timed_check_of<'m>(
+    monitor: &'m mut Monitor,
+    frame: &pmon_monitor::Frame<'_>,
+    columns: Option<&ColumnCloud<'_>>,
+    join: Option<&dyn Join>,
+) -> Result<(pmon_monitor::FrameReport<'m>, [f64; 5]), FrameError> {
     let mut marks: [Option<Instant>; 5] = [None; 5];
     let t0 = Instant::now();
     let mut on_stage = |s| {
@@ -69,9 +94,11 @@ pub fn timed_check_with<'m>(
             *m = Some(now);
         }
     };
-    let report = match join {
-        Some(join) => monitor.check_split_with_stages(frame, join, &mut on_stage)?,
-        None => monitor.check_with_stages(frame, &mut on_stage)?,
+    let report = match (join, columns) {
+        (Some(join), None) => monitor.check_split_with_stages(frame, join, &mut on_stage)?,
+        (None, None) => monitor.check_with_stages(frame, &mut on_stage)?,
+        (Some(join), Some(cloud)) => monitor.check_columns_split_with_stages(frame, cloud, join, &mut on_stage)?,
+        (None, Some(cloud)) => monitor.check_columns_with_stages(frame, cloud, &mut on_stage)?,
     };
     let mut row = [0.0; 5];
     let mut prev = t0;
@@ -103,6 +130,9 @@ pub struct BenchOptions {
     /// Rasterize sweeps of at least `pmon_monitor::split::SPLIT_MIN_POINTS` points in two halves on two
     /// threads ([`Monitor::check_split`] with [`RayonJoin`]; the same verdicts). Off: one thread.
     pub split: bool,
+    /// Hand every sweep to the monitor as three columns (`x`, `y`, `z` slices, [`Monitor::check_columns`]; the
+    /// same verdicts) instead of `[x, y, z]` records. The columns are made once per sweep before the timing.
+    pub columns: bool,
 }
 
 impl Default for BenchOptions {
@@ -118,6 +148,7 @@ impl Default for BenchOptions {
             rasterizer: Rasterizer::Blocked,
             only: Vec::new(),
             split: false,
+            columns: false,
         }
     }
 }
@@ -367,6 +398,14 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
         ));
     }
 
+    if opts.columns {
+        notes.push(
+            "--columns: every sweep is handed over as three columns (x, y, z slices; Monitor::check_columns), made \
+             once per sweep before the timing"
+                .to_string(),
+        );
+    }
+
     // Real data first: a malformed file fails the run before anything slow happens.
     let real = if opts.real_data { real_sequences(opts, &mut notes)? } else { RealSequences::default() };
     let syn64 = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
@@ -567,12 +606,35 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let seq = def.sequence;
     let n = seq.frames.len().max(1);
     let frame_err = |source| BenchError::Frame { case: def.name.clone(), source };
+    // With `columns`, each sweep's points as three columns, made here (outside the timing).
+    let columns: Vec<[Vec<f32>; 3]> = if opts.columns {
+        seq.sweeps
+            .iter()
+            .map(|s| {
+                let p = &s.points_in_sensor;
+                [p.iter().map(|p| p[0]).collect(), p.iter().map(|p| p[1]).collect(), p.iter().map(|p| p[2]).collect()]
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    // Frame `i`'s sweep as a `ColumnCloud` when measuring columns and the frame has a sweep.
+    let column_cloud = |i: usize| -> Option<ColumnCloud<'_>> {
+        let sweep = seq.frames.get(i % n)?.sweep?;
+        let [x, y, z] = columns.get(sweep)?;
+        let points_in_sensor = PointColumns::new(x, y, z).ok()?;
+        Some(ColumnCloud { points_in_sensor, ego_from_sensor: seq.sweeps.get(sweep)?.ego_from_sensor })
+    };
 
     // Warm-up: one cycle (fills the tracks, touches the buffers).
     for i in 0..n {
         let mut roi = Vec::new();
         if let Some(f) = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi) {
-            monitor.check(&f).map_err(frame_err)?;
+            match column_cloud(i) {
+                Some(cloud) => monitor.check_columns(&f, &cloud).map(|_| ()),
+                None => monitor.check(&f).map(|_| ()),
+            }
+            .map_err(frame_err)?;
         }
     }
 
@@ -583,7 +645,11 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     for i in n..n + opts.iterations {
         let mut roi = Vec::new();
         let Some(frame) = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi) else { break };
-        let (report, row) = timed_check_with(&mut monitor, &frame, join).map_err(frame_err)?;
+        let timed = match column_cloud(i) {
+            Some(cloud) => timed_check_columns(&mut monitor, &frame, &cloud, join),
+            None => timed_check_with(&mut monitor, &frame, join),
+        };
+        let (report, row) = timed.map_err(frame_err)?;
         points.push(report.grid.points_total);
         in_band.push(report.grid.points_in_band);
         cells_hit.push(report.grid.cells_hit);

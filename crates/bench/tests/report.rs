@@ -14,6 +14,7 @@ fn quick() -> BenchOptions {
         rasterizer: pmon_monitor::Rasterizer::Blocked,
         only: Vec::new(),
         split: false,
+        columns: false,
     }
 }
 
@@ -145,4 +146,25 @@ fn split_runs_the_same_frames_on_two_threads_and_says_so() {
     }
     assert!(two.notes.iter().any(|n| n.starts_with("--split")), "{:?}", two.notes);
     assert!(!one.notes.iter().any(|n| n.starts_with("--split")), "{:?}", one.notes);
+}
+
+#[test]
+fn columns_run_the_same_frames_and_say_so() {
+    let only = vec!["synthetic-32/0.5m".to_string(), "objects-30/no-cloud".to_string()];
+    let records = run_bench(&BenchOptions { only: only.clone(), ..quick() }).unwrap();
+    let columns = run_bench(&BenchOptions { only, columns: true, ..quick() }).unwrap();
+    // The 32-beam case and the object lists without a cloud (the paper's rule and the calibrated one).
+    assert_eq!((records.cases.len(), columns.cases.len()), (3, 3));
+    for (a, b) in records.cases.iter().zip(&columns.cases) {
+        assert_eq!(a.name, b.name);
+        assert_eq!(
+            (a.points, a.points_in_band, a.cells_hit, a.clusters),
+            (b.points, b.points_in_band, b.cells_hit, b.clusters),
+            "{}",
+            a.name
+        );
+    }
+    assert!(columns.cases[0].points > 30_000, "the 32-beam sweep is measured: {}", columns.cases[0].points);
+    assert!(columns.notes.iter().any(|n| n.starts_with("--columns")), "{:?}", columns.notes);
+    assert!(!records.notes.iter().any(|n| n.starts_with("--columns")), "{:?}", records.notes);
 }

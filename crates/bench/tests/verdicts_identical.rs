@@ -3,7 +3,8 @@
 //! what a new `Monitor`'s freshly zeroed grid holds after the same frame alone; repeated runs give the same
 //! reports. On the synthetic benchmark frames and, when present, on the real sweeps of the shared data (KITTI,
 //! nuScenes, Argoverse 2). On the real sweeps, the three rasterizers (`Blocked`, `BlockedBaseline`, `Scalar`) give
-//! identical reports and grids too.
+//! identical reports and grids too, and so do the sweeps handed over as columns (`Monitor::check_columns`), with
+//! the Argoverse 2 sweeps' region of interest (whose scan reads the returns of its edge cells from the columns).
 //!
 //! The reports depend on history (the tracks, and the evidence memory: where each track's evidence stood last
 //! frame, which depended on the frame before), so the new monitor of frame `k` replays frames `0..k` first. The
@@ -17,10 +18,10 @@ use std::collections::BTreeSet;
 use std::ops::Range;
 
 use pmon_bench::frames::{self, Sequence, SequenceFrame, SyntheticSpec};
-use pmon_monitor::grid::FLAG_ATTRIBUTED;
+use pmon_monitor::grid::{FLAG_ATTRIBUTED, FLAG_RETURN_IN_ROI};
 use pmon_monitor::{
-    ClusterReport, FrameReport, GridStats, Monitor, MonitorParams, NotMonitoredReason, ObjectReport, Rasterizer,
-    Verdict,
+    ClusterReport, ColumnCloud, Frame, FrameReport, GridStats, Monitor, MonitorParams, NotMonitoredReason,
+    ObjectReport, PointColumns, Rasterizer, Verdict,
 };
 
 #[derive(Clone, Debug, PartialEq)]
@@ -229,5 +230,57 @@ fn rasterizers_agree_on_real_sweeps() {
             }
             assert!(verdicts.len() > 1, "{}: cell {cell} m: a single verdict kind {verdicts:?}", seq.name);
         }
+    }
+}
+
+/// The real sweeps handed over as columns (`Monitor::check_columns`) give the reports (by their `Debug` text) and
+/// grids (hits and flags of every touched cell) of the same sweeps as `[x, y, z]` records, frame after frame, with
+/// each rasterizer; the Argoverse 2 frames carry their map's region of interest, and returns in it are found
+/// through the columns.
+#[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
+fn columns_agree_with_records_on_real_sweeps() {
+    let mut returns_in_roi = 0usize;
+    for (seq, _) in real_sequences() {
+        let columns: Vec<[Vec<f32>; 3]> = seq
+            .sweeps
+            .iter()
+            .map(|s| {
+                let p = &s.points_in_sensor;
+                [p.iter().map(|p| p[0]).collect(), p.iter().map(|p| p[1]).collect(), p.iter().map(|p| p[2]).collect()]
+            })
+            .collect();
+        for rasterizer in [Rasterizer::Blocked, Rasterizer::Scalar] {
+            let mut records = Monitor::new(params(0.5)).unwrap();
+            let mut by_columns = Monitor::new(params(0.5)).unwrap();
+            records.set_rasterizer(rasterizer);
+            by_columns.set_rasterizer(rasterizer);
+            for i in 0..seq.frames.len() + 2 {
+                let mut roi = Vec::new();
+                let frame = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi).unwrap();
+                let a = format!("{:?}", Outcome::from(records.check(&frame).unwrap()));
+                let sweep = seq.frames[i % seq.frames.len()].sweep.unwrap();
+                let [x, y, z] = &columns[sweep];
+                let cloud = ColumnCloud {
+                    points_in_sensor: PointColumns::new(x, y, z).unwrap(),
+                    ego_from_sensor: seq.sweeps[sweep].ego_from_sensor,
+                };
+                let b = format!(
+                    "{:?}",
+                    Outcome::from(by_columns.check_columns(&Frame { cloud: None, ..frame }, &cloud).unwrap())
+                );
+                let at = format!("{}: frame {i}, {rasterizer:?}", seq.name);
+                assert!(a == b, "{at}: reports from columns differ from those from records");
+                let (g, h) = (records.grid(), by_columns.grid());
+                assert_eq!(g.touched(), h.touched(), "{at}: touched cells");
+                for &c in g.touched() {
+                    assert_eq!((g.hits(c), g.flags(c)), (h.hits(c), h.flags(c)), "{at}: cell {c}");
+                }
+                returns_in_roi += g.touched().iter().filter(|&&c| g.flags(c) & FLAG_RETURN_IN_ROI != 0).count();
+            }
+        }
+    }
+    if real_sequences().iter().any(|(s, _)| s.sweeps.iter().any(|s| !s.roi_in_ego.is_empty())) {
+        assert!(returns_in_roi > 0, "the region of interest's scan of the returns is exercised");
     }
 }

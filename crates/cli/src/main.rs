@@ -93,6 +93,10 @@ enum Command {
         /// bit-identical verdicts; docs/performance.md). Without it every case runs on one thread.
         #[arg(long)]
         split: bool,
+        /// Hand every sweep to the monitor as three columns (`x`, `y`, `z` slices: `Monitor::check_columns`, the
+        /// same verdicts) instead of `[x, y, z]` records (docs/performance.md).
+        #[arg(long, alias = "soa")]
+        columns: bool,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -193,6 +197,7 @@ fn main() -> ExitCode {
             only,
             export_peers,
             split,
+            columns,
         } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
@@ -207,6 +212,7 @@ fn main() -> ExitCode {
                 },
                 only,
                 split,
+                columns,
             };
             if let Some(dir) = export_peers {
                 return match pmon_bench::peers::export_peers(&dir, &opts) {

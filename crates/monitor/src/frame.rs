@@ -201,6 +201,105 @@ pub struct PointCloud<'a> {
     pub ego_from_sensor: Isometry3,
 }
 
+/// A sweep's points as three columns of equal length (structure of arrays): point `i` is `[x[i], y[i], z[i]]`
+/// in the sensor frame, metres. Borrowed, so a caller that holds its points this way (a columnar file, a
+/// numpy array per axis, a driver's buffers) hands them over without copying them into `[x, y, z]` records;
+/// [`crate::Monitor::check_columns`] checks a frame with them and gives the reports [`crate::Monitor::check`]
+/// gives for the same points as a [`PointCloud`], bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct PointColumns<'a> {
+    x: &'a [f32],
+    y: &'a [f32],
+    z: &'a [f32],
+}
+
+impl<'a> PointColumns<'a> {
+    /// No points.
+    pub const EMPTY: PointColumns<'static> = PointColumns { x: &[], y: &[], z: &[] };
+
+    /// The columns of one sweep.
+    ///
+    /// # Errors
+    /// [`ColumnLengthError`] when the three columns differ in length.
+    pub fn new(x: &'a [f32], y: &'a [f32], z: &'a [f32]) -> Result<Self, ColumnLengthError> {
+        if x.len() == y.len() && y.len() == z.len() {
+            Ok(Self { x, y, z })
+        } else {
+            Err(ColumnLengthError { x: x.len(), y: y.len(), z: z.len() })
+        }
+    }
+
+    /// The `x` column.
+    #[must_use]
+    pub fn x(&self) -> &'a [f32] {
+        self.x
+    }
+
+    /// The `y` column.
+    #[must_use]
+    pub fn y(&self) -> &'a [f32] {
+        self.y
+    }
+
+    /// The `z` column.
+    #[must_use]
+    pub fn z(&self) -> &'a [f32] {
+        self.z
+    }
+
+    /// The number of points.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// True when there are no points.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// Point `i`, `None` past the end.
+    #[must_use]
+    #[inline]
+    pub fn get(&self, i: usize) -> Option<[f32; 3]> {
+        Some([*self.x.get(i)?, *self.y.get(i)?, *self.z.get(i)?])
+    }
+}
+
+/// [`PointColumns::new`] was given columns of different lengths.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ColumnLengthError {
+    /// Length of the `x` column.
+    pub x: usize,
+    /// Length of the `y` column.
+    pub y: usize,
+    /// Length of the `z` column.
+    pub z: usize,
+}
+
+impl core::fmt::Display for ColumnLengthError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "point columns differ in length: x has {}, y has {}, z has {} values (one value per point in each)",
+            self.x, self.y, self.z
+        )
+    }
+}
+
+impl core::error::Error for ColumnLengthError {}
+
+/// A LiDAR sweep given as columns ([`PointColumns`]) and the sensor's extrinsic: [`PointCloud`]'s counterpart
+/// for [`crate::Monitor::check_columns`].
+#[derive(Clone, Copy, Debug)]
+pub struct ColumnCloud<'a> {
+    /// Points in the sensor frame, metres, as three columns.
+    pub points_in_sensor: PointColumns<'a>,
+    /// Extrinsic `ego_from_sensor`.
+    pub ego_from_sensor: Isometry3,
+}
+
 /// Everything the monitor looks at in one frame. Borrowed: the monitor copies nothing it does not need.
 #[derive(Clone, Copy, Debug)]
 pub struct Frame<'a> {

@@ -31,7 +31,10 @@ pub mod frame;
 pub mod params;
 pub mod verdict;
 
-pub use frame::{Frame, Isometry3, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty};
+pub use frame::{
+    ColumnCloud, ColumnLengthError, Frame, Isometry3, ObjectClass, ObjectState, PointCloud, PointColumns, Pose2,
+    Uncertainty,
+};
 pub use params::{
     ClassMotionLimits, ClassTrackerNoise, MonitorParams, MotionLimits, ParamError, PlausibilityMode, SpillOverFit,
     TrackerNoise,

@@ -3,7 +3,7 @@
 use alloc::vec::Vec;
 
 use crate::evidence_memory::{EvidenceKind, EvidenceMemory, Motion};
-use crate::frame::{Frame, ObjectState, Uncertainty};
+use crate::frame::{ColumnCloud, Frame, Isometry3, ObjectState, PointCloud, PointColumns, Uncertainty};
 use crate::grid::{
     GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_RETURN_IN_ROI, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE,
     FLAG_STATIC, FLAG_VISITED,
@@ -24,6 +24,51 @@ use attribution::{claim, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDER
 #[doc(hidden)]
 pub use roi::roi_index_mismatch;
 use roi::{polygon_box, RoiIndex, RoiSide};
+
+/// The sweep of the frame being checked, as the caller gave it: `[x, y, z]` records ([`Monitor::check`]) or
+/// columns ([`Monitor::check_columns`]). Every stage reads the points through it.
+#[derive(Clone, Copy, Debug)]
+enum Points<'a> {
+    Rows(&'a [[f32; 3]]),
+    Columns(PointColumns<'a>),
+}
+
+impl Points<'_> {
+    fn len(self) -> usize {
+        match self {
+            Self::Rows(p) => p.len(),
+            Self::Columns(c) => c.len(),
+        }
+    }
+
+    /// Point `i`, `None` past the end.
+    #[inline]
+    fn get(self, i: usize) -> Option<[f32; 3]> {
+        match self {
+            Self::Rows(p) => p.get(i).copied(),
+            Self::Columns(c) => c.get(i),
+        }
+    }
+}
+
+/// A sweep and its extrinsic, from a [`PointCloud`] or a [`ColumnCloud`].
+#[derive(Clone, Copy, Debug)]
+struct Cloud<'a> {
+    points: Points<'a>,
+    ego_from_sensor: Isometry3,
+}
+
+impl<'a> From<PointCloud<'a>> for Cloud<'a> {
+    fn from(c: PointCloud<'a>) -> Self {
+        Self { points: Points::Rows(c.points_in_sensor), ego_from_sensor: c.ego_from_sensor }
+    }
+}
+
+impl<'a> From<ColumnCloud<'a>> for Cloud<'a> {
+    fn from(c: ColumnCloud<'a>) -> Self {
+        Self { points: Points::Columns(c.points_in_sensor), ego_from_sensor: c.ego_from_sensor }
+    }
+}
 
 /// The stages of [`Monitor::check`], in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -292,7 +337,7 @@ impl Monitor {
         frame: &Frame<'_>,
         join: &dyn crate::split::Join,
     ) -> Result<FrameReport<'_>, FrameError> {
-        self.check_inner(frame, &mut |_| {}, Some(join))
+        self.check_inner(frame, frame.cloud.map(Cloud::from), &mut |_| {}, Some(join))
     }
 
     /// [`Monitor::check_split`], calling `on_stage` as each [`Stage`] ends (see [`Monitor::check_with_stages`]).
@@ -305,7 +350,7 @@ impl Monitor {
         join: &dyn crate::split::Join,
         on_stage: &mut dyn FnMut(Stage),
     ) -> Result<FrameReport<'_>, FrameError> {
-        self.check_inner(frame, on_stage, Some(join))
+        self.check_inner(frame, frame.cloud.map(Cloud::from), on_stage, Some(join))
     }
 
     /// [`Monitor::check`], calling `on_stage` as each [`Stage`] ends (for profiling: the caller reads its
@@ -318,12 +363,52 @@ impl Monitor {
         frame: &Frame<'_>,
         on_stage: &mut dyn FnMut(Stage),
     ) -> Result<FrameReport<'_>, FrameError> {
-        self.check_inner(frame, on_stage, None)
+        self.check_inner(frame, frame.cloud.map(Cloud::from), on_stage, None)
     }
 
+    /// [`Monitor::check`] with the sweep given as columns ([`PointColumns`]: separate `x`, `y`, `z` slices, read
+    /// in place, no copy into `[x, y, z]` records). `cloud` is the frame's sweep; `frame.cloud` is not read (pass
+    /// `None` there). The reports are those [`Monitor::check`] gives for a [`PointCloud`] of the same points,
+    /// bit for bit (`tests/rasterize_equivalence.rs`).
+    ///
+    /// # Errors
+    /// As [`Monitor::check`].
+    pub fn check_columns(&mut self, frame: &Frame<'_>, cloud: &ColumnCloud<'_>) -> Result<FrameReport<'_>, FrameError> {
+        self.check_inner(frame, Some(Cloud::from(*cloud)), &mut |_| {}, None)
+    }
+
+    /// [`Monitor::check_columns`], calling `on_stage` as each [`Stage`] ends (see [`Monitor::check_with_stages`]).
+    ///
+    /// # Errors
+    /// As [`Monitor::check`].
+    pub fn check_columns_with_stages(
+        &mut self,
+        frame: &Frame<'_>,
+        cloud: &ColumnCloud<'_>,
+        on_stage: &mut dyn FnMut(Stage),
+    ) -> Result<FrameReport<'_>, FrameError> {
+        self.check_inner(frame, Some(Cloud::from(*cloud)), on_stage, None)
+    }
+
+    /// [`Monitor::check_columns_with_stages`] with the rasterize stage split as in [`Monitor::check_split`].
+    ///
+    /// # Errors
+    /// As [`Monitor::check`].
+    pub fn check_columns_split_with_stages(
+        &mut self,
+        frame: &Frame<'_>,
+        cloud: &ColumnCloud<'_>,
+        join: &dyn crate::split::Join,
+        on_stage: &mut dyn FnMut(Stage),
+    ) -> Result<FrameReport<'_>, FrameError> {
+        self.check_inner(frame, Some(Cloud::from(*cloud)), on_stage, Some(join))
+    }
+
+    /// The checks of one frame; `cloud` is its sweep (`frame.cloud` is not read past this point).
     fn check_inner(
         &mut self,
         frame: &Frame<'_>,
+        cloud: Option<Cloud<'_>>,
         on_stage: &mut dyn FnMut(Stage),
         join: Option<&dyn crate::split::Join>,
     ) -> Result<FrameReport<'_>, FrameError> {
@@ -331,14 +416,14 @@ impl Monitor {
         if n > self.params.max_objects as usize {
             return Err(FrameError::TooManyObjects { got: n, max: self.params.max_objects });
         }
-        self.begin_frame(frame);
-        self.rasterize(frame, join);
+        self.begin_frame(frame, cloud);
+        self.rasterize(frame, cloud, join);
         self.mark_scenery(frame);
         on_stage(Stage::Rasterize);
         self.object_regions(frame);
         on_stage(Stage::Regions);
         if self.sensor_status.is_none() {
-            self.cluster_conflicts(frame);
+            self.cluster_conflicts(frame, cloud);
             self.attribute_clusters();
         }
         on_stage(Stage::Conflicts);
@@ -361,7 +446,7 @@ impl Monitor {
         })
     }
 
-    fn begin_frame(&mut self, frame: &Frame<'_>) {
+    fn begin_frame(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
         self.grid.reset();
         self.clusters.clear();
         self.cluster_spans.clear();
@@ -397,13 +482,11 @@ impl Monitor {
             });
             self.motion.push(MotionOutcome::not_monitored(NotMonitoredReason::InvalidState));
         }
-        self.sensor_status = match &frame.cloud {
+        self.sensor_status = match cloud {
             None => Some(NotMonitoredReason::NoLidarData),
             Some(c) if !c.ego_from_sensor.is_finite() => Some(NotMonitoredReason::InvalidCloud),
-            Some(c) if c.points_in_sensor.is_empty() => Some(NotMonitoredReason::EmptyCloud),
-            Some(c) if c.points_in_sensor.len() > self.params.max_points as usize => {
-                Some(NotMonitoredReason::TooManyPoints)
-            }
+            Some(c) if c.points.len() == 0 => Some(NotMonitoredReason::EmptyCloud),
+            Some(c) if c.points.len() > self.params.max_points as usize => Some(NotMonitoredReason::TooManyPoints),
             Some(_) => None,
         };
     }
@@ -440,15 +523,15 @@ impl Monitor {
         }
     }
 
-    fn rasterize(&mut self, frame: &Frame<'_>, join: Option<&dyn crate::split::Join>) {
+    fn rasterize(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>, join: Option<&dyn crate::split::Join>) {
         use crate::rasterize::{rasterize_blocked_into, rasterize_scalar, rasterize_scalar_recording, Rasterizer};
         use crate::split::{rasterize_split, Half, SPLIT_MIN_POINTS};
         self.point_cells.clear();
-        let Some(cloud) = frame.cloud.filter(|_| self.sensor_status.is_none()) else { return };
+        let Some(cloud) = cloud.filter(|_| self.sensor_status.is_none()) else { return };
         let t = cloud.ego_from_sensor;
         self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
         let band = self.band();
-        let (points, grid, visibility) = (cloud.points_in_sensor, &mut self.grid, &mut self.visibility);
+        let (grid, visibility) = (&mut self.grid, &mut self.visibility);
         // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
         let cells = &mut self.point_cells;
         let record = !frame.roi_in_ego.is_empty();
@@ -458,19 +541,34 @@ impl Monitor {
             Rasterizer::BlockedBaseline => Some(false),
             Rasterizer::Scalar => None,
         };
-        let split = self.split.as_mut().filter(|_| points.len() >= SPLIT_MIN_POINTS);
-        let in_band = match (join, split, wide) {
-            (Some(join), Some(second), Some(wide)) => {
-                let first = Half { grid, visibility, cells };
-                let second =
-                    Half { grid: &mut second.grid, visibility: &mut second.visibility, cells: &mut second.cells };
-                rasterize_split(points, &t, band, first, second, wide, record, join)
-            }
-            (_, _, Some(wide)) => rasterize_blocked_into(points, &t, band, grid, visibility, wide, record, cells),
-            (_, _, None) if record => rasterize_scalar_recording(points, &t, band, grid, visibility, cells),
-            (_, _, None) => rasterize_scalar(points, &t, band, grid, visibility),
+        let split = self.split.as_mut().filter(|_| cloud.points.len() >= SPLIT_MIN_POINTS);
+        // The same loops for records and columns (`crate::rasterize::Source`), instantiated for each.
+        macro_rules! run {
+            ($points:expr) => {{
+                let points = $points;
+                match (join, split, wide) {
+                    (Some(join), Some(second), Some(wide)) => {
+                        let first = Half { grid, visibility, cells };
+                        let second = Half {
+                            grid: &mut second.grid,
+                            visibility: &mut second.visibility,
+                            cells: &mut second.cells,
+                        };
+                        rasterize_split(points, &t, band, first, second, wide, record, join)
+                    }
+                    (_, _, Some(wide)) => {
+                        rasterize_blocked_into(points, &t, band, grid, visibility, wide, record, cells)
+                    }
+                    (_, _, None) if record => rasterize_scalar_recording(points, &t, band, grid, visibility, cells),
+                    (_, _, None) => rasterize_scalar(points, &t, band, grid, visibility),
+                }
+            }};
+        }
+        let in_band = match cloud.points {
+            Points::Rows(points) => run!(points),
+            Points::Columns(points) => run!(points),
         };
-        self.stats.points_total = u32::try_from(cloud.points_in_sensor.len()).unwrap_or(u32::MAX);
+        self.stats.points_total = u32::try_from(cloud.points.len()).unwrap_or(u32::MAX);
         self.stats.points_in_band = in_band;
         self.stats.cells_hit = u32::try_from(self.grid.touched().len()).unwrap_or(u32::MAX);
     }
@@ -583,7 +681,7 @@ impl Monitor {
     }
 
     /// Conflict cells (`kappa > tau_fn`, eq. conflict) grouped into 8-connected clusters.
-    fn cluster_conflicts(&mut self, frame: &Frame<'_>) {
+    fn cluster_conflicts(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
         let geometry = self.grid.geometry;
         let n = geometry.cells_per_side;
         let tau = self.params.tau_fn;
@@ -701,7 +799,7 @@ impl Monitor {
             self.cluster_spans.push((start as u32, end as u32));
         }
         if edge_clusters {
-            self.roi_by_returns(frame);
+            self.roi_by_returns(frame, cloud);
             // The prefilter is empty again for the next frame (every marked cell is in the queue).
             for &c in &self.queue {
                 if let Some(b) = self.edge_map.get_mut(edge_slot(c)) {
@@ -718,16 +816,16 @@ impl Monitor {
     /// until one return is inside. A cluster whose cells' centres lie inside while all its returns lie outside (a
     /// tree behind the kerb whose 0.5 m cells straddle the kerb line) is no missed object, and a road user whose
     /// returns reach into the area is one although its cells' centres lie outside.
-    fn roi_by_returns(&mut self, frame: &Frame<'_>) {
-        let Some(cloud) = frame.cloud else { return };
+    fn roi_by_returns(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
+        let Some(cloud) = cloud else { return };
         let t = cloud.ego_from_sensor;
-        let (points, roi) = (cloud.points_in_sensor, frame.roi_in_ego);
+        let (points, roi) = (cloud.points, frame.roi_in_ego);
         let map = <&[u8; EDGE_MAP]>::try_from(self.edge_map.as_slice()).ok();
         if let Some(map) = map.filter(|_| self.point_cells.len() == points.len()) {
             // 64 points at a time: which of them may lie in a marked cell, as a mask from the prefilter (no branch
             // per point, and no bounds test: a 16-bit index into 65,536 bytes; `NO_CELL` reads byte 0xFFFF), then
             // those points alone, each checked against its cell's flags (exact also where cells share a byte).
-            for (cells, points) in self.point_cells.chunks(64).zip(points.chunks(64)) {
+            for (block_index, cells) in self.point_cells.chunks(64).enumerate() {
                 let mut marked = 0u64;
                 if let Ok(block) = <&[u32; 64]>::try_from(cells) {
                     for (i, &cell) in block.iter().enumerate() {
@@ -741,11 +839,12 @@ impl Monitor {
                 while marked != 0 {
                     let i = marked.trailing_zeros() as usize;
                     marked &= marked - 1;
-                    let (Some(&cell), Some(p)) = (cells.get(i), points.get(i)) else { continue };
+                    let Some(&cell) = cells.get(i) else { continue };
                     if self.grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) != FLAG_ROI_EDGE {
                         continue;
                     }
-                    let q = t.transform(*p);
+                    let Some(p) = points.get(block_index * 64 + i) else { continue };
+                    let q = t.transform(p);
                     if self.roi.contains(roi, cell, q[0], q[1]) {
                         self.grid.set_flags(cell, FLAG_RETURN_IN_ROI);
                     }
@@ -755,8 +854,8 @@ impl Monitor {
             // Not recorded (never with the capacities of `new`): the same returns, found by a pass over the sweep.
             let band = self.band();
             let geometry = self.grid.geometry;
-            for p in points {
-                let q = t.transform(*p);
+            for p in (0..points.len()).filter_map(|i| points.get(i)) {
+                let q = t.transform(p);
                 if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
                     continue;
                 }

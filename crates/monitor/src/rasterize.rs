@@ -24,7 +24,7 @@
 
 use alloc::vec::Vec;
 
-use crate::frame::Isometry3;
+use crate::frame::{Isometry3, PointColumns};
 use crate::geometry::diamond_angle_select;
 use crate::grid::{GridGeometry, OccupancyGrid};
 use crate::params::MAX_CELLS_PER_SIDE;
@@ -84,8 +84,8 @@ impl Band {
 }
 
 /// The reference loop. Returns the number of points that fell in the band and in the grid.
-pub(crate) fn rasterize_scalar(
-    points: &[[f32; 3]],
+pub(crate) fn rasterize_scalar<S: Source>(
+    points: S,
     t: &Isometry3,
     band: Band,
     grid: &mut OccupancyGrid,
@@ -95,8 +95,8 @@ pub(crate) fn rasterize_scalar(
 }
 
 /// [`rasterize_scalar`], and each point's grid cell in `cells` (see [`rasterize_blocked_recording`]).
-pub(crate) fn rasterize_scalar_recording(
-    points: &[[f32; 3]],
+pub(crate) fn rasterize_scalar_recording<S: Source>(
+    points: S,
     t: &Isometry3,
     band: Band,
     grid: &mut OccupancyGrid,
@@ -110,8 +110,8 @@ pub(crate) fn rasterize_scalar_recording(
 
 /// The reference loop, recording each point's cell (or [`NO_CELL`]) in `cells` when given (room for every point
 /// is the caller's).
-fn scalar(
-    points: &[[f32; 3]],
+fn scalar<S: Source>(
+    points: S,
     t: &Isometry3,
     band: Band,
     grid: &mut OccupancyGrid,
@@ -121,8 +121,8 @@ fn scalar(
     let (lo, hi) = (band.lo_m, band.hi_m);
     let geometry = grid.geometry;
     let mut in_band = 0u32;
-    for p in points {
-        let q = t.transform(*p);
+    for p in points.iter() {
+        let q = t.transform(p);
         // Above the band (overhangs) or NaN: not an obstacle, and not a return that shows free space.
         let skipped = q[2].partial_cmp(&hi).is_none_or(|o| o == core::cmp::Ordering::Greater)
             || !(q[0].is_finite() && q[1].is_finite())
@@ -150,7 +150,7 @@ pub(crate) const BLOCK: usize = 64;
 
 /// Everything pass 1 needs, computed once per frame.
 #[derive(Clone, Copy, Debug)]
-struct Pass1 {
+pub(crate) struct Pass1 {
     rotation: [[f32; 3]; 3],
     translation: [f32; 3],
     band: Band,
@@ -205,9 +205,10 @@ impl Pass1 {
     #[inline(always)]
     fn point<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool>(
         &self,
-        p: &[f32; 3],
+        x: f32,
+        y: f32,
+        z: f32,
     ) -> (u32, f32, u32, u32) {
-        let [x, y, z] = *p;
         let [t0, t1, t2] = self.translation;
         // `&` rather than `&&`: no branches. A sum of `zero_if_finite` terms is 0 exactly when all are finite.
         let (q0, q1, q2, finite) = if TRANSLATION_ONLY {
@@ -309,8 +310,25 @@ impl Block {
         points: &[[f32; 3]; BLOCK],
     ) -> u32 {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
-        for ((p, ((bin, far), near)), cell) in points.iter().zip(outputs).zip(self.cells.iter_mut()) {
-            (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(p);
+        for ((&[x, y, z], ((bin, far), near)), cell) in points.iter().zip(outputs).zip(self.cells.iter_mut()) {
+            (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+        }
+        self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
+    }
+
+    /// [`Block::fill`] over a block given as three columns.
+    #[inline(always)]
+    fn fill_columns<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool>(
+        &mut self,
+        k: &Pass1,
+        xs: &[f32; BLOCK],
+        ys: &[f32; BLOCK],
+        zs: &[f32; BLOCK],
+    ) -> u32 {
+        let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
+        let inputs = xs.iter().zip(ys).zip(zs);
+        for ((((&x, &y), &z), ((bin, far), near)), cell) in inputs.zip(outputs).zip(self.cells.iter_mut()) {
+            (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
         }
         self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
     }
@@ -326,8 +344,8 @@ impl Block {
 /// The blocked two-pass loop: the same results as [`rasterize_scalar`] (which it falls back to for a grid or a
 /// map it cannot reproduce exactly). `wide`: use the wider vector unit when the processor has one (see
 /// [`Rasterizer::Blocked`]). Returns the number of points that fell in the band and in the grid.
-pub(crate) fn rasterize_blocked(
-    points: &[[f32; 3]],
+pub(crate) fn rasterize_blocked<S: Source>(
+    points: S,
     t: &Isometry3,
     band: Band,
     grid: &mut OccupancyGrid,
@@ -337,14 +355,14 @@ pub(crate) fn rasterize_blocked(
     let Some(k) = Pass1::new(t, band, &grid.geometry, visibility.bin_params()) else {
         return rasterize_scalar(points, t, band, grid, visibility);
     };
-    blocks_for::<false>(&k, band, points, grid, visibility, wide, &mut Vec::new())
+    blocks_for::<S, false>(&k, band, points, grid, visibility, wide, &mut Vec::new())
 }
 
 /// [`rasterize_blocked`], or with `record` [`rasterize_blocked_recording`] into `cells`: the blocked loop as the
 /// monitor runs it (and each half of `crate::split` does).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn rasterize_blocked_into(
-    points: &[[f32; 3]],
+pub(crate) fn rasterize_blocked_into<S: Source>(
+    points: S,
     t: &Isometry3,
     band: Band,
     grid: &mut OccupancyGrid,
@@ -361,20 +379,20 @@ pub(crate) fn rasterize_blocked_into(
 }
 
 /// [`blocks_on`] instantiated for the frame: a pure translation or not, with an ego footprint or not.
-fn blocks_for<const RECORD: bool>(
+fn blocks_for<S: Source, const RECORD: bool>(
     k: &Pass1,
     band: Band,
-    points: &[[f32; 3]],
+    points: S,
     grid: &mut OccupancyGrid,
     visibility: &mut VisibilityMap,
     wide: bool,
     cells: &mut Vec<u32>,
 ) -> u32 {
     match (k.translation_only(), band.ego_m != Band::NO_EGO) {
-        (true, false) => blocks_on::<true, false, RECORD>(k, points, grid, visibility, wide, cells),
-        (false, false) => blocks_on::<false, false, RECORD>(k, points, grid, visibility, wide, cells),
-        (true, true) => blocks_on::<true, true, RECORD>(k, points, grid, visibility, wide, cells),
-        (false, true) => blocks_on::<false, true, RECORD>(k, points, grid, visibility, wide, cells),
+        (true, false) => blocks_on::<S, true, false, RECORD>(k, points, grid, visibility, wide, cells),
+        (false, false) => blocks_on::<S, false, false, RECORD>(k, points, grid, visibility, wide, cells),
+        (true, true) => blocks_on::<S, true, true, RECORD>(k, points, grid, visibility, wide, cells),
+        (false, true) => blocks_on::<S, false, true, RECORD>(k, points, grid, visibility, wide, cells),
     }
 }
 
@@ -384,8 +402,8 @@ fn blocks_for<const RECORD: bool>(
 /// (the cluster stage decides cells on its edge by their returns without a second transform of the sweep): a
 /// separate instantiation of the loop, so that frames without one do not pay for it. `cells` is left empty when
 /// it has no room for every point (it is never grown here).
-pub(crate) fn rasterize_blocked_recording(
-    points: &[[f32; 3]],
+pub(crate) fn rasterize_blocked_recording<S: Source>(
+    points: S,
     t: &Isometry3,
     band: Band,
     grid: &mut OccupancyGrid,
@@ -400,13 +418,13 @@ pub(crate) fn rasterize_blocked_recording(
     let Some(k) = Pass1::new(t, band, &grid.geometry, visibility.bin_params()) else {
         return rasterize_scalar_recording(points, t, band, grid, visibility, cells);
     };
-    blocks_for::<true>(&k, band, points, grid, visibility, wide, cells)
+    blocks_for::<S, true>(&k, band, points, grid, visibility, wide, cells)
 }
 
 /// [`blocks`] with the wider vector unit when `wide` and the processor has one, else on the baseline.
-fn blocks_on<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
+fn blocks_on<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
     k: &Pass1,
-    points: &[[f32; 3]],
+    points: S,
     grid: &mut OccupancyGrid,
     visibility: &mut VisibilityMap,
     wide: bool,
@@ -414,11 +432,11 @@ fn blocks_on<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: b
 ) -> u32 {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if wide {
-        return wide::blocks::<TRANSLATION_ONLY, EGO_MASK, RECORD>(k, points, grid, visibility, cells);
+        return wide::blocks::<S, TRANSLATION_ONLY, EGO_MASK, RECORD>(k, points, grid, visibility, cells);
     }
     // Without run-time detection (`wide::available` is false) the flag has nothing to choose.
     let _ = wide;
-    blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD>(k, points, grid, visibility, cells)
+    points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD>(k, grid, visibility, cells)
 }
 
 /// The block loop compiled for a wider vector unit, chosen at run time.
@@ -431,7 +449,7 @@ fn blocks_on<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: b
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[allow(unsafe_code)]
 mod wide {
-    use super::{OccupancyGrid, Pass1, Vec, VisibilityMap};
+    use super::{OccupancyGrid, Pass1, Source, Vec, VisibilityMap};
 
     /// True when the processor has AVX2.
     pub(super) fn available() -> bool {
@@ -439,9 +457,9 @@ mod wide {
     }
 
     /// [`super::blocks`] with AVX2, or with the baseline when the processor lacks it.
-    pub(super) fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
+    pub(super) fn blocks<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
         k: &Pass1,
-        points: &[[f32; 3]],
+        points: S,
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
         cells: &mut Vec<u32>,
@@ -449,22 +467,22 @@ mod wide {
         if available() {
             // SAFETY: the processor has AVX2 (checked on the line above), the one requirement of a function
             // compiled with `target_feature(enable = "avx2")`.
-            unsafe { blocks_avx2::<TRANSLATION_ONLY, EGO_MASK, RECORD>(k, points, grid, visibility, cells) }
+            unsafe { blocks_avx2::<S, TRANSLATION_ONLY, EGO_MASK, RECORD>(k, points, grid, visibility, cells) }
         } else {
-            super::blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD>(k, points, grid, visibility, cells)
+            points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD>(k, grid, visibility, cells)
         }
     }
 
     #[target_feature(enable = "avx2")]
-    fn blocks_avx2<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
+    fn blocks_avx2<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
         k: &Pass1,
-        points: &[[f32; 3]],
+        points: S,
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
         cells: &mut Vec<u32>,
     ) -> u32 {
         // AVX2 implies SSE4.1's `roundps`: the cheaper floor of `floor_of`.
-        super::blocks::<TRANSLATION_ONLY, EGO_MASK, true, RECORD>(k, points, grid, visibility, cells)
+        points.blocks::<TRANSLATION_ONLY, EGO_MASK, true, RECORD>(k, grid, visibility, cells)
     }
 }
 
@@ -478,39 +496,145 @@ mod wide {
     }
 }
 
-/// The block loop of [`rasterize_blocked`] (inlined into each instruction set's version); with `RECORD`, each
-/// point's cell appended to `cells`, which the caller made room for.
-#[inline(always)]
-fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const RECORD: bool>(
-    k: &Pass1,
-    points: &[[f32; 3]],
-    grid: &mut OccupancyGrid,
-    visibility: &mut VisibilityMap,
-    cells: &mut Vec<u32>,
-) -> u32 {
-    let mut block = Block::EMPTY;
-    let mut in_band = 0u32;
-    let (chunks, rest) = points.as_chunks::<BLOCK>();
-    for chunk in chunks {
-        in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, chunk);
-        block.apply(grid, visibility);
+/// Where pass 1 reads a sweep's points from: interleaved `[x, y, z]` records (`&[[f32; 3]]`) or three columns
+/// ([`Columns`]). The two give the same blocks, so the same results.
+pub(crate) trait Source: Copy + Send + Sync {
+    /// The number of points.
+    fn len(self) -> usize;
+
+    /// The points in order (for the reference loop).
+    fn iter(self) -> impl Iterator<Item = [f32; 3]>;
+
+    /// The first `mid` points and the rest (`mid` at most [`Source::len`]).
+    fn split_at(self, mid: usize) -> (Self, Self);
+
+    /// The block loop of [`rasterize_blocked`] (inlined into each instruction set's version); with `RECORD`, each
+    /// point's cell appended to `cells`, which the caller made room for.
+    fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const RECORD: bool>(
+        self,
+        k: &Pass1,
+        grid: &mut OccupancyGrid,
+        visibility: &mut VisibilityMap,
+        cells: &mut Vec<u32>,
+    ) -> u32;
+}
+
+impl Block {
+    /// Pass 2 and the recorded cells of the block's first `len` points.
+    #[inline(always)]
+    fn finish<const RECORD: bool>(
+        &self,
+        grid: &mut OccupancyGrid,
+        visibility: &mut VisibilityMap,
+        cells: &mut Vec<u32>,
+        len: usize,
+    ) {
+        self.apply(grid, visibility);
         if RECORD {
-            cells.extend_from_slice(&block.cells);
+            cells.extend_from_slice(self.cells.get(..len).unwrap_or(&[]));
         }
     }
-    if !rest.is_empty() {
-        // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
-        let mut padded = [[f32::NAN; 3]; BLOCK];
-        for (d, s) in padded.iter_mut().zip(rest) {
-            *d = *s;
+}
+
+impl Source for &[[f32; 3]] {
+    #[inline]
+    fn len(self) -> usize {
+        <[[f32; 3]]>::len(self)
+    }
+
+    #[inline]
+    fn iter(self) -> impl Iterator<Item = [f32; 3]> {
+        <[[f32; 3]]>::iter(self).copied()
+    }
+
+    #[inline]
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        self.split_at_checked(mid).unwrap_or((self, &[]))
+    }
+
+    #[inline(always)]
+    fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const RECORD: bool>(
+        self,
+        k: &Pass1,
+        grid: &mut OccupancyGrid,
+        visibility: &mut VisibilityMap,
+        cells: &mut Vec<u32>,
+    ) -> u32 {
+        let mut block = Block::EMPTY;
+        let mut in_band = 0u32;
+        let (chunks, rest) = self.as_chunks::<BLOCK>();
+        for chunk in chunks {
+            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, chunk);
+            block.finish::<RECORD>(grid, visibility, cells, BLOCK);
         }
-        in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, &padded);
-        block.apply(grid, visibility);
-        if RECORD {
-            cells.extend_from_slice(block.cells.get(..rest.len()).unwrap_or(&[]));
+        if !rest.is_empty() {
+            // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
+            let mut padded = [[f32::NAN; 3]; BLOCK];
+            for (d, s) in padded.iter_mut().zip(rest) {
+                *d = *s;
+            }
+            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, &padded);
+            block.finish::<RECORD>(grid, visibility, cells, rest.len());
+        }
+        in_band
+    }
+}
+
+impl Source for PointColumns<'_> {
+    #[inline]
+    fn len(self) -> usize {
+        PointColumns::len(&self)
+    }
+
+    #[inline]
+    fn iter(self) -> impl Iterator<Item = [f32; 3]> {
+        self.x().iter().zip(self.y()).zip(self.z()).map(|((&x, &y), &z)| [x, y, z])
+    }
+
+    #[inline]
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        fn cut(c: &[f32], mid: usize) -> (&[f32], &[f32]) {
+            c.split_at_checked(mid).unwrap_or((c, &[]))
+        }
+        let ((x0, x1), (y0, y1), (z0, z1)) = (cut(self.x(), mid), cut(self.y(), mid), cut(self.z(), mid));
+        // Cut at the same index, the halves' columns keep equal lengths.
+        match (PointColumns::new(x0, y0, z0), PointColumns::new(x1, y1, z1)) {
+            (Ok(a), Ok(b)) => (a, b),
+            _ => (self, PointColumns::EMPTY),
         }
     }
-    in_band
+
+    #[inline(always)]
+    fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const RECORD: bool>(
+        self,
+        k: &Pass1,
+        grid: &mut OccupancyGrid,
+        visibility: &mut VisibilityMap,
+        cells: &mut Vec<u32>,
+    ) -> u32 {
+        let mut block = Block::EMPTY;
+        let mut in_band = 0u32;
+        // Columns of equal length (`PointColumns::new`): the same chunks and the same rest in each.
+        let (xs, x_rest) = self.x().as_chunks::<BLOCK>();
+        let (ys, y_rest) = self.y().as_chunks::<BLOCK>();
+        let (zs, z_rest) = self.z().as_chunks::<BLOCK>();
+        for ((x, y), z) in xs.iter().zip(ys).zip(zs) {
+            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, x, y, z);
+            block.finish::<RECORD>(grid, visibility, cells, BLOCK);
+        }
+        if !x_rest.is_empty() {
+            let mut padded = [[f32::NAN; BLOCK]; 3];
+            for (d, s) in padded.iter_mut().zip([x_rest, y_rest, z_rest]) {
+                for (d, s) in d.iter_mut().zip(s) {
+                    *d = *s;
+                }
+            }
+            let [x, y, z] = &padded;
+            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, x, y, z);
+            block.finish::<RECORD>(grid, visibility, cells, x_rest.len());
+        }
+        in_band
+    }
 }
 
 #[cfg(test)]
@@ -546,17 +670,25 @@ mod tests {
     fn assert_same(points: &[[f32; 3]], t: &Isometry3, band: Band, cells: u32, cell_m: f32, bins: u32) -> u32 {
         let geometry = GridGeometry::new(cells, cell_m);
         // 0: the reference, 1: the blocked loop on the baseline, 2: with the widest vector unit available.
-        // Modes 3, 4, 5: the same three, recording each point's cell.
+        // Modes 3, 4, 5: the same three, recording each point's cell. Modes 6 to 11: modes 0 to 5 with the points
+        // given as columns.
+        let [x, y, z]: [Vec<f32>; 3] = core::array::from_fn(|k| points.iter().map(|p| p[k]).collect());
+        let columns = PointColumns::new(&x, &y, &z).unwrap();
         let run = |mode: u8| {
             let mut grid = OccupancyGrid::new(geometry, 0.7, points.len());
             let mut vis = VisibilityMap::new(bins);
             vis.reset([t.translation_m[0], t.translation_m[1]]);
             let mut cells = Vec::with_capacity(points.len());
+            let (g, v, c) = (&mut grid, &mut vis, &mut cells);
             let n = match mode {
-                0 => rasterize_scalar(points, t, band, &mut grid, &mut vis),
-                1 | 2 => rasterize_blocked(points, t, band, &mut grid, &mut vis, mode == 2),
-                3 => rasterize_scalar_recording(points, t, band, &mut grid, &mut vis, &mut cells),
-                m => rasterize_blocked_recording(points, t, band, &mut grid, &mut vis, m == 5, &mut cells),
+                0 => rasterize_scalar(points, t, band, g, v),
+                1 | 2 => rasterize_blocked(points, t, band, g, v, mode == 2),
+                3 => rasterize_scalar_recording(points, t, band, g, v, c),
+                4 | 5 => rasterize_blocked_recording(points, t, band, g, v, mode == 5, c),
+                6 => rasterize_scalar(columns, t, band, g, v),
+                7 | 8 => rasterize_blocked(columns, t, band, g, v, mode == 8),
+                9 => rasterize_scalar_recording(columns, t, band, g, v, c),
+                m => rasterize_blocked_recording(columns, t, band, g, v, m == 11, c),
             };
             let touched = grid.touched().to_vec();
             let hits: Vec<u16> = touched.iter().map(|&c| grid.hits(c)).collect();
@@ -575,8 +707,8 @@ mod tests {
                 obstacle.then(|| geometry.point_to_cell(q[0], q[1])).flatten().unwrap_or(NO_CELL)
             })
             .collect();
-        let mut outputs = vec![run(1).0, run(2).0];
-        for mode in 3..=5 {
+        let mut outputs = vec![run(1).0, run(2).0, run(6).0, run(7).0, run(8).0];
+        for mode in [3, 4, 5, 9, 10, 11] {
             let (out, cells) = run(mode);
             assert_eq!(cells, expected, "recorded cells, mode {mode}");
             outputs.push(out);
@@ -712,8 +844,8 @@ mod tests {
         let t = Isometry3::IDENTITY;
         assert!(Pass1::new(&t, BAND, &grid_blocked.geometry, vis_blocked.bin_params()).is_none());
         let points = [[1.0, 1.0, 1.0], [-3.0, 2.0, 1.0], [4.5, -4.5, 1.0]];
-        let a = rasterize_blocked(&points, &t, BAND, &mut grid_blocked, &mut vis_blocked, true);
-        let b = rasterize_scalar(&points, &t, BAND, &mut grid_scalar, &mut vis_scalar);
+        let a = rasterize_blocked(points.as_slice(), &t, BAND, &mut grid_blocked, &mut vis_blocked, true);
+        let b = rasterize_scalar(points.as_slice(), &t, BAND, &mut grid_scalar, &mut vis_scalar);
         assert_eq!((a, grid_blocked.touched()), (b, grid_scalar.touched()));
         assert_eq!(grid_scalar.touched(), [66, 72, 9]);
         assert_eq!(vis_blocked.arrays(), vis_scalar.arrays());

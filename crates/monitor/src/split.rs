@@ -27,7 +27,7 @@ use crate::frame::Isometry3;
 use crate::grid::OccupancyGrid;
 #[cfg(test)]
 use crate::rasterize::{rasterize_blocked, rasterize_blocked_recording};
-use crate::rasterize::{rasterize_blocked_into, Band, BLOCK};
+use crate::rasterize::{rasterize_blocked_into, Band, Source, BLOCK};
 use crate::visibility::VisibilityMap;
 
 /// Runs two pieces of work, at the same time or one after the other; [`crate::Monitor::check_split`] gives it
@@ -76,8 +76,8 @@ pub(crate) struct Half<'a> {
 /// each point's cell into `first.cells` (which must have room for every point, as for
 /// `rasterize_blocked_recording`), as one pass would. Returns the number of points in the band and in the grid.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn rasterize_split(
-    points: &[[f32; 3]],
+pub(crate) fn rasterize_split<S: Source>(
+    points: S,
     t: &Isometry3,
     band: Band,
     first: Half<'_>,
@@ -120,6 +120,7 @@ mod tests {
     use alloc::vec::Vec;
 
     use super::*;
+    use crate::frame::PointColumns;
     use crate::grid::GridGeometry;
     use crate::visibility::{Sight, NO_CELL};
 
@@ -177,29 +178,29 @@ mod tests {
                         let (mut g1, mut v1, mut c1) = (grid(n), VisibilityMap::new(720), Vec::with_capacity(n));
                         v1.reset([t.translation_m[0], t.translation_m[1]]);
                         let in1 = if record {
-                            rasterize_blocked_recording(&pts, &t, band, &mut g1, &mut v1, wide, &mut c1)
+                            rasterize_blocked_recording(pts.as_slice(), &t, band, &mut g1, &mut v1, wide, &mut c1)
                         } else {
-                            rasterize_blocked(&pts, &t, band, &mut g1, &mut v1, wide)
+                            rasterize_blocked(pts.as_slice(), &t, band, &mut g1, &mut v1, wide)
                         };
+                        // The same sweep as columns, split at the same point.
+                        let [x, y, z]: [Vec<f32>; 3] = core::array::from_fn(|k| pts.iter().map(|p| p[k]).collect());
+                        let columns = PointColumns::new(&x, &y, &z).unwrap();
                         let (mut g2, mut v2, mut c2) = (grid(n), VisibilityMap::new(720), Vec::with_capacity(n));
                         let (mut gb, mut vb, mut cb) = (grid(n), VisibilityMap::new(720), Vec::with_capacity(n));
                         v2.reset([t.translation_m[0], t.translation_m[1]]);
-                        // Twice: the second grid must come back clear after the first frame.
-                        for _ in 0..2 {
+                        // Twice for each layout: the second grid must come back clear after the first frame.
+                        for pass in 0..4 {
                             g2.reset();
                             v2.reset([t.translation_m[0], t.translation_m[1]]);
                             c2.clear();
-                            let in2 = rasterize_split(
-                                &pts,
-                                &t,
-                                band,
-                                Half { grid: &mut g2, visibility: &mut v2, cells: &mut c2 },
-                                Half { grid: &mut gb, visibility: &mut vb, cells: &mut cb },
-                                wide,
-                                record,
-                                &Sequential,
-                            );
-                            let what = alloc::format!("seed {seed}, n {n}, record {record}, wide {wide}");
+                            let first = Half { grid: &mut g2, visibility: &mut v2, cells: &mut c2 };
+                            let second = Half { grid: &mut gb, visibility: &mut vb, cells: &mut cb };
+                            let in2 = if pass < 2 {
+                                rasterize_split(pts.as_slice(), &t, band, first, second, wide, record, &Sequential)
+                            } else {
+                                rasterize_split(columns, &t, band, first, second, wide, record, &Sequential)
+                            };
+                            let what = alloc::format!("seed {seed}, n {n}, record {record}, wide {wide}, pass {pass}");
                             assert_eq!(in1, in2, "{what}");
                             assert_eq!(g1.touched(), g2.touched(), "{what}");
                             for &c in g1.touched() {

@@ -15,7 +15,7 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use common::*;
-use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectState, PointCloud, Pose2};
+use pmon_monitor::{ColumnCloud, Frame, Monitor, MonitorParams, ObjectState, PointCloud, PointColumns, Pose2};
 
 struct Counting;
 
@@ -98,6 +98,17 @@ fn check_allocates_nothing_after_construction() {
     COUNTING.with(|c| c.set(true));
     for f in &frames {
         let report = monitor.check(f).unwrap();
+        alarms += report.object_alarms() + report.missed_objects();
+    }
+    COUNTING.with(|c| c.set(false));
+    // The same sweep handed over as columns (`check_columns`).
+    let [x, y, z]: [Vec<f32>; 3] = std::array::from_fn(|k| points.iter().map(|p| p[k]).collect());
+    let columns =
+        ColumnCloud { points_in_sensor: PointColumns::new(&x, &y, &z).unwrap(), ego_from_sensor: extrinsic() };
+    COUNTING.with(|c| c.set(true));
+    for (k, f) in frames.iter().enumerate() {
+        let f = Frame { cloud: None, timestamp_s: 1.0 + 0.1 * k as f64, ..*f };
+        let report = monitor.check_columns(&f, &columns).unwrap();
         alarms += report.object_alarms() + report.missed_objects();
     }
     COUNTING.with(|c| c.set(false));

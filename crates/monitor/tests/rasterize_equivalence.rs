@@ -12,6 +12,9 @@
 //! A fourth monitor runs every frame through [`Monitor::check_split`] on two threads (sweeps of at least
 //! `pmon_monitor::split::SPLIT_MIN_POINTS` points rasterized in two halves): the same reports and grids.
 //!
+//! Four more monitors (the same four paths) get every frame's sweep as columns ([`Monitor::check_columns`],
+//! [`PointColumns`]: separate `x`, `y`, `z` slices): the same reports and grids as from `[x, y, z]` records.
+//!
 //! The bit-exactness of the visibility map itself (both range arrays and the cells) is tested inside the crate
 //! (`src/rasterize.rs`), where the map's arrays are visible.
 #![allow(
@@ -30,8 +33,8 @@ mod frames;
 use frames::{Sequence, Sweep, SyntheticSpec};
 use pmon_monitor::split::SPLIT_MIN_POINTS;
 use pmon_monitor::{
-    ClusterReport, Frame, GridStats, Isometry3, Join, Monitor, MonitorParams, NotMonitoredReason, ObjectClass,
-    ObjectReport, ObjectState, PointCloud, Pose2, Rasterizer,
+    ClusterReport, ColumnCloud, ColumnLengthError, Frame, GridStats, Isometry3, Join, Monitor, MonitorParams,
+    NotMonitoredReason, ObjectClass, ObjectReport, ObjectState, PointCloud, PointColumns, Pose2, Rasterizer,
 };
 use proptest::prelude::*;
 
@@ -65,12 +68,50 @@ fn outcome(monitor: &mut Monitor, frame: &Frame<'_>) -> Result<Outcome, String> 
 /// The outcome of [`Monitor::check`], or with `split` of [`Monitor::check_split`] on two threads.
 fn outcome_of(monitor: &mut Monitor, frame: &Frame<'_>, split: bool) -> Result<Outcome, String> {
     let report = if split { monitor.check_split(frame, &Threads) } else { monitor.check(frame) };
+    let report = owned(report)?;
+    Ok(with_grid(monitor, report))
+}
+
+/// The frame's sweep as three columns.
+fn columns_of(frame: &Frame<'_>) -> Option<([Vec<f32>; 3], Isometry3)> {
+    frame.cloud.map(|c| {
+        let p = c.points_in_sensor;
+        (
+            [p.iter().map(|p| p[0]).collect(), p.iter().map(|p| p[1]).collect(), p.iter().map(|p| p[2]).collect()],
+            c.ego_from_sensor,
+        )
+    })
+}
+
+/// [`outcome_of`] with the frame's sweep handed over as columns ([`Monitor::check_columns`], or with `split`
+/// [`Monitor::check_columns_split_with_stages`] on two threads); a frame without a cloud goes through
+/// [`Monitor::check`].
+fn outcome_of_columns(monitor: &mut Monitor, frame: &Frame<'_>, split: bool) -> Result<Outcome, String> {
+    let Some(([x, y, z], ego_from_sensor)) = columns_of(frame) else { return outcome_of(monitor, frame, split) };
+    let cloud = ColumnCloud { points_in_sensor: PointColumns::new(&x, &y, &z).unwrap(), ego_from_sensor };
+    let without = Frame { cloud: None, ..*frame };
+    let report = if split {
+        monitor.check_columns_split_with_stages(&without, &cloud, &Threads, &mut |_| {})
+    } else {
+        monitor.check_columns(&without, &cloud)
+    };
+    let report = owned(report)?;
+    Ok(with_grid(monitor, report))
+}
+
+/// A report, owned (without the grid's cells).
+fn owned(report: Result<pmon_monitor::FrameReport<'_>, pmon_monitor::FrameError>) -> Result<Outcome, String> {
     let report = report.map_err(|e| e.to_string())?;
     let (objects, clusters, grid, sensor_status) =
         (report.objects.to_vec(), report.clusters.to_vec(), report.grid, report.sensor_status);
+    Ok(Outcome { objects, clusters, grid, sensor_status, cells: Vec::new() })
+}
+
+/// `outcome` with the monitor's touched cells after the check.
+fn with_grid(monitor: &Monitor, outcome: Outcome) -> Outcome {
     let g = monitor.grid();
     let cells = g.touched().iter().map(|&c| (c, g.hits(c), g.flags(c))).collect();
-    Ok(Outcome { objects, clusters, grid, sensor_status, cells })
+    Outcome { cells, ..outcome }
 }
 
 /// Monitors with the same parameters, one per rasterizer: the blocked loop with the widest vector unit of this
@@ -81,6 +122,8 @@ struct Pair {
     baseline: Monitor,
     scalar: Monitor,
     split: Monitor,
+    /// The same four, given the sweeps as columns.
+    columns: [Monitor; 4],
     frames: usize,
 }
 
@@ -93,7 +136,15 @@ impl Pair {
         scalar.set_rasterizer(Rasterizer::Scalar);
         let mut split = Monitor::new(params).unwrap();
         split.enable_split();
-        Self { blocked, baseline, scalar, split, frames: 0 }
+        let columns =
+            [Rasterizer::Blocked, Rasterizer::BlockedBaseline, Rasterizer::Scalar, Rasterizer::Blocked].map(|r| {
+                let mut m = Monitor::new(params).unwrap();
+                m.set_rasterizer(r);
+                m
+            });
+        let mut columns = columns;
+        columns[3].enable_split();
+        Self { blocked, baseline, scalar, split, columns, frames: 0 }
     }
 
     /// Checks one frame with all three; panics (with `what`) on any difference; returns the blocked outcome.
@@ -107,6 +158,11 @@ impl Pair {
         assert_eq!(format!("{a:?}"), format!("{b:?}"), "{what}: blocked ({isa}) and scalar differ in some bit");
         assert_eq!(format!("{c:?}"), format!("{b:?}"), "{what}: blocked (baseline) and scalar differ in some bit");
         assert_eq!(format!("{d:?}"), format!("{b:?}"), "{what}: split on two threads and scalar differ in some bit");
+        for (k, m) in self.columns.iter_mut().enumerate() {
+            let e = outcome_of_columns(m, frame, k == 3);
+            let path = ["blocked", "baseline", "scalar", "split"][k];
+            assert_eq!(format!("{e:?}"), format!("{b:?}"), "{what}: columns ({path}) and records differ in some bit");
+        }
         self.frames += 1;
         a
     }
@@ -331,6 +387,9 @@ fn frames_with_a_region_of_interest_split_identically() {
     let mut one = Monitor::new(params).unwrap();
     let mut two = Monitor::new(params).unwrap();
     two.enable_split();
+    let mut columns = Monitor::new(params).unwrap();
+    let mut columns_split = Monitor::new(params).unwrap();
+    columns_split.enable_split();
     let mut split_frames = 0;
     for i in 0..2 * seq.frames.len() {
         let f = seq.frame(i, Sequence::timestamp_s(i)).unwrap();
@@ -339,6 +398,28 @@ fn frames_with_a_region_of_interest_split_identically() {
         let a = outcome_of(&mut one, &f, false).unwrap();
         let b = outcome_of(&mut two, &f, true).unwrap();
         assert_eq!(format!("{a:?}"), format!("{b:?}"), "frame {i}: split on two threads differs in some bit");
+        // The same frames with the sweep as columns (the ROI scan reads the returns of its edge cells from them).
+        let c = outcome_of_columns(&mut columns, &f, false).unwrap();
+        let d = outcome_of_columns(&mut columns_split, &f, true).unwrap();
+        assert_eq!(format!("{c:?}"), format!("{a:?}"), "frame {i}: columns differ from records in some bit");
+        assert_eq!(format!("{d:?}"), format!("{a:?}"), "frame {i}: columns, split, differ in some bit");
     }
     assert_eq!(split_frames, 2 * seq.frames.len(), "every 64-beam sweep is large enough to be split");
+}
+
+/// Columns of different lengths are refused when the view is made, with the three lengths in the error.
+#[test]
+fn columns_of_different_lengths_are_an_error() {
+    let (a, b) = ([1.0f32, 2.0, 3.0], [1.0f32, 2.0]);
+    let e = PointColumns::new(&a, &b, &a).unwrap_err();
+    assert_eq!(e, ColumnLengthError { x: 3, y: 2, z: 3 });
+    assert_eq!(
+        e.to_string(),
+        "point columns differ in length: x has 3, y has 2, z has 3 values (one value per point in each)"
+    );
+    assert!(PointColumns::new(&a, &a, &b).is_err());
+    assert!(PointColumns::new(&b, &a, &a).is_err());
+    let ok = PointColumns::new(&a, &a, &a).unwrap();
+    assert_eq!((ok.len(), ok.get(2), ok.get(3)), (3, Some([3.0, 3.0, 3.0]), None));
+    assert!(PointColumns::new(&[], &[], &[]).unwrap().is_empty());
 }
