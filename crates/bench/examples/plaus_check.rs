@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! cargo build --release -p pmon-bench --example plaus_check
-//! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Monitor::check_with_stages*' \
+//! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*Monitor::check_inner*' \
 //!     target/release/examples/plaus_check CHECKS [paper|calibrated]
 //! ```
 //!
