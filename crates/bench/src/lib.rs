@@ -66,8 +66,8 @@ pub fn timed_check_with<'m>(
     timed_check_of(monitor, frame, None, join)
 }
 
-/// [`timed_check_with`] with the sweep handed over as columns ([`Monitor::check_columns`]; `frame.cloud` is not
-/// read).
+/// [`timed_check_with`] with the sweep handed over as columns ([`Monitor::check_columns`]; `frame.cloud` is
+/// set to `None` for the call, as the monitor asks).
 ///
 /// # Errors
 /// As [`Monitor::check`].
@@ -77,7 +77,7 @@ pub fn timed_check_columns<'m>(
     cloud: &ColumnCloud<'_>,
     join: Option<&dyn Join>,
 ) -> Result<(pmon_monitor::FrameReport<'m>, [f64; 5]), FrameError> {
-    timed_check_of(monitor, frame, Some(cloud), join)
+    timed_check_of(monitor, &pmon_monitor::Frame { cloud: None, ..*frame }, Some(cloud), join)
 }
 
 fn timed_check_of<'m>(
@@ -631,7 +631,7 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         let mut roi = Vec::new();
         if let Some(f) = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi) {
             match column_cloud(i) {
-                Some(cloud) => monitor.check_columns(&f, &cloud).map(|_| ()),
+                Some(cloud) => monitor.check_columns(&pmon_monitor::Frame { cloud: None, ..f }, &cloud).map(|_| ()),
                 None => monitor.check(&f).map(|_| ()),
             }
             .map_err(frame_err)?;

@@ -367,33 +367,35 @@ impl Monitor {
     }
 
     /// [`Monitor::check`] with the sweep given as columns ([`PointColumns`]: separate `x`, `y`, `z` slices, read
-    /// in place, no copy into `[x, y, z]` records). `cloud` is the frame's sweep; `frame.cloud` is not read (pass
-    /// `None` there). The reports are those [`Monitor::check`] gives for a [`PointCloud`] of the same points,
+    /// in place, no copy into `[x, y, z]` records). `cloud` is the frame's sweep; `frame.cloud` must be `None`. The reports are those [`Monitor::check`] gives for a [`PointCloud`] of the same points,
     /// bit for bit (`tests/rasterize_equivalence.rs`).
     ///
     /// # Errors
-    /// As [`Monitor::check`].
+    /// As [`Monitor::check`], and [`FrameError::CloudGivenTwice`] when `frame.cloud` is `Some` too (nothing is
+    /// checked then).
     pub fn check_columns(&mut self, frame: &Frame<'_>, cloud: &ColumnCloud<'_>) -> Result<FrameReport<'_>, FrameError> {
+        Self::one_cloud(frame)?;
         self.check_inner(frame, Some(Cloud::from(*cloud)), &mut |_| {}, None)
     }
 
     /// [`Monitor::check_columns`], calling `on_stage` as each [`Stage`] ends (see [`Monitor::check_with_stages`]).
     ///
     /// # Errors
-    /// As [`Monitor::check`].
+    /// As [`Monitor::check_columns`].
     pub fn check_columns_with_stages(
         &mut self,
         frame: &Frame<'_>,
         cloud: &ColumnCloud<'_>,
         on_stage: &mut dyn FnMut(Stage),
     ) -> Result<FrameReport<'_>, FrameError> {
+        Self::one_cloud(frame)?;
         self.check_inner(frame, Some(Cloud::from(*cloud)), on_stage, None)
     }
 
     /// [`Monitor::check_columns_with_stages`] with the rasterize stage split as in [`Monitor::check_split`].
     ///
     /// # Errors
-    /// As [`Monitor::check`].
+    /// As [`Monitor::check_columns`].
     pub fn check_columns_split_with_stages(
         &mut self,
         frame: &Frame<'_>,
@@ -401,7 +403,16 @@ impl Monitor {
         join: &dyn crate::split::Join,
         on_stage: &mut dyn FnMut(Stage),
     ) -> Result<FrameReport<'_>, FrameError> {
+        Self::one_cloud(frame)?;
         self.check_inner(frame, Some(Cloud::from(*cloud)), on_stage, Some(join))
+    }
+
+    /// A frame handed over with a column sweep must not carry a sweep of its own.
+    fn one_cloud(frame: &Frame<'_>) -> Result<(), FrameError> {
+        if frame.cloud.is_some() {
+            return Err(FrameError::CloudGivenTwice);
+        }
+        Ok(())
     }
 
     /// The checks of one frame; `cloud` is its sweep (`frame.cloud` is not read past this point).

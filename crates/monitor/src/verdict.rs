@@ -470,6 +470,9 @@ pub enum FrameError {
         /// Capacity.
         max: u32,
     },
+    /// [`crate::Monitor::check_columns`] (and its variants) was given a frame that carries a sweep of its own in
+    /// `frame.cloud` besides the column sweep: which one to check would be a guess, so the frame is refused.
+    CloudGivenTwice,
 }
 
 impl fmt::Display for FrameError {
@@ -478,6 +481,11 @@ impl fmt::Display for FrameError {
             Self::TooManyObjects { got, max } => {
                 write!(f, "frame has {got} objects, more than the monitor's capacity of {max} (max_objects)")
             }
+            Self::CloudGivenTwice => write!(
+                f,
+                "frame carries a point cloud and a column cloud was passed too: set the frame's cloud to None when \
+                 handing the sweep over as columns"
+            ),
         }
     }
 }

@@ -423,3 +423,34 @@ fn columns_of_different_lengths_are_an_error() {
     assert_eq!((ok.len(), ok.get(2), ok.get(3)), (3, Some([3.0, 3.0, 3.0]), None));
     assert!(PointColumns::new(&[], &[], &[]).unwrap().is_empty());
 }
+
+/// A frame that carries a sweep of its own, handed over with a column sweep too, is refused: which sweep to check
+/// would be a guess. Nothing is checked (the tracks do not advance: the same frame without its own sweep is
+/// accepted afterwards at the same timestamp).
+#[test]
+fn a_frame_with_two_sweeps_is_refused() {
+    let points = [[10.0f32, 0.0, 1.0], [10.1, 0.1, 1.2]];
+    let (x, y, z): (Vec<f32>, Vec<f32>, Vec<f32>) = (
+        points.iter().map(|p| p[0]).collect(),
+        points.iter().map(|p| p[1]).collect(),
+        points.iter().map(|p| p[2]).collect(),
+    );
+    let columns =
+        ColumnCloud { points_in_sensor: PointColumns::new(&x, &y, &z).unwrap(), ego_from_sensor: Isometry3::IDENTITY };
+    let own = PointCloud { points_in_sensor: &points, ego_from_sensor: Isometry3::IDENTITY };
+    let frame = Frame {
+        timestamp_s: 1.0,
+        world_from_ego: Default::default(),
+        objects: &[],
+        cloud: Some(own),
+        roi_in_ego: &[],
+        static_in_ego: &[],
+    };
+    let mut monitor = Monitor::new(MonitorParams::default()).unwrap();
+    let e = monitor.check_columns(&frame, &columns).unwrap_err();
+    assert_eq!(e, pmon_monitor::FrameError::CloudGivenTwice);
+    assert!(e.to_string().contains("column cloud"), "{e}");
+    assert_eq!(monitor.check_columns_split_with_stages(&frame, &columns, &Threads, &mut |_| {}).unwrap_err(), e);
+    let report = monitor.check_columns(&Frame { cloud: None, ..frame }, &columns).unwrap();
+    assert_eq!(report.grid.points_total, 2);
+}
