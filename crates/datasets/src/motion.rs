@@ -73,6 +73,41 @@ struct Obs {
     speed: f64,
 }
 
+/// The speed of the positions from `a` to `b`, when `b` follows `a` within `max_gap` seconds.
+fn step_speed(a: &Obs, b: &Obs, max_gap: f64) -> Option<f64> {
+    let dt = b.t - a.t;
+    (dt > 0.0 && dt <= max_gap).then(|| (b.x - a.x).hypot(b.y - a.y) / dt)
+}
+
+/// One observation of a track and where it stands: its frame's index and its index in that frame's objects.
+struct Observed {
+    frame: usize,
+    object: usize,
+    class: ObjectClass,
+    obs: Obs,
+}
+
+/// The frames' objects grouped into tracks by id, each in frame order, in the world frame (`world_from_ego`
+/// applied to positions and headings).
+fn tracks_of(frames: &[crate::DatasetFrame]) -> BTreeMap<u64, Vec<Observed>> {
+    let mut tracks: BTreeMap<u64, Vec<Observed>> = BTreeMap::new();
+    for (frame, f) in frames.iter().enumerate() {
+        let pose = f.frame.world_from_ego;
+        for (object, o) in f.frame.objects.iter().enumerate() {
+            let (x, y) = pose.transform_point(f64::from(o.x_m), f64::from(o.y_m));
+            let obs = Obs {
+                t: f.frame.timestamp_s,
+                x,
+                y,
+                heading: f64::from(o.heading_rad) + pose.yaw_rad,
+                speed: f64::from(o.speed_mps),
+            };
+            tracks.entry(o.id).or_default().push(Observed { frame, object, class: o.class, obs });
+        }
+    }
+    tracks
+}
+
 /// The dataset's frame period: `DatasetInfo::frame_period_s`, or the median gap between its frames (0.1 s
 /// without two frames).
 #[must_use]
@@ -94,24 +129,11 @@ pub fn motion_extremes(ds: &Dataset, accel_limit_mps2: f64, heading_limit_rad: f
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // small positive ratio
     let steps = ((0.2 / period).round() as usize).max(1);
 
-    let mut tracks: BTreeMap<u64, (ObjectClass, Vec<Obs>)> = BTreeMap::new();
-    for f in &ds.frames {
-        let pose = f.frame.world_from_ego;
-        for o in &f.frame.objects {
-            let (x, y) = pose.transform_point(f64::from(o.x_m), f64::from(o.y_m));
-            let e = tracks.entry(o.id).or_insert_with(|| (o.class, Vec::new()));
-            e.1.push(Obs {
-                t: f.frame.timestamp_s,
-                x,
-                y,
-                heading: f64::from(o.heading_rad) + pose.yaw_rad,
-                speed: f64::from(o.speed_mps),
-            });
-        }
-    }
     let mut out: BTreeMap<ObjectClass, MotionExtremes> = BTreeMap::new();
-    for (id, (class, obs)) in &tracks {
-        let m = out.entry(*class).or_insert_with(|| MotionExtremes::new(*class));
+    for (id, track) in &tracks_of(&ds.frames) {
+        let Some(class) = track.first().map(|o| o.class) else { continue };
+        let obs: Vec<&Obs> = track.iter().map(|o| &o.obs).collect();
+        let m = out.entry(class).or_insert_with(|| MotionExtremes::new(class));
         m.tracks += 1;
         m.observations += obs.len();
         // forward-difference speeds between consecutive observations
@@ -119,7 +141,7 @@ pub fn motion_extremes(ds: &Dataset, accel_limit_mps2: f64, heading_limit_rad: f
         for w in obs.windows(2) {
             let (Some(a), Some(b)) = (w.first(), w.get(1)) else { continue };
             let dt = b.t - a.t;
-            v.push((dt > 0.0 && dt <= max_gap).then(|| ((b.x - a.x).hypot(b.y - a.y) / dt, (a.t + b.t) / 2.0)));
+            v.push(step_speed(a, b, max_gap).map(|speed| (speed, (a.t + b.t) / 2.0)));
             if dt > 0.0 && dt <= max_gap {
                 let acc = (b.speed - a.speed) / dt;
                 if acc.abs() > m.max_abs_accel_speed_field_mps2 {
@@ -182,40 +204,26 @@ pub fn speed_label_glitches(
     window_s: f64,
 ) -> Vec<Vec<bool>> {
     let max_gap = 1.5 * frame_period_s;
-    // Per track: (frame index, object index, t, x, y, recorded speed), in frame order.
-    let mut tracks: BTreeMap<u64, Vec<(usize, usize, Obs)>> = BTreeMap::new();
-    for (fi, f) in frames.iter().enumerate() {
-        let pose = f.frame.world_from_ego;
-        for (oi, o) in f.frame.objects.iter().enumerate() {
-            let (x, y) = pose.transform_point(f64::from(o.x_m), f64::from(o.y_m));
-            let obs = Obs { t: f.frame.timestamp_s, x, y, heading: 0.0, speed: f64::from(o.speed_mps) };
-            tracks.entry(o.id).or_default().push((fi, oi, obs));
-        }
-    }
     let mut out: Vec<Vec<bool>> = frames.iter().map(|f| vec![false; f.frame.objects.len()]).collect();
-    let step_speed = |a: &Obs, b: &Obs| {
-        let dt = b.t - a.t;
-        (dt > 0.0 && dt <= max_gap).then(|| (b.x - a.x).hypot(b.y - a.y) / dt)
-    };
-    for obs in tracks.values() {
+    for obs in tracks_of(frames).values() {
         // The gap of each state: |recorded speed - speed of its positions|, when it has a neighbour in time.
         let gaps: Vec<Option<f64>> = (0..obs.len())
             .map(|i| {
-                let here = &obs.get(i)?.2;
-                let before = i.checked_sub(1).and_then(|j| obs.get(j)).and_then(|p| step_speed(&p.2, here));
-                let after = obs.get(i + 1).and_then(|n| step_speed(here, &n.2));
+                let here = &obs.get(i)?.obs;
+                let before = i.checked_sub(1).and_then(|j| obs.get(j)).and_then(|p| step_speed(&p.obs, here, max_gap));
+                let after = obs.get(i + 1).and_then(|n| step_speed(here, &n.obs, max_gap));
                 let w: Vec<f64> = [before, after].into_iter().flatten().collect();
                 #[allow(clippy::cast_precision_loss)] // one or two
                 let mean = (!w.is_empty()).then(|| w.iter().sum::<f64>() / w.len() as f64)?;
                 Some((here.speed - mean).abs())
             })
             .collect();
-        for (i, (fi, oi, here)) in obs.iter().enumerate() {
+        for (i, o) in obs.iter().enumerate() {
             let glitched = (0..=i)
                 .rev()
-                .take_while(|&j| obs.get(j).is_some_and(|o| here.t - o.2.t <= window_s + 0.5 * frame_period_s))
+                .take_while(|&j| obs.get(j).is_some_and(|p| o.obs.t - p.obs.t <= window_s + 0.5 * frame_period_s))
                 .any(|j| gaps.get(j).copied().flatten().is_some_and(|g| g > threshold_mps));
-            if let Some(slot) = out.get_mut(*fi).and_then(|f| f.get_mut(*oi)) {
+            if let Some(slot) = out.get_mut(o.frame).and_then(|f| f.get_mut(o.object)) {
                 *slot = glitched;
             }
         }
