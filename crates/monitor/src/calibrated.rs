@@ -391,16 +391,7 @@ impl History {
             filled = len;
             let old = self.speed_ring.get(at).map_or(0, |&x| order_key(x));
             // The first sorted step not below the oldest one: a copy of it.
-            let (mut lo, mut hi) = (0usize, len);
-            while lo < hi {
-                let mid = (lo + hi) / 2;
-                if sorted.get(mid).is_some_and(|&x| order_key(x) < old) {
-                    lo = mid + 1;
-                } else {
-                    hi = mid;
-                }
-            }
-            hole = lo.min(len - 1);
+            hole = sorted.partition_point(|&x| order_key(x) < old).min(len - 1);
         }
         if let Some(slot) = self.speed_ring.get_mut(at) {
             *slot = any;
@@ -945,8 +936,6 @@ pub(crate) fn check_calibrated_sc(
     // heading is steady from one flipped frame to the next. It is called flipped again only when the box's
     // motion since the first flipped state agrees with the old heading at least as well as with the new one
     // (see [`turn_explains_motion`]): an object that really turned around moves along its new heading.
-    // (`s1` with its unit vector: the caller set it.)
-    let s1u = s1;
     if kind.is_none() && s0.flipped && !s1.warmup && v1 >= heading_min_speed_mps {
         let mut reference = None;
         for i in (0..n).rev() {
@@ -962,7 +951,7 @@ pub(crate) fn check_calibrated_sc(
         if let Some((ri, r)) = reference.filter(|(_, r)| f64::from(r.v_mps) >= heading_min_speed_mps) {
             let d = wrap_difference(f64::from(s1.heading_rad) - f64::from(r.heading_rad));
             let m = gates.factor(own_heading) * norm(r.heading_sigma(), s1.heading_sigma());
-            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 && !turn_explains_motion(h, ri + 1, s1u) {
+            if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 && !turn_explains_motion(h, ri + 1, s1) {
                 fired = fired.union(Conditions::TURN_RATE);
                 kind = Some(ImplausibilityKind::HeadingFlip);
                 error_size = libm::fabs(d);
@@ -1025,7 +1014,7 @@ pub(crate) fn check_calibrated_sc(
     let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
     let sb = h.get(b).copied().unwrap_or(s0);
     // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no velocity).
-    let (pred, cov) = trapezoid(h, &sb, b, s1u, true);
+    let (pred, cov) = trapezoid(h, &sb, b, s1, true);
     let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
     let r = refit_allowance(raw, u1, f64::from(s1.length_m - sb.length_m), f64::from(s1.width_m - sb.width_m));
     let d2 = mahalanobis2(r, cov);
@@ -1044,7 +1033,7 @@ pub(crate) fn check_calibrated_sc(
     let mut own_position = None;
     let mut position_step = -1.0f32;
     if n > 0 && clean_pair(&s0, &Entry { suspect: false, ..*s1 }) {
-        let (r1, d1) = one_frame_residual(&s0, s1u);
+        let (r1, d1) = one_frame_residual(&s0, s1);
         let q = 0.5 * d1;
         if q.is_finite() {
             position_step = q as f32;
