@@ -374,8 +374,7 @@ impl Monitor {
     /// As [`Monitor::check`], and [`FrameError::CloudGivenTwice`] when `frame.cloud` is `Some` too (nothing is
     /// checked then).
     pub fn check_columns(&mut self, frame: &Frame<'_>, cloud: &ColumnCloud<'_>) -> Result<FrameReport<'_>, FrameError> {
-        Self::one_cloud(frame)?;
-        self.check_inner(frame, Some(Cloud::from(*cloud)), &mut |_| {}, None)
+        self.check_columns_inner(frame, cloud, &mut |_| {}, None)
     }
 
     /// [`Monitor::check_columns`], calling `on_stage` as each [`Stage`] ends (see [`Monitor::check_with_stages`]).
@@ -388,8 +387,7 @@ impl Monitor {
         cloud: &ColumnCloud<'_>,
         on_stage: &mut dyn FnMut(Stage),
     ) -> Result<FrameReport<'_>, FrameError> {
-        Self::one_cloud(frame)?;
-        self.check_inner(frame, Some(Cloud::from(*cloud)), on_stage, None)
+        self.check_columns_inner(frame, cloud, on_stage, None)
     }
 
     /// [`Monitor::check_columns_with_stages`] with the rasterize stage split as in [`Monitor::check_split`].
@@ -403,16 +401,21 @@ impl Monitor {
         join: &dyn crate::split::Join,
         on_stage: &mut dyn FnMut(Stage),
     ) -> Result<FrameReport<'_>, FrameError> {
-        Self::one_cloud(frame)?;
-        self.check_inner(frame, Some(Cloud::from(*cloud)), on_stage, Some(join))
+        self.check_columns_inner(frame, cloud, on_stage, Some(join))
     }
 
-    /// A frame handed over with a column sweep must not carry a sweep of its own.
-    fn one_cloud(frame: &Frame<'_>) -> Result<(), FrameError> {
+    /// The entry points with a column sweep: a frame that carries a sweep of its own too is refused.
+    fn check_columns_inner(
+        &mut self,
+        frame: &Frame<'_>,
+        cloud: &ColumnCloud<'_>,
+        on_stage: &mut dyn FnMut(Stage),
+        join: Option<&dyn crate::split::Join>,
+    ) -> Result<FrameReport<'_>, FrameError> {
         if frame.cloud.is_some() {
             return Err(FrameError::CloudGivenTwice);
         }
-        Ok(())
+        self.check_inner(frame, Some(Cloud::from(*cloud)), on_stage, join)
     }
 
     /// The checks of one frame; `cloud` is its sweep (`frame.cloud` is not read past this point).
