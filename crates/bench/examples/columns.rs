@@ -71,14 +71,7 @@ fn main() -> ExitCode {
         eprintln!("usage: columns [synthetic|kitti|nuscenes|av2] [ITERATIONS] (real data under {})", data.display());
         return ExitCode::from(2);
     };
-    let columns: Vec<[Vec<f32>; 3]> = seq
-        .sweeps
-        .iter()
-        .map(|s| {
-            let p = &s.points_in_sensor;
-            [p.iter().map(|p| p[0]).collect(), p.iter().map(|p| p[1]).collect(), p.iter().map(|p| p[2]).collect()]
-        })
-        .collect();
+    let columns = seq.sweep_columns();
     let Ok(mut monitors) = (0..3).map(|_| Monitor::new(MonitorParams::PAPER)).collect::<Result<Vec<_>, _>>() else {
         return ExitCode::FAILURE;
     };

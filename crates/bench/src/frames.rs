@@ -167,6 +167,18 @@ impl Sequence {
         i as f64 * FRAME_PERIOD_S
     }
 
+    /// Each sweep's points as three columns `[x, y, z]` (for [`pmon_monitor::PointColumns`]), in sweep order.
+    #[must_use]
+    pub fn sweep_columns(&self) -> Vec<[Vec<f32>; 3]> {
+        self.sweeps
+            .iter()
+            .map(|s| {
+                let p = &s.points_in_sensor;
+                [p.iter().map(|p| p[0]).collect(), p.iter().map(|p| p[1]).collect(), p.iter().map(|p| p[2]).collect()]
+            })
+            .collect()
+    }
+
     /// Largest number of points of a sweep.
     #[must_use]
     pub fn max_points(&self) -> usize {

@@ -607,17 +607,7 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let n = seq.frames.len().max(1);
     let frame_err = |source| BenchError::Frame { case: def.name.clone(), source };
     // With `columns`, each sweep's points as three columns, made here (outside the timing).
-    let columns: Vec<[Vec<f32>; 3]> = if opts.columns {
-        seq.sweeps
-            .iter()
-            .map(|s| {
-                let p = &s.points_in_sensor;
-                [p.iter().map(|p| p[0]).collect(), p.iter().map(|p| p[1]).collect(), p.iter().map(|p| p[2]).collect()]
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let columns: Vec<[Vec<f32>; 3]> = if opts.columns { seq.sweep_columns() } else { Vec::new() };
     // Frame `i`'s sweep as a `ColumnCloud` when measuring columns and the frame has a sweep.
     let column_cloud = |i: usize| -> Option<ColumnCloud<'_>> {
         let sweep = seq.frames.get(i % n)?.sweep?;

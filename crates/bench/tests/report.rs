@@ -125,6 +125,11 @@ fn only_selects_cases_by_name() {
     assert_eq!(names, ["synthetic-32/0.5m", "objects-30/no-cloud", "objects-30/no-cloud/calibrated"]);
 }
 
+/// A case's medians of the frame statistics: points, points in the band, hit cells and clusters.
+fn frame_statistics(c: &pmon_bench::CaseReport) -> (u32, u32, u32, u32) {
+    (c.points, c.points_in_band, c.cells_hit, c.clusters)
+}
+
 #[test]
 fn split_runs_the_same_frames_on_two_threads_and_says_so() {
     let only = vec!["synthetic-64/0.5m".to_string(), "synthetic-32".to_string()];
@@ -134,12 +139,7 @@ fn split_runs_the_same_frames_on_two_threads_and_says_so() {
     for (a, b) in one.cases.iter().zip(&two.cases) {
         assert_eq!(a.name, b.name);
         // The medians of the frame statistics: the same points in band, hit cells and clusters.
-        assert_eq!(
-            (a.points, a.points_in_band, a.cells_hit, a.clusters),
-            (b.points, b.points_in_band, b.cells_hit, b.clusters),
-            "{}",
-            a.name
-        );
+        assert_eq!(frame_statistics(a), frame_statistics(b), "{}", a.name);
         // The 64-beam sweep is split; the 32-beam one (35,000 points) stays on one thread.
         let large = b.points as usize >= pmon_monitor::split::SPLIT_MIN_POINTS;
         assert_eq!(large, b.name.starts_with("synthetic-64"), "{}: {} points", b.name, b.points);
@@ -157,12 +157,7 @@ fn columns_run_the_same_frames_and_say_so() {
     assert_eq!((records.cases.len(), columns.cases.len()), (3, 3));
     for (a, b) in records.cases.iter().zip(&columns.cases) {
         assert_eq!(a.name, b.name);
-        assert_eq!(
-            (a.points, a.points_in_band, a.cells_hit, a.clusters),
-            (b.points, b.points_in_band, b.cells_hit, b.clusters),
-            "{}",
-            a.name
-        );
+        assert_eq!(frame_statistics(a), frame_statistics(b), "{}", a.name);
     }
     assert!(columns.cases[0].points > 30_000, "the 32-beam sweep is measured: {}", columns.cases[0].points);
     assert!(columns.notes.iter().any(|n| n.starts_with("--columns")), "{:?}", columns.notes);

@@ -242,14 +242,7 @@ fn rasterizers_agree_on_real_sweeps() {
 fn columns_agree_with_records_on_real_sweeps() {
     let mut returns_in_roi = 0usize;
     for (seq, _) in real_sequences() {
-        let columns: Vec<[Vec<f32>; 3]> = seq
-            .sweeps
-            .iter()
-            .map(|s| {
-                let p = &s.points_in_sensor;
-                [p.iter().map(|p| p[0]).collect(), p.iter().map(|p| p[1]).collect(), p.iter().map(|p| p[2]).collect()]
-            })
-            .collect();
+        let columns = seq.sweep_columns();
         for rasterizer in [Rasterizer::Blocked, Rasterizer::Scalar] {
             let mut records = Monitor::new(params(0.5)).unwrap();
             let mut by_columns = Monitor::new(params(0.5)).unwrap();

@@ -430,13 +430,6 @@ fn columns_of_different_lengths_are_an_error() {
 #[test]
 fn a_frame_with_two_sweeps_is_refused() {
     let points = [[10.0f32, 0.0, 1.0], [10.1, 0.1, 1.2]];
-    let (x, y, z): (Vec<f32>, Vec<f32>, Vec<f32>) = (
-        points.iter().map(|p| p[0]).collect(),
-        points.iter().map(|p| p[1]).collect(),
-        points.iter().map(|p| p[2]).collect(),
-    );
-    let columns =
-        ColumnCloud { points_in_sensor: PointColumns::new(&x, &y, &z).unwrap(), ego_from_sensor: Isometry3::IDENTITY };
     let own = PointCloud { points_in_sensor: &points, ego_from_sensor: Isometry3::IDENTITY };
     let frame = Frame {
         timestamp_s: 1.0,
@@ -446,6 +439,8 @@ fn a_frame_with_two_sweeps_is_refused() {
         roi_in_ego: &[],
         static_in_ego: &[],
     };
+    let ([x, y, z], extrinsic) = columns_of(&frame).unwrap();
+    let columns = ColumnCloud { points_in_sensor: PointColumns::new(&x, &y, &z).unwrap(), ego_from_sensor: extrinsic };
     let mut monitor = Monitor::new(MonitorParams::default()).unwrap();
     let e = monitor.check_columns(&frame, &columns).unwrap_err();
     assert_eq!(e, pmon_monitor::FrameError::CloudGivenTwice);
