@@ -20,12 +20,13 @@ See ``docs/campaigns.md`` ("Sharded campaigns") in the repository.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import os
 import time
 from dataclasses import dataclass, field
 from itertools import product
-from typing import Any, Callable, Iterable, Mapping, Optional, Sequence
+from typing import Any, Callable, Iterable, Iterator, Mapping, Optional, Sequence
 
 from ._params import Params
 from ._pmon import run_campaign_task
@@ -282,6 +283,25 @@ def _run_task_json(task_json: str) -> tuple[str, float, int, str, float]:
 _evaluate_task = _run_task_json
 
 
+# Tasks submitted to Dask or Ray ahead of the finished ones (at least twice the cluster's threads): the
+# scheduler holds that many payloads, not the whole plan's.
+_WINDOW = 64
+
+
+def _payload(run_dir: str, task: Mapping[str, Any]) -> str:
+    """The task as shipped to a worker: with the text of its nuScenes v1.0 scene slice (``tables``, a file in the
+    run folder written by ``pmon evaluate``) as ``scene_tables``. A slice file that is gone leaves the task as it
+    is: it then reads the dataset's table folder, with the same results."""
+    rel = task.get("tables")
+    if rel:
+        try:
+            with open(os.path.join(run_dir, rel), encoding="utf-8", newline="") as f:
+                return json.dumps({**task, "scene_tables": f.read()})
+        except OSError:
+            pass
+    return json.dumps(task)
+
+
 def _write_atomic(path: str, text: str) -> None:
     tmp = f"{path}.tmp-{os.getpid()}"
     with open(tmp, "w", encoding="utf-8", newline="\n") as f:
@@ -384,29 +404,50 @@ def evaluate_run(run_dir: str | os.PathLike[str], engine: Any = "local",
         if progress is not None:
             progress(len(tasks) - len(todo) + len(out.ran), len(tasks), ident, where, seconds)
 
+    def payloads() -> Iterator[tuple[str, str]]:
+        # Made as they are submitted: a nuScenes v1.0 task carries its scene's slice of the tables (read from the
+        # run folder, so the workers need not see it), up to a few MB each.
+        for t in todo:
+            yield t["id"], _payload(run_dir, t)
+
     try:
-        payloads = {t["id"]: json.dumps(t) for t in todo}
         if engine == "local":
-            for ident, p in payloads.items():
+            for ident, p in payloads():
                 done(ident, _run_task_json(p))
         elif engine == "ray":
             import ray
 
             remote = ray.remote(max_retries=2)(_run_task_json)
-            pending = {remote.remote(p): ident for ident, p in payloads.items()}
-            while pending:
+            window = max(_WINDOW, 2 * int(ray.available_resources().get("CPU", 1)))
+            queue = payloads()
+            pending: dict[Any, str] = {}
+            while True:
+                for ident, p in itertools.islice(queue, window - len(pending)):
+                    pending[remote.remote(p)] = ident
+                if not pending:
+                    break
                 ready, _ = ray.wait(list(pending))
                 for ref in ready:
                     done(pending.pop(ref), ray.get(ref))
         elif hasattr(engine, "submit"):
             from dask.distributed import as_completed
 
-            futures = {engine.submit(_run_task_json, p, key="pmon-task-" + hashlib.blake2b(
-                p.encode(), digest_size=16).hexdigest(), pure=False, retries=2): ident
-                for ident, p in payloads.items()}
-            for fut in as_completed(list(futures)):
-                done(futures[fut], fut.result())
+            window = max(_WINDOW, 2 * sum(engine.nthreads().values()))
+            queue = payloads()
+
+            def submit(ident: str, p: str) -> Any:
+                fut = engine.submit(_run_task_json, p, key="pmon-task-" + hashlib.blake2b(
+                    p.encode(), digest_size=16).hexdigest(), pure=False, retries=2)
+                futures[fut] = ident
+                return fut
+
+            futures: dict[Any, str] = {}
+            running = as_completed([submit(i, p) for i, p in itertools.islice(queue, window)])
+            for fut in running:
+                done(futures.pop(fut), fut.result())
                 fut.release()
+                for ident, p in itertools.islice(queue, 1):
+                    running.add(submit(ident, p))
         else:
             raise ValueError(f"evaluate_run: unknown engine {engine!r}")
     finally:

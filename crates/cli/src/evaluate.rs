@@ -117,7 +117,7 @@ fn run_local(run: &RunDir, todo: &[&LogTask], threads: Option<usize>, quiet: boo
     pool.install(|| {
         todo.par_iter().for_each(|t| {
             let started = Instant::now();
-            let r = evaluate::run_task(t);
+            let r = evaluate::run_task(&evaluate::with_scene_tables(t, &run.dir));
             let error = match &r.outcome {
                 evaluate::Outcome::Ok(_) => None,
                 evaluate::Outcome::Error(e) => Some(e.clone()),
@@ -237,6 +237,16 @@ pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
     let run = RunDir::prepare(&run_dir, &plan.tasks, args.force, "pmon evaluate")?;
     // The report folder is checked before anything runs (it is written under a temporary name at the end).
     let out_dir = OutputDir::prepare(&args.out, "evaluate", false)?;
+    // nuScenes v1.0 scenes: the tables read once and cut into a slice per scene, so a task reads its scene only.
+    let sliced_at = Instant::now();
+    let sliced = evaluate::write_scene_tables(&plan.tasks, &run_dir).map_err(|e| anyhow::anyhow!(e))?;
+    if sliced > 0 {
+        eprintln!(
+            "pmon evaluate: the nuScenes tables cut into {sliced} scene slices in {} ({:.1} s)",
+            run_dir.join("tables").display(),
+            sliced_at.elapsed().as_secs_f64()
+        );
+    }
     if args.plan_only {
         drop(out_dir);
         eprintln!("pmon evaluate: {} tasks planned in {}", plan.tasks.len(), run_dir.join("tasks.json").display());

@@ -60,9 +60,12 @@ impl RunDir {
                         dir.display()
                     );
                 }
-                let results = dir.join("results");
-                if results.exists() {
-                    fs::remove_dir_all(&results).with_context(|| format!("cannot remove {}", results.display()))?;
+                // the other plan's results, and its nuScenes table slices (`pmon evaluate`)
+                for sub in ["results", "tables"] {
+                    let old = dir.join(sub);
+                    if old.exists() {
+                        fs::remove_dir_all(&old).with_context(|| format!("cannot remove {}", old.display()))?;
+                    }
                 }
             }
         } else if dir.exists() && fs::read_dir(dir).map(|mut d| d.next().is_some()).unwrap_or(true) {

@@ -27,6 +27,7 @@ pub mod ground;
 pub mod kitti;
 pub mod motion;
 pub mod nuscenes;
+pub mod nuscenes_slice;
 pub mod roi;
 pub mod sweeps;
 mod util;
@@ -36,7 +37,7 @@ use std::path::{Path, PathBuf};
 pub use error::DatasetError;
 pub use geometry::{points_in_box, Box3};
 use pmon_recording::{RecordedFrame, RecordingMeta};
-pub use sweeps::{open_deferred, DeferredSweeps};
+pub use sweeps::{open_deferred, open_deferred_with_slice, DeferredSweeps};
 
 /// Which reader produced a [`Dataset`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -241,11 +242,27 @@ pub fn open(spec: &str) -> Result<Dataset, DatasetError> {
 /// # Errors
 /// An unknown scheme, or any error of the reader.
 pub fn open_with(spec: &str, opts: &ReadOptions) -> Result<Dataset, DatasetError> {
-    let mut ds = match Spec::parse(spec)? {
+    open_with_tables(spec, opts, None)
+}
+
+/// [`open_with`] for a nuScenes v1.0 scene (`nuscenes-v1:DATAROOT#scene`) whose tables come from its slice (the
+/// text [`nuscenes_slice::slice_scenes`] gives) instead of the table folder: the same dataset, bit for bit, without
+/// reading the whole tables.
+///
+/// # Errors
+/// A spec that is not `nuscenes-v1:...#scene`, a malformed slice, or any error of the reader.
+pub fn open_with_slice(spec: &str, opts: &ReadOptions, slice: &str) -> Result<Dataset, DatasetError> {
+    open_with_tables(spec, opts, Some(slice))
+}
+
+fn open_with_tables(spec: &str, opts: &ReadOptions, slice: Option<&str>) -> Result<Dataset, DatasetError> {
+    let parsed = Spec::parse(spec)?;
+    parsed.check_slice(spec, slice)?;
+    let mut ds = match parsed {
         Spec::Kitti(p) => kitti::open_object(p, opts),
         Spec::KittiTracking(p) => kitti::open_tracking(p),
         Spec::NuScenes(p) => nuscenes::open_converted(p, opts),
-        Spec::NuScenesV1(p, scene) => nuscenes::open_v1(p, scene, opts),
+        Spec::NuScenesV1(p, scene) => nuscenes::open_v1_with(p, scene, opts, false, slice).map(|(ds, _)| ds),
         Spec::Av2(p) => av2::open_log(p, opts),
         Spec::CommonRoad(p) => commonroad::open_scenario(p),
     }?;
@@ -292,6 +309,19 @@ impl<'a> Spec<'a> {
                 return Err(spec_err(format!("unknown scheme `{other}`, expected one of: {}", SCHEMES.join(", "))))
             }
         })
+    }
+}
+
+impl Spec<'_> {
+    /// A table slice is for one nuScenes v1.0 scene only.
+    pub(crate) fn check_slice(&self, spec: &str, slice: Option<&str>) -> Result<(), DatasetError> {
+        match (self, slice) {
+            (_, None) | (Spec::NuScenesV1(_, Some(_)), Some(_)) => Ok(()),
+            _ => Err(DatasetError::Spec {
+                spec: spec.to_string(),
+                message: "a table slice applies to one nuScenes v1.0 scene only (`nuscenes-v1:DATAROOT#scene`)".into(),
+            }),
+        }
     }
 }
 

@@ -346,8 +346,12 @@ pub struct Tables {
 
 fn read_table<T: for<'de> Deserialize<'de>>(dir: &Path, name: &str) -> Result<Vec<T>, DatasetError> {
     let path = dir.join(name);
-    let text = read_text(&path)?;
-    serde_json::from_str(&python_json_to_strict(&text)).map_err(|e| DatasetError::malformed(&path, e.to_string()))
+    parse_table(&path, &read_text(&path)?)
+}
+
+/// A table file's text (Python's `NaN` allowed) as its records; errors name `path`.
+fn parse_table<T: for<'de> Deserialize<'de>>(path: &Path, text: &str) -> Result<Vec<T>, DatasetError> {
+    serde_json::from_str(&python_json_to_strict(text)).map_err(|e| DatasetError::malformed(path, e.to_string()))
 }
 
 fn read_optional_table<T: for<'de> Deserialize<'de>>(dir: &Path, name: &str) -> Result<Option<Vec<T>>, DatasetError> {
@@ -377,11 +381,54 @@ impl Tables {
             scenes: read_optional_table(dir, "scene.json")?,
         })
     }
+
+    /// The tables of one scene, from the text of its slice ([`crate::nuscenes_slice`]: one JSON object whose keys
+    /// are the table files' names and whose values are their rows for the scene). `dir` is the table folder the
+    /// slice was cut from: errors name its files.
+    ///
+    /// # Errors
+    /// The text is not such an object, a required table is missing from it, or a row does not match the layout.
+    pub fn from_slice(dir: &Path, text: &str) -> Result<Self, DatasetError> {
+        let bad = |m: String| DatasetError::malformed(dir, format!("scene slice: {m}"));
+        let parts: BTreeMap<String, &serde_json::value::RawValue> =
+            serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
+        if let Some(unknown) = parts.keys().find(|k| !SLICE_TABLES.contains(&k.as_str())) {
+            return Err(bad(format!("unknown table `{unknown}`")));
+        }
+        let optional = |name: &str| -> Result<Option<&str>, DatasetError> { Ok(parts.get(name).map(|r| r.get())) };
+        let required =
+            |name: &str| -> Result<&str, DatasetError> { optional(name)?.ok_or_else(|| bad(format!("no `{name}`"))) };
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            samples: parse_table(&dir.join("sample.json"), required("sample.json")?)?,
+            sample_data: parse_table(&dir.join("sample_data.json"), required("sample_data.json")?)?,
+            annotations: parse_table(&dir.join("sample_annotation.json"), required("sample_annotation.json")?)?,
+            instances: parse_table(&dir.join("instance.json"), required("instance.json")?)?,
+            categories: parse_table(&dir.join("category.json"), required("category.json")?)?,
+            ego_poses: parse_table(&dir.join("ego_pose.json"), required("ego_pose.json")?)?,
+            calibrated_sensors: parse_table(&dir.join("calibrated_sensor.json"), required("calibrated_sensor.json")?)?,
+            sensors: optional("sensor.json")?.map(|t| parse_table(&dir.join("sensor.json"), t)).transpose()?,
+            scenes: optional("scene.json")?.map(|t| parse_table(&dir.join("scene.json"), t)).transpose()?,
+        })
+    }
 }
+
+/// The table files a scene slice may hold (`sensor.json` and `scene.json` are optional, as in the folder).
+pub(crate) const SLICE_TABLES: [&str; 9] = [
+    "calibrated_sensor.json",
+    "category.json",
+    "ego_pose.json",
+    "instance.json",
+    "sample.json",
+    "sample_annotation.json",
+    "sample_data.json",
+    "scene.json",
+    "sensor.json",
+];
 
 /// Finds the table folder and the dataroot: `path` is either the dataroot holding exactly one `v1.0-*` folder,
 /// or the table folder itself (then the dataroot is its parent).
-fn locate_tables(path: &Path) -> Result<(PathBuf, PathBuf), DatasetError> {
+pub(crate) fn locate_tables(path: &Path) -> Result<(PathBuf, PathBuf), DatasetError> {
     if path.join("sample.json").exists() {
         let root = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
         return Ok((path.to_path_buf(), root));
@@ -417,19 +464,25 @@ fn seconds_of_us(us: i64) -> f64 {
 /// # Errors
 /// Missing or malformed tables, dangling tokens, non-unit quaternions, malformed sweeps.
 pub fn open_v1(path: &Path, scene: Option<&str>, opts: &ReadOptions) -> Result<Dataset, DatasetError> {
-    open_v1_with(path, scene, opts, false).map(|(ds, _)| ds)
+    open_v1_with(path, scene, opts, false, None).map(|(ds, _)| ds)
 }
 
 /// [`open_v1`]; with `defer` the sweeps are not read but returned per frame (the frames' clouds `None`), for
-/// [`crate::sweeps::open_deferred`]. Without `defer` each sweep is read where it always was.
+/// [`crate::sweeps::open_deferred`]. Without `defer` each sweep is read where it always was. With `slice` (the
+/// text of the scene's slice, [`crate::nuscenes_slice`]) the tables come from it instead of the table folder;
+/// the frames are the same bits.
 pub(crate) fn open_v1_with(
     path: &Path,
     scene: Option<&str>,
     opts: &ReadOptions,
     defer: bool,
+    slice: Option<&str>,
 ) -> Result<(Dataset, Vec<Option<SweepFile>>), DatasetError> {
     let (table_dir, root) = locate_tables(path)?;
-    let t = Tables::read(&table_dir)?;
+    let t = match slice {
+        Some(text) => Tables::from_slice(&table_dir, text)?,
+        None => Tables::read(&table_dir)?,
+    };
     let tp = |name: &str| table_dir.join(name);
     let dangling = |table: &str, what: &str, token: &str| {
         DatasetError::malformed(&tp(table), format!("{what} token `{token}` not found"))
@@ -523,9 +576,16 @@ pub(crate) fn open_v1_with(
             speed_of_ann.insert(o.1, v);
         }
     }
-    // stable u64 ids: instances numbered in token order
+    // stable u64 ids: the instances seen on the samples read, numbered in token order (the same numbers whether
+    // the other scenes' rows are in the tables or not: a scene read from its slice is the same bits)
+    let seen: std::collections::BTreeSet<&str> = samples
+        .iter()
+        .filter_map(|s| ann_of_sample.get(s.token.as_str()))
+        .flatten()
+        .map(|a| a.instance_token.as_str())
+        .collect();
     let instance_id: BTreeMap<&str, u64> =
-        instance_obs.keys().enumerate().map(|(i, k)| (*k, u64::try_from(i + 1).unwrap_or(u64::MAX))).collect();
+        seen.iter().enumerate().map(|(i, k)| (*k, u64::try_from(i + 1).unwrap_or(u64::MAX))).collect();
 
     let mut frames = Vec::new();
     let mut files = Vec::new();
@@ -629,7 +689,7 @@ pub(crate) fn open_v1_with(
          LIDAR_TOP with ego_from_sensor = calibrated_sensor"
             .to_string(),
         "boxes converted global -> ego with the ego pose of the LIDAR_TOP keyframe; object id = instance number \
-         in token order; speed = central difference of global positions over neighbouring samples (<= 1.5 s)"
+         in token order among the instances on the samples read; speed = central difference of global positions over neighbouring samples (<= 1.5 s)"
             .to_string(),
         "only the keyframe sweep is read (nuScenes num_lidar_pts counts that sweep)".to_string(),
     ];

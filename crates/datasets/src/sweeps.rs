@@ -103,7 +103,29 @@ impl DeferredSweeps {
 /// # Errors
 /// An unknown scheme, or any error of the reader except those of the sweep files.
 pub fn open_deferred(spec: &str, opts: &ReadOptions) -> Result<(Dataset, DeferredSweeps), DatasetError> {
-    let (mut ds, files) = match Spec::parse(spec)? {
+    open_deferred_tables(spec, opts, None)
+}
+
+/// [`open_deferred`] for a nuScenes v1.0 scene whose tables come from its slice ([`crate::open_with_slice`]).
+///
+/// # Errors
+/// A spec that is not `nuscenes-v1:...#scene`, a malformed slice, or any error of [`open_deferred`].
+pub fn open_deferred_with_slice(
+    spec: &str,
+    opts: &ReadOptions,
+    slice: &str,
+) -> Result<(Dataset, DeferredSweeps), DatasetError> {
+    open_deferred_tables(spec, opts, Some(slice))
+}
+
+fn open_deferred_tables(
+    spec: &str,
+    opts: &ReadOptions,
+    slice: Option<&str>,
+) -> Result<(Dataset, DeferredSweeps), DatasetError> {
+    let parsed = Spec::parse(spec)?;
+    parsed.check_slice(spec, slice)?;
+    let (mut ds, files) = match parsed {
         Spec::Av2(p) => {
             let (ds, sweeps) = av2::open_log_deferred(p, opts)?;
             return Ok((ds, DeferredSweeps { source: Source::Av2(Box::new(sweeps)) }));
@@ -111,7 +133,7 @@ pub fn open_deferred(spec: &str, opts: &ReadOptions) -> Result<(Dataset, Deferre
         Spec::Kitti(p) => kitti::open_object_with(p, opts, true)?,
         Spec::KittiTracking(p) => (kitti::open_tracking(p)?, Vec::new()),
         Spec::NuScenes(p) => nuscenes::open_converted_with(p, opts, true)?,
-        Spec::NuScenesV1(p, scene) => nuscenes::open_v1_with(p, scene, opts, true)?,
+        Spec::NuScenesV1(p, scene) => nuscenes::open_v1_with(p, scene, opts, true, slice)?,
         Spec::CommonRoad(p) => (commonroad::open_scenario(p)?, Vec::new()),
     };
     crate::roi::finish(&mut ds, &opts.roi);

@@ -25,8 +25,8 @@ use std::path::{Path, PathBuf};
 use pmon_datasets::ground::GroundMode;
 use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{
-    open_deferred, open_with, Dataset, DatasetFormat, DatasetFrame, DatasetInfo, DeferredSweeps, ReadOptions,
-    SpeedSource,
+    open_deferred, open_deferred_with_slice, open_with, open_with_slice, Dataset, DatasetFormat, DatasetFrame,
+    DatasetInfo, DeferredSweeps, ReadOptions, SpeedSource,
 };
 use pmon_monitor::MonitorParams;
 use pmon_recording::RecordedFrame;
@@ -106,6 +106,14 @@ pub struct LogTask {
     pub options: RealDataOptions,
     /// Monitor parameters (the dataset's ground height and ego footprint go over them).
     pub params: MonitorParams,
+    /// A nuScenes v1.0 scene: its slice of the tables in the run folder (`tables/<scene>.json`), cut once for
+    /// the whole run by [`write_scene_tables`] so that a task does not read the dataset's tables.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tables: Option<String>,
+    /// The text of that slice, put into the task by the runner that ships it ([`with_scene_tables`]); never in
+    /// `tasks.json`. Without it a nuScenes v1.0 task reads the table folder (the same results, slower).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene_tables: Option<String>,
 }
 
 /// A figure whose points keep their counts only (`[x, k, n]`): what a task returns, merged by addition.
@@ -379,6 +387,8 @@ pub fn plan(
                 seed: mix(seed, fnv1a(&format!("{}/{}/{}", l.family, l.log, part.name()))),
                 options: options.clone(),
                 params: *params,
+                tables: l.spec.starts_with("nuscenes-v1:").then(|| scene_tables_path(&l.log)),
+                scene_tables: None,
             };
             if tasks.insert(id.clone(), task).is_some() {
                 return Err(format!("two logs give the task id `{id}`: rename one"));
@@ -386,6 +396,59 @@ pub fn plan(
         }
     }
     Ok(Plan { tasks: tasks.into_values().collect(), notes })
+}
+
+/// Where a nuScenes v1.0 scene's slice of the tables goes in the run folder.
+fn scene_tables_path(scene: &str) -> String {
+    format!("tables/{}.json", file_safe(scene))
+}
+
+/// Cuts the tables of the plan's nuScenes v1.0 scene tasks into slices (`pmon_datasets::nuscenes_slice`), one
+/// file per scene in `run_dir` (the task's `tables`), reading each dataset's tables once. Slices already there
+/// (a resumed run) are kept; each file is written under a temporary name and renamed. Returns the number of
+/// slices written.
+///
+/// # Errors
+/// A table the slicer cannot read (naming the file, and the line of a malformed row), or a write error.
+pub fn write_scene_tables(tasks: &[LogTask], run_dir: &Path) -> Result<usize, String> {
+    // dataroot -> (scene, slice file), each scene once
+    let mut wanted: BTreeMap<&str, BTreeMap<String, PathBuf>> = BTreeMap::new();
+    for t in tasks {
+        let (Some(rel), Some(rest)) = (&t.tables, t.spec.strip_prefix("nuscenes-v1:")) else { continue };
+        let Some((root, scene)) = rest.rsplit_once('#') else { continue };
+        let file = run_dir.join(rel);
+        if !file.exists() {
+            wanted.entry(root).or_default().insert(scene.to_string(), file);
+        }
+    }
+    let mut written = 0;
+    for (root, scenes) in wanted {
+        let names: Vec<String> = scenes.keys().cloned().collect();
+        pmon_datasets::nuscenes_slice::slice_scenes(Path::new(root), &names, |scene, text| {
+            let Some(file) = scenes.get(scene) else { return Ok(()) };
+            let io = |e: std::io::Error| pmon_datasets::DatasetError::Io { path: file.clone(), source: e };
+            if let Some(dir) = file.parent() {
+                fs::create_dir_all(dir).map_err(io)?;
+            }
+            let tmp = file.with_extension(format!("json.tmp-{}", std::process::id()));
+            fs::write(&tmp, text).map_err(io)?;
+            fs::rename(&tmp, file).map_err(io)?;
+            written += 1;
+            Ok(())
+        })
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(written)
+}
+
+/// The task as a runner ships it: with its nuScenes v1.0 slice's text read from `run_dir` (unchanged when it has
+/// none, or when the file is gone: it then reads the table folder, with the same results).
+#[must_use]
+pub fn with_scene_tables<'t>(task: &'t LogTask, run_dir: &Path) -> Cow<'t, LogTask> {
+    match task.tables.as_ref().and_then(|rel| fs::read_to_string(run_dir.join(rel)).ok()) {
+        Some(text) => Cow::Owned(LogTask { scene_tables: Some(text), ..task.clone() }),
+        None => Cow::Borrowed(task),
+    }
 }
 
 /// A recording's parameters: `base` with the ground height and ego footprint of its `params.toml`, if any.
@@ -444,8 +507,12 @@ fn open_log(task: &LogTask, load_clouds: bool) -> Result<(Dataset, MonitorParams
         return Ok((Dataset { info, frames }, params));
     }
     let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(base.grid_size_m), ..RoiOptions::default() };
-    let ds = open_with(&task.spec, &ReadOptions { load_clouds, roi, ground: GroundMode::Auto })
-        .map_err(|e| e.to_string())?;
+    let opts = ReadOptions { load_clouds, roi, ground: GroundMode::Auto };
+    let ds = match &task.scene_tables {
+        Some(slice) => open_with_slice(&task.spec, &opts, slice),
+        None => open_with(&task.spec, &opts),
+    }
+    .map_err(|e| e.to_string())?;
     let params =
         MonitorParams { ground_z_m: ds.info.ground_z_m, ego_footprint_m: ds.info.format.ego_footprint_m(), ..base };
     Ok((ds, params))
@@ -470,7 +537,11 @@ impl SensorSource {
         }
         let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(task.params.grid_size_m), ..RoiOptions::default() };
         let opts = ReadOptions { load_clouds: true, roi, ground: GroundMode::Auto };
-        let (ds, sweeps) = open_deferred(&task.spec, &opts).map_err(|e| e.to_string())?;
+        let (ds, sweeps) = match &task.scene_tables {
+            Some(slice) => open_deferred_with_slice(&task.spec, &opts, slice),
+            None => open_deferred(&task.spec, &opts),
+        }
+        .map_err(|e| e.to_string())?;
         let params = MonitorParams {
             ground_z_m: ds.info.ground_z_m,
             ego_footprint_m: ds.info.format.ego_footprint_m(),
