@@ -125,22 +125,27 @@ impl TableText {
     /// The rows: each one's text and its fields as `T`. A file that is not an array, or a row that is not a `T`,
     /// is an error naming the file and the row's line.
     fn rows<'t, T: Deserialize<'t>>(&'t self) -> Result<Vec<(&'t str, T)>, DatasetError> {
+        self.each_row()?.collect()
+    }
+
+    /// [`Self::rows`] one at a time (the big tables: only the rows kept are held).
+    fn each_row<'t, T: Deserialize<'t>>(
+        &'t self,
+    ) -> Result<impl Iterator<Item = Result<(&'t str, T), DatasetError>> + 't, DatasetError> {
         let raws: Vec<&'t RawValue> =
             serde_json::from_str(&self.text).map_err(|e| DatasetError::malformed(&self.path, e.to_string()))?;
-        raws.into_iter()
-            .map(|r| {
-                let row = r.get();
-                serde_json::from_str::<T>(row).map(|t| (row, t)).map_err(|e| {
-                    // the row's own position is relative to the row: give the file's line instead
-                    let offset = (row.as_ptr() as usize).saturating_sub(self.text.as_ptr() as usize);
-                    let line = 1 + self.text.get(..offset).map_or(0, |s| s.matches('\n').count()) + e.line() - 1;
-                    let msg = e.to_string();
-                    let suffix = format!(" at line {} column {}", e.line(), e.column());
-                    let msg = msg.strip_suffix(&suffix).unwrap_or(&msg);
-                    DatasetError::malformed(&self.path, format!("line {line}: {msg}"))
-                })
+        Ok(raws.into_iter().map(move |r| {
+            let row = r.get();
+            serde_json::from_str::<T>(row).map(|t| (row, t)).map_err(|e| {
+                // the row's own position is relative to the row: give the file's line instead
+                let offset = (row.as_ptr() as usize).saturating_sub(self.text.as_ptr() as usize);
+                let line = 1 + self.text.get(..offset).map_or(0, |s| s.matches('\n').count()) + e.line() - 1;
+                let msg = e.to_string();
+                let suffix = format!(" at line {} column {}", e.line(), e.column());
+                let msg = msg.strip_suffix(&suffix).unwrap_or(&msg);
+                DatasetError::malformed(&self.path, format!("line {line}: {msg}"))
             })
-            .collect()
+        }))
     }
 
     /// Checks every row against the reader's record type `T` (small tables).
@@ -285,7 +290,8 @@ pub fn slice_scenes(
     // sample_data.json: the keyframe rows reading looks at (LIDAR_TOP, or a sensor it cannot tell)
     let sd_text = TableText::required(&dir, "sample_data.json")?;
     let mut ego_wanted: BTreeMap<String, BTreeSet<String>> = BTreeMap::new(); // ego pose token -> scene tokens
-    for (row, sd) in sd_text.rows::<SampleDataRow<'_>>()? {
+    for r in sd_text.each_row::<SampleDataRow<'_>>()? {
+        let (row, sd) = r?;
         if !sd.is_key_frame {
             continue;
         }
@@ -316,7 +322,8 @@ pub fn slice_scenes(
 
     // ego_pose.json: the rows the kept sample_data reference
     let ego_text = TableText::required(&dir, "ego_pose.json")?;
-    for (row, e) in ego_text.rows::<PoseRow<'_>>()? {
+    for r in ego_text.each_row::<PoseRow<'_>>()? {
+        let (row, e) = r?;
         if let Some(scenes) = ego_wanted.get(e.token.as_ref()) {
             for s in scenes {
                 if let Some(slice) = slices.get_mut(s) {
@@ -336,15 +343,19 @@ pub fn slice_scenes(
 
     // sample_annotation.json: the annotations of each instance, and the scenes it is annotated in
     let ann_text = TableText::required(&dir, "sample_annotation.json")?;
-    let ann_rows = ann_text.rows::<AnnotationRow<'_>>()?;
+    // each row checked against the reader's types, then only its text and two tokens kept
+    let ann_rows: Vec<(&str, Cow<'_, str>, Cow<'_, str>)> = ann_text
+        .each_row::<AnnotationRow<'_>>()?
+        .map(|r| r.map(|(row, a)| (row, a.sample_token, a.instance_token)))
+        .collect::<Result<_, _>>()?;
     let mut of_instance: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
     let mut scenes_of_instance: BTreeMap<&str, BTreeSet<&str>> = BTreeMap::new();
-    for (k, (_, a)) in ann_rows.iter().enumerate() {
-        let scene = scene_of_sample.get(a.sample_token.as_ref()).ok_or_else(|| {
-            DatasetError::malformed(&ann_text.path, format!("sample token `{}` not found", a.sample_token))
-        })?;
-        of_instance.entry(a.instance_token.as_ref()).or_default().push(k);
-        scenes_of_instance.entry(a.instance_token.as_ref()).or_default().insert(scene);
+    for (k, (_, sample, instance)) in ann_rows.iter().enumerate() {
+        let scene = scene_of_sample
+            .get(sample.as_ref())
+            .ok_or_else(|| DatasetError::malformed(&ann_text.path, format!("sample token `{sample}` not found")))?;
+        of_instance.entry(instance.as_ref()).or_default().push(k);
+        scenes_of_instance.entry(instance.as_ref()).or_default().insert(scene);
     }
     // per scene: its instances, then their annotations in the table's order, their samples and instance rows
     let mut instances_of_scene: BTreeMap<&str, BTreeSet<&str>> = BTreeMap::new();
@@ -355,6 +366,10 @@ pub fn slice_scenes(
     }
     let sample_row_of: BTreeMap<&str, (usize, &str)> =
         sample_rows.iter().enumerate().map(|(i, (row, s))| (s.token.as_ref(), (i, *row))).collect();
+    let mut samples_of_scene: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+    for (i, (_, s)) in sample_rows.iter().enumerate() {
+        samples_of_scene.entry(s.scene_token.as_ref()).or_default().push(i);
+    }
     for name in scenes {
         let Some(token) = token_of_name.get(name) else { continue };
         let Some(mut slice) = slices.remove(token) else { continue };
@@ -362,16 +377,17 @@ pub fn slice_scenes(
         let mut anns: Vec<usize> =
             instances.into_iter().flatten().filter_map(|i| of_instance.get(i)).flatten().copied().collect();
         anns.sort_unstable();
+        // the samples in the table's order: the scene's own, and those of its instances' other annotations
         let mut samples: BTreeMap<usize, &str> = BTreeMap::new();
-        for (i, (row, s)) in sample_rows.iter().enumerate() {
-            if s.scene_token == token.as_str() {
+        for &i in samples_of_scene.get(token.as_str()).into_iter().flatten() {
+            if let Some((row, _)) = sample_rows.get(i) {
                 samples.insert(i, row);
             }
         }
         for &k in &anns {
-            if let Some((row, a)) = ann_rows.get(k) {
+            if let Some((row, sample, _)) = ann_rows.get(k) {
                 slice.push("sample_annotation.json", row);
-                if let Some((i, srow)) = sample_row_of.get(a.sample_token.as_ref()) {
+                if let Some((i, srow)) = sample_row_of.get(sample.as_ref()) {
                     samples.insert(*i, srow);
                 }
             }
