@@ -96,6 +96,23 @@ def test_a_bad_task_is_reported_not_dropped():
         campaign.plan(["pedestrians"], faults=FAULTS[:1], params=[{"cell_size_m": -1.0}])
 
 
+def test_a_worker_keeps_the_last_eight_scenes():
+    """The scene cache of a worker process is bounded: after tasks on 10 scenes it holds the 8 used last."""
+    from pmon._pmon import _cached_scenes
+
+    tasks = campaign.plan(["pedestrians"], scene_seeds=list(range(100, 110)), faults=FAULTS[:1], duration_s=0.3,
+                          seed=2)
+    assert len(tasks) == 10
+    for t in tasks:
+        campaign.run_task(t)
+    again = campaign.run_task(tasks[-1])  # a kept scene: served from the cache, the same counts
+    assert again["metrics"] == campaign.run_task(tasks[-1])["metrics"]
+    kept = [k for k in _cached_scenes() if k[2] == 0.3]
+    assert len(_cached_scenes()) == 8 and len(kept) == 8
+    assert {k[1] for k in kept} == {t["scene_seed"] for t in tasks[2:]}
+    assert kept[-1][1] == tasks[-1]["scene_seed"], "the one used last is the most recent"
+
+
 def test_the_results_file_is_never_overwritten(tmp_path, local_result):
     out = tmp_path / "results.json"
     local_result.write(out)

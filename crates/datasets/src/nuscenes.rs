@@ -392,7 +392,9 @@ impl Tables {
         let bad = |m: String| DatasetError::malformed(dir, format!("scene slice: {m}"));
         let parts: BTreeMap<String, &serde_json::value::RawValue> =
             serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
-        if let Some(unknown) = parts.keys().find(|k| !SLICE_TABLES.contains(&k.as_str())) {
+        if let Some(unknown) =
+            parts.keys().find(|k| !REQUIRED_TABLES.contains(&k.as_str()) && !OPTIONAL_TABLES.contains(&k.as_str()))
+        {
             return Err(bad(format!("unknown table `{unknown}`")));
         }
         let optional = |name: &str| -> Result<Option<&str>, DatasetError> { Ok(parts.get(name).map(|r| r.get())) };
@@ -413,8 +415,8 @@ impl Tables {
     }
 }
 
-/// The table files a scene slice may hold (`sensor.json` and `scene.json` are optional, as in the folder).
-pub(crate) const SLICE_TABLES: [&str; 9] = [
+/// The tables [`Tables`] requires, in a folder or a scene slice.
+pub(crate) const REQUIRED_TABLES: [&str; 7] = [
     "calibrated_sensor.json",
     "category.json",
     "ego_pose.json",
@@ -422,9 +424,10 @@ pub(crate) const SLICE_TABLES: [&str; 9] = [
     "sample.json",
     "sample_annotation.json",
     "sample_data.json",
-    "scene.json",
-    "sensor.json",
 ];
+
+/// The tables [`Tables`] reads when they are there.
+pub(crate) const OPTIONAL_TABLES: [&str; 2] = ["scene.json", "sensor.json"];
 
 /// Finds the table folder and the dataroot: `path` is either the dataroot holding exactly one `v1.0-*` folder,
 /// or the table folder itself (then the dataroot is its parent).

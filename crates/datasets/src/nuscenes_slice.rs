@@ -30,7 +30,7 @@ use std::path::Path;
 use serde::Deserialize;
 use serde_json::value::RawValue;
 
-use crate::nuscenes::locate_tables;
+use crate::nuscenes::{locate_tables, REQUIRED_TABLES};
 use crate::util::{python_json_to_strict, read_text};
 use crate::DatasetError;
 
@@ -156,17 +156,6 @@ impl TableText {
     }
 }
 
-/// The tables [`crate::nuscenes::Tables::from_slice`] requires.
-const REQUIRED: [&str; 7] = [
-    "calibrated_sensor.json",
-    "category.json",
-    "ego_pose.json",
-    "instance.json",
-    "sample.json",
-    "sample_annotation.json",
-    "sample_data.json",
-];
-
 /// One scene's rows, table by table, in the tables' order.
 #[derive(Default)]
 struct Slice {
@@ -182,7 +171,7 @@ impl Slice {
     fn text(&self, whole: &BTreeMap<&'static str, String>) -> String {
         let mut names: BTreeSet<&'static str> = self.tables.keys().copied().collect();
         names.extend(whole.keys().copied());
-        names.extend(REQUIRED); // empty when the scene has none of their rows
+        names.extend(REQUIRED_TABLES); // empty when the scene has none of their rows
         let mut out = String::from("{");
         for (k, name) in names.iter().enumerate() {
             if k > 0 {

@@ -9,8 +9,8 @@
 //! `run_evaluation_task` one of `pmon evaluate`.
 //!
 //! Scenes are simulated once per process and kept (keyed by scenario, seed and duration): a worker that runs
-//! many tasks on the same scene pays for the simulation once. The cache grows with the number of distinct
-//! scenes a process sees.
+//! many tasks on the same scene pays for the simulation once. At most [`SCENES_KEPT`] scenes are kept, the ones
+//! used last, so a long campaign over many scenes does not grow a worker's memory without bound.
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
@@ -67,15 +67,50 @@ struct TaskResult {
 
 type SceneKey = (String, u64, Option<u64>);
 
-fn scene_cache() -> &'static Mutex<BTreeMap<SceneKey, Arc<Scene>>> {
-    static CACHE: OnceLock<Mutex<BTreeMap<SceneKey, Arc<Scene>>>> = OnceLock::new();
-    CACHE.get_or_init(|| Mutex::new(BTreeMap::new()))
+/// The most scenes a worker process keeps (a 15 s built-in scene with its LiDAR sweeps is tens of MB).
+const SCENES_KEPT: usize = 8;
+
+/// The scenes kept, each with the tick of its last use.
+#[derive(Default)]
+struct SceneCache {
+    tick: u64,
+    scenes: BTreeMap<SceneKey, (u64, Arc<Scene>)>,
+}
+
+impl SceneCache {
+    fn get(&mut self, key: &SceneKey) -> Option<Arc<Scene>> {
+        self.tick += 1;
+        let tick = self.tick;
+        self.scenes.get_mut(key).map(|(used, s)| {
+            *used = tick;
+            Arc::clone(s)
+        })
+    }
+
+    /// Keeps `scene` (or the one another thread kept first) and drops the least recently used beyond the cap.
+    fn keep(&mut self, key: SceneKey, scene: Arc<Scene>) -> Arc<Scene> {
+        self.tick += 1;
+        let tick = self.tick;
+        let kept = Arc::clone(&self.scenes.entry(key).or_insert((tick, scene)).1);
+        while self.scenes.len() > SCENES_KEPT {
+            let Some(oldest) = self.scenes.iter().min_by_key(|(_, (used, _))| *used).map(|(k, _)| k.clone()) else {
+                break;
+            };
+            self.scenes.remove(&oldest);
+        }
+        kept
+    }
+}
+
+fn scene_cache() -> &'static Mutex<SceneCache> {
+    static CACHE: OnceLock<Mutex<SceneCache>> = OnceLock::new();
+    CACHE.get_or_init(|| Mutex::new(SceneCache::default()))
 }
 
 fn scene_for(task: &Task) -> Result<Arc<Scene>, String> {
     let key = (task.scenario.clone(), task.scene_seed, task.duration_s.map(f64::to_bits));
     if let Some(s) = scene_cache().lock().unwrap_or_else(PoisonError::into_inner).get(&key) {
-        return Ok(Arc::clone(s));
+        return Ok(s);
     }
     let mut cfg = ScenarioConfig::builtin(&task.scenario)
         .ok_or_else(|| format!("no built-in scenario `{}` (pedestrians, intersection)", task.scenario))?;
@@ -94,8 +129,7 @@ fn scene_for(task: &Task) -> Result<Arc<Scene>, String> {
     let source = format!("built-in scenario `{}`, seed {}, {} s", task.scenario, task.scene_seed, cfg.duration_s);
     let scene = Arc::new(Scene { name: task.scenario.clone(), source, frames });
     // Two threads may simulate the same scene at once; both give the same frames, the first one stays.
-    let mut cache = scene_cache().lock().unwrap_or_else(PoisonError::into_inner);
-    Ok(Arc::clone(cache.entry(key).or_insert(scene)))
+    Ok(scene_cache().lock().unwrap_or_else(PoisonError::into_inner).keep(key, scene))
 }
 
 fn run_task_json(task_json: &str) -> Result<String, String> {
@@ -128,6 +162,16 @@ fn run_task_json(task_json: &str) -> Result<String, String> {
 pub fn run_campaign_task(py: Python<'_>, task_json: &str) -> PyResult<String> {
     let task_json = task_json.to_owned();
     py.detach(move || run_task_json(&task_json)).map_err(PyValueError::new_err)
+}
+
+/// The scenes this process keeps for `run_campaign_task` (scenario, seed, duration in seconds or `None`), least
+/// recently used first. For tests and diagnostics.
+#[pyfunction]
+pub fn _cached_scenes() -> Vec<(String, u64, Option<f64>)> {
+    let cache = scene_cache().lock().unwrap_or_else(PoisonError::into_inner);
+    let mut kept: Vec<(&SceneKey, u64)> = cache.scenes.iter().map(|(k, (used, _))| (k, *used)).collect();
+    kept.sort_by_key(|(_, used)| *used);
+    kept.into_iter().map(|((name, seed, d), _)| (name.clone(), *seed, d.map(f64::from_bits))).collect()
 }
 
 /// Runs one task of `pmon evaluate` (JSON, `pmon_campaign::real_data::evaluate::LogTask`) and returns its

@@ -35,6 +35,7 @@ fn _pmon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(frames::dataset_schemes, m)?)?;
     m.add_function(wrap_pyfunction!(monitor::synthetic_frames, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::run_campaign_task, m)?)?;
+    m.add_function(wrap_pyfunction!(campaign::_cached_scenes, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::run_evaluation_task, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::run_reproduce_task, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
