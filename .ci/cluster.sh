@@ -22,6 +22,10 @@ if ! command -v ip >/dev/null || ! ip netns add pmon-ci-probe 2>/dev/null; then
     exit 0
 fi
 ip netns del pmon-ci-probe
+if ! unshare --uts --mount --propagation private true 2>/dev/null || ! command -v nsenter >/dev/null; then
+    echo "== cluster: SKIPPED: cannot make UTS and mount namespaces here (needs util-linux's unshare and nsenter)"
+    exit 0
+fi
 hosts=(sched w1 w2)
 down() {   # the hosts and the bridge, from this run or one that was cut short
     for h in "${hosts[@]}"; do
@@ -71,7 +75,7 @@ for i in 1 2; do
         --nthreads 1 --nworkers 1 --no-nanny --no-dashboard" >"$work/w$i.log" 2>&1 &
     disown
 done
-"$py" - <<'EOF'
+"$py" - <<'EOF' || { tail -20 "$work"/sched.log "$work"/w1.log "$work"/w2.log; exit 1; }
 import sys, time
 from dask.distributed import Client
 t0 = time.time()
