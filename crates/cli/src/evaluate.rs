@@ -26,7 +26,8 @@ use crate::run_dir::{self, run_python, RunDir, TaskProgress};
 #[derive(Args, Debug, Clone)]
 pub struct EvaluateArgs {
     /// What to evaluate: `av2:DIR` (a folder of Argoverse 2 logs, e.g. `.../sensor/val`, or one log),
-    /// `nuscenes:DATAROOT` (native v1.0 tables: one task per scene; or the converted keyframe folder),
+    /// `nuscenes:DATAROOT` (native v1.0 tables: one task per scene, the tables read once and cut into a slice per
+    /// scene in the run folder; or the converted keyframe folder),
     /// `kitti:DIR`, `commonroad:DIR|FILE.xml`, or a folder of pmon recordings (`recordings:DIR` or DIR).
     pub source: String,
     /// nuScenes split (`val`, `train`, `mini_val`, ...): its scene names come from the nuScenes devkit
@@ -39,7 +40,8 @@ pub struct EvaluateArgs {
     /// Report folder (index.html, figures as SVG and PNG, CSV data, results.json).
     #[arg(long, short, default_value = "pmon-evaluate")]
     pub out: PathBuf,
-    /// Run folder: the plan (`tasks.json`) and one result file per finished task (`results/ID.json`). A rerun
+    /// Run folder: the plan (`tasks.json`), nuScenes scene slices (`tables/`) and one result file per finished
+    /// task (`results/ID.json`). A rerun
     /// with the same run folder runs only the tasks without a result (or whose result is an error).
     /// Default: OUT.run beside the report.
     #[arg(long)]
