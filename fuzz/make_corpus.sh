@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")"
 data="${PMON_DATA_DIR:-../../shared/data}"
 rm -rf corpus
-for t in recording kitti nuscenes nuscenes_v1 av2_feather commonroad params monitor mcap_bag; do
+for t in recording kitti nuscenes nuscenes_v1 nuscenes_slice av2_feather commonroad params monitor mcap_bag; do
   mkdir -p "corpus/$t"
   cp seeds/"$t"/* "corpus/$t/" 2>/dev/null || true
 done

@@ -157,7 +157,7 @@ impl TableText {
 }
 
 /// One scene's rows, table by table, in the tables' order.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct Slice {
     tables: BTreeMap<&'static str, Vec<String>>,
 }
@@ -242,8 +242,13 @@ pub fn slice_scenes(
         scene_token: Cow<'a, str>,
     }
     let sample_rows = sample_text.rows::<SampleRow<'_>>()?;
-    let scene_of_sample: BTreeMap<&str, &str> =
-        sample_rows.iter().map(|(_, s)| (s.token.as_ref(), s.scene_token.as_ref())).collect();
+    // a sample token's scenes (one, unless the token is repeated) and its rows
+    let mut scenes_of_sample: BTreeMap<&str, BTreeSet<&str>> = BTreeMap::new();
+    let mut rows_of_sample: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+    for (i, (_, s)) in sample_rows.iter().enumerate() {
+        scenes_of_sample.entry(s.token.as_ref()).or_default().insert(s.scene_token.as_ref());
+        rows_of_sample.entry(s.token.as_ref()).or_default().push(i);
+    }
 
     // the small tables: sensor (whole), calibrated_sensor (by token), category (whole), instance (by token)
     let mut whole: BTreeMap<&'static str, String> = BTreeMap::new();
@@ -284,8 +289,7 @@ pub fn slice_scenes(
         if !sd.is_key_frame {
             continue;
         }
-        let Some(scene) = scene_of_sample.get(sd.sample_token.as_ref()) else { continue };
-        let Some(slice) = slices.get_mut(*scene) else { continue };
+        let Some(scenes) = scenes_of_sample.get(sd.sample_token.as_ref()) else { continue };
         let lidar_top_or_unknown = match &channel_of_sensor {
             Some(ch) => match cal_by_token.get(sd.calibrated_sensor_token.as_ref()) {
                 Some((_, sensor)) => ch.get(sensor.unwrap_or_default()).is_none_or(|c| c == "LIDAR_TOP"),
@@ -296,14 +300,17 @@ pub fn slice_scenes(
         if !lidar_top_or_unknown {
             continue;
         }
-        slice.push("sample_data.json", row);
-        if let Some((cal_row, _)) = cal_by_token.get(sd.calibrated_sensor_token.as_ref()) {
-            let rows = slice.tables.entry("calibrated_sensor.json").or_default();
-            if !rows.iter().any(|r| r == cal_row) {
-                rows.push((*cal_row).to_string());
+        for scene in scenes {
+            let Some(slice) = slices.get_mut(*scene) else { continue };
+            slice.push("sample_data.json", row);
+            if let Some((cal_row, _)) = cal_by_token.get(sd.calibrated_sensor_token.as_ref()) {
+                let rows = slice.tables.entry("calibrated_sensor.json").or_default();
+                if !rows.iter().any(|r| r == cal_row) {
+                    rows.push((*cal_row).to_string());
+                }
             }
+            ego_wanted.entry(sd.ego_pose_token.to_string()).or_default().insert((*scene).to_string());
         }
-        ego_wanted.entry(sd.ego_pose_token.to_string()).or_default().insert((*scene).to_string());
     }
     drop(sd_text);
     drop(cal_rows);
@@ -340,11 +347,11 @@ pub fn slice_scenes(
     let mut of_instance: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
     let mut scenes_of_instance: BTreeMap<&str, BTreeSet<&str>> = BTreeMap::new();
     for (k, (_, sample, instance)) in ann_rows.iter().enumerate() {
-        let scene = scene_of_sample
+        let scenes = scenes_of_sample
             .get(sample.as_ref())
             .ok_or_else(|| DatasetError::malformed(&ann_text.path, format!("sample token `{sample}` not found")))?;
         of_instance.entry(instance.as_ref()).or_default().push(k);
-        scenes_of_instance.entry(instance.as_ref()).or_default().insert(scene);
+        scenes_of_instance.entry(instance.as_ref()).or_default().extend(scenes.iter().copied());
     }
     // per scene: its instances, then their annotations in the table's order, their samples and instance rows
     let mut instances_of_scene: BTreeMap<&str, BTreeSet<&str>> = BTreeMap::new();
@@ -353,36 +360,33 @@ pub fn slice_scenes(
             instances_of_scene.entry(s).or_default().insert(inst);
         }
     }
-    let sample_row_of: BTreeMap<&str, (usize, &str)> =
-        sample_rows.iter().enumerate().map(|(i, (row, s))| (s.token.as_ref(), (i, *row))).collect();
-    let mut samples_of_scene: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
-    for (i, (_, s)) in sample_rows.iter().enumerate() {
-        samples_of_scene.entry(s.scene_token.as_ref()).or_default().push(i);
+    let mut samples_of_scene: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for (_, s) in &sample_rows {
+        samples_of_scene.entry(s.scene_token.as_ref()).or_default().push(s.token.as_ref());
     }
     for name in scenes {
         let Some(token) = token_of_name.get(name) else { continue };
-        let Some(mut slice) = slices.remove(token) else { continue };
+        // (cloned: two scene rows may share a token)
+        let Some(mut slice) = slices.get(token).cloned() else { continue };
         let instances = instances_of_scene.get(token.as_str());
         let mut anns: Vec<usize> =
             instances.into_iter().flatten().filter_map(|i| of_instance.get(i)).flatten().copied().collect();
         anns.sort_unstable();
-        // the samples in the table's order: the scene's own, and those of its instances' other annotations
-        let mut samples: BTreeMap<usize, &str> = BTreeMap::new();
-        for &i in samples_of_scene.get(token.as_str()).into_iter().flatten() {
-            if let Some((row, _)) = sample_rows.get(i) {
-                samples.insert(i, row);
-            }
-        }
+        // the samples: the scene's own and those of its instances' annotations, every row of each such token, in
+        // the table's order
+        let mut tokens: BTreeSet<&str> = samples_of_scene.get(token.as_str()).into_iter().flatten().copied().collect();
         for &k in &anns {
             if let Some((row, sample, _)) = ann_rows.get(k) {
                 slice.push("sample_annotation.json", row);
-                if let Some((i, srow)) = sample_row_of.get(sample.as_ref()) {
-                    samples.insert(*i, srow);
-                }
+                tokens.insert(sample.as_ref());
             }
         }
-        for row in samples.values() {
-            slice.push("sample.json", row);
+        let mut rows: Vec<usize> = tokens.iter().filter_map(|t| rows_of_sample.get(t)).flatten().copied().collect();
+        rows.sort_unstable();
+        for i in rows {
+            if let Some((row, _)) = sample_rows.get(i) {
+                slice.push("sample.json", row);
+            }
         }
         for inst in instances.into_iter().flatten() {
             if let Some(row) = inst_by_token.get(inst) {

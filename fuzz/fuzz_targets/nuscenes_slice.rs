@@ -1,0 +1,54 @@
+//! nuScenes v1.0 scene slices, differential: the input is split at `\x00` into the tables' JSON texts (the
+//! order of `nuscenes_v1`). Whenever reading a scene from the table folder succeeds, cutting the tables into
+//! slices must succeed and the scene read from its slice must be the same dataset, every digit (a mismatch
+//! panics: a finding). Either may fail on bad input; neither may panic.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use pmon_datasets::ReadOptions;
+
+const TABLES: [&str; 9] = [
+    "sample.json",
+    "sample_data.json",
+    "sample_annotation.json",
+    "instance.json",
+    "category.json",
+    "ego_pose.json",
+    "calibrated_sensor.json",
+    "sensor.json",
+    "scene.json",
+];
+const SCENES: [&str; 2] = ["scene-0001", "scene-0002"];
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(dir) = tempfile::tempdir() else { return };
+    let tables = dir.path().join("v1.0-mini");
+    if std::fs::create_dir(&tables).is_err() {
+        return;
+    }
+    for (name, part) in TABLES.iter().zip(data.split(|b| *b == 0)) {
+        if std::fs::write(tables.join(name), part).is_err() {
+            return;
+        }
+    }
+    let opts = ReadOptions { load_clouds: false, ..ReadOptions::default() };
+    for scene in SCENES {
+        let spec = format!("nuscenes-v1:{}#{scene}", dir.path().display());
+        let folder = pmon_datasets::open_with(&spec, &opts);
+        let mut slice = None;
+        let cut = pmon_datasets::nuscenes_slice::slice_scenes(dir.path(), &[scene.to_string()], |_, text| {
+            slice = Some(text);
+            Ok(())
+        });
+        let Ok(folder) = folder else {
+            if let Some(text) = &slice {
+                let _ = pmon_datasets::open_with_slice(&spec, &opts, text);
+            }
+            continue;
+        };
+        assert!(cut.is_ok(), "{scene}: read from the folder, but not cut: {cut:?}");
+        let text = slice.expect("a slice for the scene");
+        let sliced = pmon_datasets::open_with_slice(&spec, &opts, &text)
+            .unwrap_or_else(|e| panic!("{scene}: read from the folder, not from its slice: {e}"));
+        assert_eq!(format!("{sliced:?}"), format!("{folder:?}"), "{scene}: the slice reads another dataset");
+    }
+});
