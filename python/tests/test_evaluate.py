@@ -161,4 +161,5 @@ def test_nuscenes_scenes_run_on_their_table_slices(pmon_bin, nuscenes_tables, cl
     assert len(r.ran) == 6 and not r.failed
     p = evaluate(pmon_bin, src, tmp_path / "bare", "--run-dir", run, "--scheduler", "local")
     assert p.returncode == 0 and "0 to run" in p.stderr, p.stderr
+    assert "scene slices" not in p.stderr and not (run / "tables").exists(), "nothing to run: nothing cut"
     assert report_bytes(tmp_path / "bare") == report_bytes(local)

@@ -239,9 +239,17 @@ pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
     let run = RunDir::prepare(&run_dir, &plan.tasks, args.force, "pmon evaluate")?;
     // The report folder is checked before anything runs (it is written under a temporary name at the end).
     let out_dir = OutputDir::prepare(&args.out, "evaluate", false)?;
-    // nuScenes v1.0 scenes: the tables read once and cut into a slice per scene, so a task reads its scene only.
+    let todo: Vec<&LogTask> =
+        plan.tasks.iter().filter(|t| !run.result::<TaskResult>(&t.id).is_some_and(|r| r.is_ok())).collect();
+    // nuScenes v1.0 scenes: the tables read once and cut into a slice per scene, so a task reads its scene only
+    // (every scene for `--plan-only`: the tasks run elsewhere; otherwise those still to run).
     let sliced_at = Instant::now();
-    let sliced = evaluate::write_scene_tables(&plan.tasks, &run_dir).map_err(|e| anyhow::anyhow!(e))?;
+    let sliced = if args.plan_only {
+        evaluate::write_scene_tables(&plan.tasks, &run_dir)
+    } else {
+        evaluate::write_scene_tables(todo.iter().copied(), &run_dir)
+    }
+    .map_err(|e| anyhow::anyhow!(e))?;
     if sliced > 0 {
         eprintln!(
             "pmon evaluate: the nuScenes tables cut into {sliced} scene slices in {} ({:.1} s)",
@@ -254,8 +262,6 @@ pub fn run(args: &EvaluateArgs) -> Result<ExitCode> {
         eprintln!("pmon evaluate: {} tasks planned in {}", plan.tasks.len(), run_dir.join("tasks.json").display());
         return Ok(ExitCode::SUCCESS);
     }
-    let todo: Vec<&LogTask> =
-        plan.tasks.iter().filter(|t| !run.result::<TaskResult>(&t.id).is_some_and(|r| r.is_ok())).collect();
     eprintln!(
         "pmon evaluate: {} tasks ({} logs), {} finished in {}, {} to run ({})",
         plan.tasks.len(),

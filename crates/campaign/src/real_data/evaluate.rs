@@ -403,14 +403,14 @@ fn scene_tables_path(scene: &str) -> String {
     format!("tables/{}.json", file_safe(scene))
 }
 
-/// Cuts the tables of the plan's nuScenes v1.0 scene tasks into slices (`pmon_datasets::nuscenes_slice`), one
+/// Cuts the tables of the given nuScenes v1.0 scene tasks into slices (`pmon_datasets::nuscenes_slice`), one
 /// file per scene in `run_dir` (the task's `tables`), reading each dataset's tables once. Slices already there
 /// (a resumed run) are kept; each file is written under a temporary name and renamed. Returns the number of
 /// slices written.
 ///
 /// # Errors
 /// A table the slicer cannot read (naming the file, and the line of a malformed row), or a write error.
-pub fn write_scene_tables(tasks: &[LogTask], run_dir: &Path) -> Result<usize, String> {
+pub fn write_scene_tables<'t>(tasks: impl IntoIterator<Item = &'t LogTask>, run_dir: &Path) -> Result<usize, String> {
     // dataroot -> (scene, slice file), each scene once
     let mut wanted: BTreeMap<&str, BTreeMap<String, PathBuf>> = BTreeMap::new();
     for t in tasks {
