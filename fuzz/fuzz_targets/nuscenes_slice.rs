@@ -1,35 +1,18 @@
-//! nuScenes v1.0 scene slices, differential: the input is split at `\x00` into the tables' JSON texts (the
-//! order of `nuscenes_v1`). Whenever reading a scene from the table folder succeeds, cutting the tables into
+//! nuScenes v1.0 scene slices, differential: the input is split at `\x00` into the tables' JSON texts
+//! (`v1_tables.rs`). Whenever reading a scene from the table folder succeeds, cutting the tables into
 //! slices must succeed and the scene read from its slice must be the same dataset, every digit (a mismatch
 //! panics: a finding). Either may fail on bad input; neither may panic.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_datasets::ReadOptions;
 
-const TABLES: [&str; 9] = [
-    "sample.json",
-    "sample_data.json",
-    "sample_annotation.json",
-    "instance.json",
-    "category.json",
-    "ego_pose.json",
-    "calibrated_sensor.json",
-    "sensor.json",
-    "scene.json",
-];
+#[path = "v1_tables.rs"]
+mod v1_tables;
+
 const SCENES: [&str; 2] = ["scene-0001", "scene-0002"];
 
 fuzz_target!(|data: &[u8]| {
-    let Ok(dir) = tempfile::tempdir() else { return };
-    let tables = dir.path().join("v1.0-mini");
-    if std::fs::create_dir(&tables).is_err() {
-        return;
-    }
-    for (name, part) in TABLES.iter().zip(data.split(|b| *b == 0)) {
-        if std::fs::write(tables.join(name), part).is_err() {
-            return;
-        }
-    }
+    let Some(dir) = v1_tables::write(data) else { return };
     let opts = ReadOptions { load_clouds: false, ..ReadOptions::default() };
     for scene in SCENES {
         let spec = format!("nuscenes-v1:{}#{scene}", dir.path().display());

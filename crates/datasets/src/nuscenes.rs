@@ -350,7 +350,7 @@ fn read_table<T: for<'de> Deserialize<'de>>(dir: &Path, name: &str) -> Result<Ve
 }
 
 /// A table file's text (Python's `NaN` allowed) as its records; errors name `path`.
-fn parse_table<T: for<'de> Deserialize<'de>>(path: &Path, text: &str) -> Result<Vec<T>, DatasetError> {
+pub(crate) fn parse_table<T: for<'de> Deserialize<'de>>(path: &Path, text: &str) -> Result<Vec<T>, DatasetError> {
     serde_json::from_str(&python_json_to_strict(text)).map_err(|e| DatasetError::malformed(path, e.to_string()))
 }
 
@@ -397,9 +397,8 @@ impl Tables {
         {
             return Err(bad(format!("unknown table `{unknown}`")));
         }
-        let optional = |name: &str| -> Result<Option<&str>, DatasetError> { Ok(parts.get(name).map(|r| r.get())) };
-        let required =
-            |name: &str| -> Result<&str, DatasetError> { optional(name)?.ok_or_else(|| bad(format!("no `{name}`"))) };
+        let optional = |name: &str| parts.get(name).map(|r| r.get());
+        let required = |name: &str| optional(name).ok_or_else(|| bad(format!("no `{name}`")));
         Ok(Self {
             dir: dir.to_path_buf(),
             samples: parse_table(&dir.join("sample.json"), required("sample.json")?)?,
@@ -409,8 +408,8 @@ impl Tables {
             categories: parse_table(&dir.join("category.json"), required("category.json")?)?,
             ego_poses: parse_table(&dir.join("ego_pose.json"), required("ego_pose.json")?)?,
             calibrated_sensors: parse_table(&dir.join("calibrated_sensor.json"), required("calibrated_sensor.json")?)?,
-            sensors: optional("sensor.json")?.map(|t| parse_table(&dir.join("sensor.json"), t)).transpose()?,
-            scenes: optional("scene.json")?.map(|t| parse_table(&dir.join("scene.json"), t)).transpose()?,
+            sensors: optional("sensor.json").map(|t| parse_table(&dir.join("sensor.json"), t)).transpose()?,
+            scenes: optional("scene.json").map(|t| parse_table(&dir.join("scene.json"), t)).transpose()?,
         })
     }
 }
@@ -428,6 +427,36 @@ pub(crate) const REQUIRED_TABLES: [&str; 7] = [
 
 /// The tables [`Tables`] reads when they are there.
 pub(crate) const OPTIONAL_TABLES: [&str; 2] = ["scene.json", "sensor.json"];
+
+/// Whether a `sample_data` row is the LIDAR_TOP channel's.
+pub(crate) enum LidarTop<'a> {
+    Yes,
+    No,
+    /// Its calibrated sensor is not in `calibrated_sensor.json`.
+    UnknownCalibration,
+    /// Its calibrated sensor's sensor token (given) is not in `sensor.json`.
+    UnknownSensor(&'a str),
+}
+
+/// The channel test of the reader (and of the slicer, which keeps what the reader looks at): with `sensor.json`
+/// (`channels`: sensor token -> channel) by the channel of the row's calibrated sensor, whose sensor token is
+/// `cal_sensor` (`None`: no such calibrated sensor; `Some(None)`: it names none); without it by the file name.
+pub(crate) fn lidar_top<'a>(
+    channels: Option<&BTreeMap<&str, &str>>,
+    cal_sensor: Option<Option<&'a str>>,
+    filename: &str,
+) -> LidarTop<'a> {
+    let Some(ch) = channels else {
+        return if filename.contains("LIDAR_TOP") { LidarTop::Yes } else { LidarTop::No };
+    };
+    let Some(sensor) = cal_sensor else { return LidarTop::UnknownCalibration };
+    let sensor = sensor.unwrap_or_default();
+    match ch.get(sensor) {
+        Some(&"LIDAR_TOP") => LidarTop::Yes,
+        Some(_) => LidarTop::No,
+        None => LidarTop::UnknownSensor(sensor),
+    }
+}
 
 /// Finds the table folder and the dataroot: `path` is either the dataroot holding exactly one `v1.0-*` folder,
 /// or the table folder itself (then the dataroot is its parent).
@@ -525,19 +554,14 @@ pub(crate) fn open_v1_with(
 
     // LIDAR_TOP keyframe sample_data per sample
     let is_lidar_top = |sd: &SampleData| -> Result<bool, DatasetError> {
-        match &sensor_channel {
-            Some(ch) => {
-                let cal = cal_idx
-                    .get(sd.calibrated_sensor_token.as_str())
-                    .and_then(|i| t.calibrated_sensors.get(*i))
-                    .ok_or_else(|| {
-                    dangling("sample_data.json", "calibrated_sensor", &sd.calibrated_sensor_token)
-                })?;
-                let sensor = cal.sensor_token.as_deref().unwrap_or_default();
-                let channel = ch.get(sensor).ok_or_else(|| dangling("calibrated_sensor.json", "sensor", sensor))?;
-                Ok(*channel == "LIDAR_TOP")
+        let cal = cal_idx.get(sd.calibrated_sensor_token.as_str()).and_then(|i| t.calibrated_sensors.get(*i));
+        match lidar_top(sensor_channel.as_ref(), cal.map(|c| c.sensor_token.as_deref()), &sd.filename) {
+            LidarTop::Yes => Ok(true),
+            LidarTop::No => Ok(false),
+            LidarTop::UnknownCalibration => {
+                Err(dangling("sample_data.json", "calibrated_sensor", &sd.calibrated_sensor_token))
             }
-            None => Ok(sd.filename.contains("LIDAR_TOP")),
+            LidarTop::UnknownSensor(sensor) => Err(dangling("calibrated_sensor.json", "sensor", sensor)),
         }
     };
     let mut lidar_of_sample: BTreeMap<&str, &SampleData> = BTreeMap::new();

@@ -30,7 +30,7 @@ use std::path::Path;
 use serde::Deserialize;
 use serde_json::value::RawValue;
 
-use crate::nuscenes::{locate_tables, REQUIRED_TABLES};
+use crate::nuscenes::{lidar_top, locate_tables, parse_table, LidarTop, REQUIRED_TABLES};
 use crate::util::{python_json_to_strict, read_text};
 use crate::DatasetError;
 
@@ -148,11 +148,9 @@ impl TableText {
         }))
     }
 
-    /// Checks every row against the reader's record type `T` (small tables).
+    /// Checks every row against the reader's record type `T` (small tables), as the reader parses them.
     fn check<T: for<'de> Deserialize<'de>>(&self) -> Result<(), DatasetError> {
-        serde_json::from_str::<Vec<T>>(&self.text)
-            .map(drop)
-            .map_err(|e| DatasetError::malformed(&self.path, e.to_string()))
+        parse_table::<T>(&self.path, &self.text).map(drop)
     }
 }
 
@@ -191,6 +189,16 @@ impl Slice {
         }
         out.push_str("\n}\n");
         out
+    }
+}
+
+/// The dataroot (or table folder) and the scene of a `nuscenes-v1:PATH#scene` spec, read as [`crate::open`]
+/// reads it; `None` for any other spec (a slice is for one scene).
+#[must_use]
+pub fn scene_of_spec(spec: &str) -> Option<(&Path, &str)> {
+    match crate::Spec::parse(spec) {
+        Ok(crate::Spec::NuScenesV1(path, Some(scene))) => Some((path, scene)),
+        _ => None,
     }
 }
 
@@ -253,25 +261,23 @@ pub fn slice_scenes(
     // the small tables: sensor (whole), calibrated_sensor (by token), category (whole), instance (by token)
     let mut whole: BTreeMap<&'static str, String> = BTreeMap::new();
     let sensor_text = TableText::read(&dir, "sensor.json")?;
-    let mut channel_of_sensor: Option<BTreeMap<String, String>> = None;
-    if let Some(t) = &sensor_text {
-        t.check::<crate::nuscenes::Sensor>()?;
-        #[derive(Deserialize)]
-        struct SensorRow<'a> {
-            #[serde(borrow)]
-            token: Cow<'a, str>,
-            #[serde(borrow)]
-            channel: Cow<'a, str>,
-        }
-        channel_of_sensor = Some(
-            t.rows::<SensorRow<'_>>()?
-                .into_iter()
-                .map(|(_, s)| (s.token.into_owned(), s.channel.into_owned()))
-                .collect(),
-        );
-        whole.insert("sensor.json", t.text.trim().to_string());
+    #[derive(Deserialize)]
+    struct SensorRow<'a> {
+        #[serde(borrow)]
+        token: Cow<'a, str>,
+        #[serde(borrow)]
+        channel: Cow<'a, str>,
     }
-    drop(sensor_text);
+    let sensor_rows = match &sensor_text {
+        Some(t) => {
+            t.check::<crate::nuscenes::Sensor>()?;
+            whole.insert("sensor.json", t.text.trim().to_string());
+            Some(t.rows::<SensorRow<'_>>()?)
+        }
+        None => None,
+    };
+    let channels: Option<BTreeMap<&str, &str>> =
+        sensor_rows.as_ref().map(|rows| rows.iter().map(|(_, s)| (s.token.as_ref(), s.channel.as_ref())).collect());
     let category_text = TableText::required(&dir, "category.json")?;
     category_text.check::<crate::nuscenes::Category>()?;
     whole.insert("category.json", category_text.text.trim().to_string());
@@ -290,14 +296,9 @@ pub fn slice_scenes(
             continue;
         }
         let Some(scenes) = scenes_of_sample.get(sd.sample_token.as_ref()) else { continue };
-        let lidar_top_or_unknown = match &channel_of_sensor {
-            Some(ch) => match cal_by_token.get(sd.calibrated_sensor_token.as_ref()) {
-                Some((_, sensor)) => ch.get(sensor.unwrap_or_default()).is_none_or(|c| c == "LIDAR_TOP"),
-                None => true,
-            },
-            None => sd.filename.contains("LIDAR_TOP"),
-        };
-        if !lidar_top_or_unknown {
+        // LIDAR_TOP, or a dangling token (reading the scene reports it, as it would from the folder)
+        let cal_sensor = cal_by_token.get(sd.calibrated_sensor_token.as_ref()).map(|(_, sensor)| *sensor);
+        if matches!(lidar_top(channels.as_ref(), cal_sensor, &sd.filename), LidarTop::No) {
             continue;
         }
         for scene in scenes {

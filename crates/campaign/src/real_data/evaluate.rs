@@ -23,6 +23,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
 use pmon_datasets::ground::GroundMode;
+use pmon_datasets::nuscenes_slice::scene_of_spec;
 use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{
     open_deferred, open_deferred_with_slice, open_with, open_with_slice, Dataset, DatasetFormat, DatasetFrame,
@@ -387,7 +388,7 @@ pub fn plan(
                 seed: mix(seed, fnv1a(&format!("{}/{}/{}", l.family, l.log, part.name()))),
                 options: options.clone(),
                 params: *params,
-                tables: l.spec.starts_with("nuscenes-v1:").then(|| scene_tables_path(&l.log)),
+                tables: scene_of_spec(&l.spec).map(|_| scene_tables_path(&l.log)),
                 scene_tables: None,
             };
             if tasks.insert(id.clone(), task).is_some() {
@@ -412,10 +413,9 @@ fn scene_tables_path(scene: &str) -> String {
 /// A table the slicer cannot read (naming the file, and the line of a malformed row), or a write error.
 pub fn write_scene_tables<'t>(tasks: impl IntoIterator<Item = &'t LogTask>, run_dir: &Path) -> Result<usize, String> {
     // dataroot -> (scene, slice file), each scene once
-    let mut wanted: BTreeMap<&str, BTreeMap<String, PathBuf>> = BTreeMap::new();
+    let mut wanted: BTreeMap<&Path, BTreeMap<String, PathBuf>> = BTreeMap::new();
     for t in tasks {
-        let (Some(rel), Some(rest)) = (&t.tables, t.spec.strip_prefix("nuscenes-v1:")) else { continue };
-        let Some((root, scene)) = rest.rsplit_once('#') else { continue };
+        let (Some(rel), Some((root, scene))) = (&t.tables, scene_of_spec(&t.spec)) else { continue };
         let file = run_dir.join(rel);
         if !file.exists() {
             wanted.entry(root).or_default().insert(scene.to_string(), file);
@@ -424,7 +424,7 @@ pub fn write_scene_tables<'t>(tasks: impl IntoIterator<Item = &'t LogTask>, run_
     let mut written = 0;
     for (root, scenes) in wanted {
         let names: Vec<String> = scenes.keys().cloned().collect();
-        pmon_datasets::nuscenes_slice::slice_scenes(Path::new(root), &names, |scene, text| {
+        pmon_datasets::nuscenes_slice::slice_scenes(root, &names, |scene, text| {
             let Some(file) = scenes.get(scene) else { return Ok(()) };
             let io = |e: std::io::Error| pmon_datasets::DatasetError::Io { path: file.clone(), source: e };
             if let Some(dir) = file.parent() {
