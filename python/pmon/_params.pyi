@@ -20,6 +20,7 @@ class Params:
     ghost_visible_fraction: float
     visibility_bins: int
     spill_over_fit: str
+    seen_over: bool
     motion_limits: Dict[str, Any]
     per_class_limits: Dict[str, Any]
     gamma_plaus: float

@@ -133,6 +133,9 @@ pub struct BenchOptions {
     /// Hand every sweep to the monitor as three columns (`x`, `y`, `z` slices, [`Monitor::check_columns`]; the
     /// same verdicts) instead of `[x, y, z]` records. The columns are made once per sweep before the timing.
     pub columns: bool,
+    /// Check with the params key `seen_over` on (the free-space test looks over nearer obstacles; a second pass
+    /// over each sweep: docs/attribution.md). Off: the default parameters.
+    pub seen_over: bool,
 }
 
 impl Default for BenchOptions {
@@ -149,6 +152,7 @@ impl Default for BenchOptions {
             only: Vec::new(),
             split: false,
             columns: false,
+            seen_over: false,
         }
     }
 }
@@ -594,6 +598,7 @@ fn median_u32(v: &mut [u32]) -> u32 {
 
 fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, BenchError> {
     let mut p = params(def.cell_size_m, def.grid_size_m);
+    p.seen_over = opts.seen_over;
     if def.calibrated {
         p.plausibility_mode = pmon_monitor::PlausibilityMode::Calibrated;
     }

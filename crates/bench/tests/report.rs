@@ -15,6 +15,7 @@ fn quick() -> BenchOptions {
         only: Vec::new(),
         split: false,
         columns: false,
+        seen_over: false,
     }
 }
 

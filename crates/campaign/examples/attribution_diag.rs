@@ -6,7 +6,8 @@
 //! `summary` runs the quick plan's sensor runs (false alarms up to 0.3 m noise, permanent errors under paper
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
-//! keeps only the runs whose curve label contains it (for example `towards` or `paper`).
+//! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
+//! monitor runs with the params key `seen_over` on.
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -163,8 +164,11 @@ fn explain_false_alarm(
 fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
     let run_label = label(run);
     let spec = &run.spec;
-    let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
-    let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
+    // `SEEN_OVER=1`: the free-space test also looks over nearer obstacles (params key `seen_over`).
+    let params =
+        MonitorParams { seen_over: spec.params.seen_over || std::env::var_os("SEEN_OVER").is_some(), ..spec.params };
+    let mut monitor = Monitor::new(params).map_err(|e| e.to_string())?;
+    let mut clean_monitor = Monitor::new(params).map_err(|e| e.to_string())?;
     let mut injector = Injector::new(spec.injection);
     let mut out = BTreeMap::new();
     let tau = spec.params.tau_tp;
@@ -378,7 +382,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .par_iter()
         .map(|r| {
             let scene = scenes.get(r.spec.scene).ok_or("no scene")?;
-            let res = run_one(scene, &r.spec)?;
+            // The same runs and injection seeds, with `seen_over` switched on by `SEEN_OVER=1`.
+            let mut spec = r.spec.clone();
+            spec.params.seen_over |= std::env::var_os("SEEN_OVER").is_some();
+            let res = run_one(scene, &spec)?;
             let c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
             Ok::<_, String>((res, c))
         })

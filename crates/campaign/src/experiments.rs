@@ -164,18 +164,24 @@ impl SceneIds {
 
 /// The identity of a run, as text: the scene's role and the run's parameters, injection (without its seed) and
 /// window, as JSON. Two runs with the same identity are the same run. Params keys added after the identities were
-/// fixed (`spill_over_fit`) are left out while they keep their default, so that adding a key does not redraw the
+/// fixed (`spill_over_fit`, `seen_over`) are left out while they keep their default, so that adding a key does not redraw the
 /// injections of every run, and with them every simulated number.
 #[must_use]
 pub fn run_identity(role: &str, spec: &RunSpec) -> String {
     let injection = InjectionConfig { seed: 0, ..spec.injection };
     let text = serde_json::to_string(&(role, &spec.params, &injection, spec.window))
         .unwrap_or_else(|e| format!("{role}: {e}"));
-    match serde_json::to_string(&MonitorParams::default().spill_over_fit) {
-        Ok(default) if spec.params.spill_over_fit == MonitorParams::default().spill_over_fit => {
+    let defaults = MonitorParams::default();
+    let text = match serde_json::to_string(&defaults.spill_over_fit) {
+        Ok(default) if spec.params.spill_over_fit == defaults.spill_over_fit => {
             text.replacen(&format!(",\"spill_over_fit\":{default}"), "", 1)
         }
         _ => text,
+    };
+    if spec.params.seen_over == defaults.seen_over {
+        text.replacen(&format!(",\"seen_over\":{}", defaults.seen_over), "", 1)
+    } else {
+        text
     }
 }
 

@@ -97,6 +97,10 @@ enum Command {
         /// same verdicts) instead of `[x, y, z]` records (docs/performance.md).
         #[arg(long, alias = "soa")]
         columns: bool,
+        /// Check with the params key `seen_over` on: the free-space test towards the sensor also looks over
+        /// nearer obstacles, at the cost of a second pass over each sweep (docs/attribution.md).
+        #[arg(long)]
+        seen_over: bool,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -198,6 +202,7 @@ fn main() -> ExitCode {
             export_peers,
             split,
             columns,
+            seen_over,
         } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
@@ -213,6 +218,7 @@ fn main() -> ExitCode {
                 only,
                 split,
                 columns,
+                seen_over,
             };
             if let Some(dir) = export_peers {
                 return match pmon_bench::peers::export_peers(&dir, &opts) {

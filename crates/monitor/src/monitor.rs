@@ -178,6 +178,14 @@ pub struct Monitor {
     edge_map: Vec<u8>,
     /// The second half's buffers of the rasterize stage on two threads ([`Monitor::enable_split`]).
     split: Option<crate::split::SecondHalf>,
+    /// With `seen_over` (empty otherwise), per hit cell (valid where the cell has hits this frame): the smallest
+    /// range of its obstacle returns from the sensor, m; the lowest elevation slope `(z - z_sensor) / range` of
+    /// those returns; their highest z, m.
+    cell_rmin: Vec<f32>,
+    cell_slope_min: Vec<f32>,
+    cell_ztop: Vec<f32>,
+    /// The sensor origin's height in the ego frame this frame, m.
+    sensor_z: f32,
 }
 
 /// Checks an object's state: finite values, sizes in `(0, max]`, speed `>= 0`, valid uncertainties.
@@ -259,6 +267,10 @@ impl Monitor {
             point_cells: Vec::with_capacity(max_points),
             edge_map: alloc::vec![0; EDGE_MAP],
             split: None,
+            cell_rmin: alloc::vec![0.0; if params.seen_over { cells } else { 0 }],
+            cell_slope_min: alloc::vec![0.0; if params.seen_over { cells } else { 0 }],
+            cell_ztop: alloc::vec![0.0; if params.seen_over { cells } else { 0 }],
+            sensor_z: 0.0,
             params,
         })
     }
@@ -432,6 +444,7 @@ impl Monitor {
         }
         self.begin_frame(frame, cloud);
         self.rasterize(frame, cloud, join);
+        self.cell_heights(cloud);
         self.mark_scenery(frame);
         on_stage(Stage::Rasterize);
         self.object_regions(frame);
@@ -585,6 +598,56 @@ impl Monitor {
         self.stats.points_total = u32::try_from(cloud.points.len()).unwrap_or(u32::MAX);
         self.stats.points_in_band = in_band;
         self.stats.cells_hit = u32::try_from(self.grid.touched().len()).unwrap_or(u32::MAX);
+    }
+
+    /// With `seen_over`: the range and heights of each hit cell's obstacle returns, by a second pass over the
+    /// sweep (the same transform and cell as the rasterize stage's reference loop; each return's range and slope
+    /// from the sensor origin). Bounded: one pass over the points.
+    fn cell_heights(&mut self, cloud: Option<Cloud<'_>>) {
+        let Some(cloud) = cloud.filter(|_| self.sensor_status.is_none() && self.params.seen_over) else { return };
+        let t = cloud.ego_from_sensor;
+        let (ox, oy, oz) = (t.translation_m[0], t.translation_m[1], t.translation_m[2]);
+        self.sensor_z = oz;
+        for &c in self.grid.touched() {
+            let c = c as usize;
+            if let Some(v) = self.cell_rmin.get_mut(c) {
+                *v = f32::INFINITY;
+            }
+            if let Some(v) = self.cell_slope_min.get_mut(c) {
+                *v = f32::INFINITY;
+            }
+            if let Some(v) = self.cell_ztop.get_mut(c) {
+                *v = f32::NEG_INFINITY;
+            }
+        }
+        let band = self.band();
+        let geometry = self.grid.geometry;
+        let points = cloud.points;
+        for p in (0..points.len()).filter_map(|i| points.get(i)) {
+            let q = t.transform(p);
+            if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
+                continue;
+            }
+            let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
+            if self.grid.hits(cell) == 0 {
+                continue;
+            }
+            let r = libm::hypotf(q[0] - ox, q[1] - oy);
+            if r <= 0.0 {
+                continue;
+            }
+            let slope = (q[2] - oz) / r;
+            let c = cell as usize;
+            if let Some(v) = self.cell_rmin.get_mut(c) {
+                *v = v.min(r);
+            }
+            if let Some(v) = self.cell_slope_min.get_mut(c) {
+                *v = v.min(slope);
+            }
+            if let Some(v) = self.cell_ztop.get_mut(c) {
+                *v = v.max(q[2]);
+            }
+        }
     }
 
     /// Hit cells that touch known static scenery (centre within half a cell diagonal of a polygon, so that

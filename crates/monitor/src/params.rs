@@ -249,6 +249,12 @@ pub struct MonitorParams {
     /// boxes flagged, some real recall lost: docs/attribution.md) or `occupied` (occupied cells only, the
     /// default before issue #10's clean-box round).
     pub spill_over_fit: SpillOverFit,
+    /// Off by default. The free-space test towards the sensor also looks over nearer obstacles: a sample point of
+    /// a confirmed box hidden behind something in front of it (a pedestrian behind a parked car) counts as seen
+    /// empty when the rays that reached the object's own evidence behind the point crossed it at a body's height
+    /// (docs/attribution.md, "Seen over the occluder"). Costs a second pass over the sweep per frame (the heights
+    /// of each hit cell's returns): opt-in until that pass is folded into the rasterize stage.
+    pub seen_over: bool,
 
     // ---- plausibility checks (Table I) ----
     /// Common motion limits `a_acc`, `a_br`, `omega_max`. Table I: +7, -7 m/s^2, 90 degrees per 0.2 s.
@@ -320,6 +326,7 @@ impl MonitorParams {
         ghost_visible_fraction: 0.5,
         visibility_bins: 720,
         spill_over_fit: SpillOverFit::EveryReturn,
+        seen_over: false,
         motion_limits: MotionLimits {
             accel_max_mps2: 7.0,
             brake_max_mps2: -7.0,
