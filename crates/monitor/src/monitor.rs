@@ -179,11 +179,8 @@ pub struct Monitor {
     /// The second half's buffers of the rasterize stage on two threads ([`Monitor::enable_split`]).
     split: Option<crate::split::SecondHalf>,
     /// With `seen_over` (empty otherwise), per hit cell (valid where the cell has hits this frame): the smallest
-    /// range of its obstacle returns from the sensor, m; the lowest elevation slope `(z - z_sensor) / range` of
-    /// those returns; their highest z, m.
-    cell_rmin: Vec<f32>,
-    cell_slope_min: Vec<f32>,
-    cell_ztop: Vec<f32>,
+    /// squared range of its obstacle returns from the sensor (m^2), their lowest and their highest z (m).
+    cell_returns: Vec<[f32; 3]>,
     /// The sensor origin's height in the ego frame this frame, m.
     sensor_z: f32,
 }
@@ -267,9 +264,7 @@ impl Monitor {
             point_cells: Vec::with_capacity(max_points),
             edge_map: alloc::vec![0; EDGE_MAP],
             split: None,
-            cell_rmin: alloc::vec![0.0; if params.seen_over { cells } else { 0 }],
-            cell_slope_min: alloc::vec![0.0; if params.seen_over { cells } else { 0 }],
-            cell_ztop: alloc::vec![0.0; if params.seen_over { cells } else { 0 }],
+            cell_returns: alloc::vec![[0.0; 3]; if params.seen_over { cells } else { 0 }],
             sensor_z: 0.0,
             params,
         })
@@ -600,24 +595,17 @@ impl Monitor {
         self.stats.cells_hit = u32::try_from(self.grid.touched().len()).unwrap_or(u32::MAX);
     }
 
-    /// With `seen_over`: the range and heights of each hit cell's obstacle returns, by a second pass over the
-    /// sweep (the same transform and cell as the rasterize stage's reference loop; each return's range and slope
-    /// from the sensor origin). Bounded: one pass over the points.
+    /// With `seen_over`: the nearest range and the lowest and highest z of each hit cell's obstacle returns, by a
+    /// second pass over the sweep (the same transform, band and cell as the rasterize stage's reference loop; no
+    /// square root or division per point). Bounded: one pass over the points.
     fn cell_heights(&mut self, cloud: Option<Cloud<'_>>) {
         let Some(cloud) = cloud.filter(|_| self.sensor_status.is_none() && self.params.seen_over) else { return };
         let t = cloud.ego_from_sensor;
-        let (ox, oy, oz) = (t.translation_m[0], t.translation_m[1], t.translation_m[2]);
-        self.sensor_z = oz;
+        let (ox, oy) = (t.translation_m[0], t.translation_m[1]);
+        self.sensor_z = t.translation_m[2];
         for &c in self.grid.touched() {
-            let c = c as usize;
-            if let Some(v) = self.cell_rmin.get_mut(c) {
-                *v = f32::INFINITY;
-            }
-            if let Some(v) = self.cell_slope_min.get_mut(c) {
-                *v = f32::INFINITY;
-            }
-            if let Some(v) = self.cell_ztop.get_mut(c) {
-                *v = f32::NEG_INFINITY;
+            if let Some(v) = self.cell_returns.get_mut(c as usize) {
+                *v = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY];
             }
         }
         let band = self.band();
@@ -632,20 +620,9 @@ impl Monitor {
             if self.grid.hits(cell) == 0 {
                 continue;
             }
-            let r = libm::hypotf(q[0] - ox, q[1] - oy);
-            if r <= 0.0 {
-                continue;
-            }
-            let slope = (q[2] - oz) / r;
-            let c = cell as usize;
-            if let Some(v) = self.cell_rmin.get_mut(c) {
-                *v = v.min(r);
-            }
-            if let Some(v) = self.cell_slope_min.get_mut(c) {
-                *v = v.min(slope);
-            }
-            if let Some(v) = self.cell_ztop.get_mut(c) {
-                *v = v.max(q[2]);
+            let (dx, dy) = (q[0] - ox, q[1] - oy);
+            if let Some(v) = self.cell_returns.get_mut(cell as usize) {
+                *v = [v[0].min(dx * dx + dy * dy), v[1].min(q[2]), v[2].max(q[2])];
             }
         }
     }

@@ -546,9 +546,9 @@ impl Monitor {
     /// is (or borders) the object's own evidence: no face of the object stands in front of the point; (3) walking
     /// away from the sensor, the first cell with returns is (or borders) the object's own evidence, and that
     /// cell's nearest return lies more than the margin behind the point; and (4) the lowest ray that reached that
-    /// cell (its smallest elevation slope from the sensor) crossed the point above the obstacle band's floor and at
-    /// least [`SEEN_OVER_BELOW_TOP_M`] below the top of that cell's returns: where a body as tall as the evidence
-    /// would have stopped it. Bounded: two walks of at most `4 (half length + half width + margin) / cell` steps.
+    /// cell (through its lowest return; taken no lower than the cell's returns allow) crossed the point above the
+    /// obstacle band's floor and at least [`SEEN_OVER_BELOW_TOP_M`] below the top of that cell's returns: where a
+    /// body as tall as the evidence would have stopped it. Bounded: two walks of at most `4 (half length + half width + margin) / cell` steps.
     fn seen_over(
         &self,
         x: f32,
@@ -591,15 +591,16 @@ impl Monitor {
             if !(own(c) || geometry.neighbours4(c).any(own)) {
                 return false;
             }
-            let i = c as usize;
-            let (Some(&rmin), Some(&slope), Some(&ztop)) =
-                (self.cell_rmin.get(i), self.cell_slope_min.get(i), self.cell_ztop.get(i))
-            else {
-                return false;
-            };
+            let Some(&[r2min, zlow, ztop]) = self.cell_returns.get(c as usize) else { return false };
+            let rmin = libm::sqrtf(r2min);
             if !(rmin - r > margin) {
                 return false;
             }
+            // The lowest ray that reached the cell, from its lowest return and a range that bounds that return's
+            // from the side that lowers the ray least: the cell's returns lie within a cell diagonal of its nearest.
+            let diagonal = core::f32::consts::SQRT_2 * geometry.cell_size_m;
+            let dz = zlow - self.sensor_z;
+            let slope = if dz < 0.0 { dz / (rmin + diagonal) } else { dz / rmin };
             let h = self.sensor_z + slope * r;
             let (lo, _) = self.params.obstacle_band_m();
             return h <= ztop - SEEN_OVER_BELOW_TOP_M && h >= lo;
