@@ -326,16 +326,27 @@ impl History {
     /// [`History::push`] of a state whose [`Entry::unit`] the caller set (to `libm::sincos` of its heading, as
     /// `push` would: the plausibility checks compute it once per state).
     pub(crate) fn push_with_unit(&mut self, e: Entry) {
-        let pos = position_step(self.last(), &e);
-        self.push_with_unit_and_step(e, pos);
+        let prev = self.last();
+        let pos = position_step(prev, &e);
+        let any = speed_step_any(prev, &e);
+        let step = steps_from_any(prev, &e, any);
+        self.push_steps(e, pos, any, step);
     }
 
     /// [`History::push_with_unit`] with the position step of `e` from the newest state given: the
     /// [`CalibratedCheck::position_step`] of `e`'s check against this history (the same number, computed once),
     /// or negative when `e` raised an alarm.
     pub(crate) fn push_with_unit_and_step(&mut self, e: Entry, pos: f32) {
-        let any = speed_step_any(self.last(), &e);
-        let step = steps_from_any(self.last(), &e, any);
+        let prev = self.last();
+        let any = speed_step_any(prev, &e);
+        let step = steps_from_any(prev, &e, any);
+        self.push_steps(e, pos, any, step);
+    }
+
+    /// Stores `e` with its steps from the newest state (computed by the callers from one look-up of it): the
+    /// position step `pos`, the speed step `any` ([`speed_step_any`]) and the clean steps `step`
+    /// ([`steps_from_any`]).
+    fn push_steps(&mut self, e: Entry, pos: f32, any: f32, step: (f32, f32)) {
         self.add_steps(step, 1.0);
         self.add_position_step(pos, 1.0);
         if self.len() >= HISTORY {
@@ -475,8 +486,17 @@ impl History {
     /// and the number of steps, for the speed and for the heading.
     #[must_use]
     pub fn own_scatter(&self) -> ((f64, u8), (f64, u8)) {
-        let rms = |sum: f64, n: u8| if n == 0 { 0.0 } else { libm::sqrt(sum / f64::from(n)) };
-        ((rms(self.speed_sum, self.speed_n), self.speed_n), (rms(self.heading_sum, self.heading_n), self.heading_n))
+        (self.own_speed_scatter(), self.own_heading_scatter())
+    }
+
+    /// The speed half of [`History::own_scatter`].
+    fn own_speed_scatter(&self) -> (f64, u8) {
+        (rms(self.speed_sum, self.speed_n), self.speed_n)
+    }
+
+    /// The heading half of [`History::own_scatter`].
+    fn own_heading_scatter(&self) -> (f64, u8) {
+        (rms(self.heading_sum, self.heading_n), self.heading_n)
     }
 
     /// A history holding only `e`.
@@ -485,6 +505,15 @@ impl History {
         let mut h = Self::default();
         h.push(e);
         h
+    }
+}
+
+/// The root mean square of `n` studentised steps summing to `sum` (0 without steps).
+fn rms(sum: f64, n: u8) -> f64 {
+    if n == 0 {
+        0.0
+    } else {
+        libm::sqrt(sum / f64::from(n))
     }
 }
 
@@ -900,8 +929,7 @@ pub(crate) fn check_calibrated_sc(
     baseline_s: f64,
 ) -> CalibratedCheck {
     let n = h.len();
-    let s0 = h.last().copied().unwrap_or(*s1);
-    let (own_speed, own_heading) = h.own_scatter();
+    let s0 = h.last().unwrap_or(s1);
     let dt = (s1.t_s - s0.t_s).max(1e-9);
     let (v0, v1) = (f64::from(s0.v_mps), f64::from(s1.v_mps));
     let mut fired = Conditions::default();
@@ -914,7 +942,7 @@ pub(crate) fn check_calibrated_sc(
     let heading_defined = !s0.warmup && !s1.warmup && v0.min(v1) >= heading_min_speed_mps;
     let d_heading = wrap_difference(f64::from(s1.heading_rad) - f64::from(s0.heading_rad));
     if heading_defined {
-        let m = gates.factor(own_heading) * norm(s0.heading_sigma(), s1.heading_sigma());
+        let m = gates.factor(h.own_heading_scatter()) * norm(s0.heading_sigma(), s1.heading_sigma());
         turn = (d_heading / dt, m / dt);
         let w_max = f64::from(limits.turn_rate_max_radps).abs();
         if libm::fabs(d_heading) - m > core::f64::consts::FRAC_PI_2 {
@@ -950,7 +978,7 @@ pub(crate) fn check_calibrated_sc(
         }
         if let Some((ri, r)) = reference.filter(|(_, r)| f64::from(r.v_mps) >= heading_min_speed_mps) {
             let d = wrap_difference(f64::from(s1.heading_rad) - f64::from(r.heading_rad));
-            let m = gates.factor(own_heading) * norm(r.heading_sigma(), s1.heading_sigma());
+            let m = gates.factor(h.own_heading_scatter()) * norm(r.heading_sigma(), s1.heading_sigma());
             if libm::fabs(d) - m > core::f64::consts::FRAC_PI_2 && !turn_explains_motion(h, ri + 1, s1) {
                 fired = fired.union(Conditions::TURN_RATE);
                 kind = Some(ImplausibilityKind::HeadingFlip);
@@ -966,8 +994,11 @@ pub(crate) fn check_calibrated_sc(
     // is the warm-up's error, judged with the warm-up sigma.)
     // Two estimates of the track's own speed scatter narrow it, each a test at `p`: the mean of squares of the clean
     // steps (Student's t) and the robust order statistic of every step (which the track's errors do not move).
-    let speed_factor =
-        if s0.warmup || s1.warmup { gates.z } else { gates.speed_factor(own_speed, h.robust_speed_scale()) };
+    let speed_factor = if s0.warmup || s1.warmup {
+        gates.z
+    } else {
+        gates.speed_factor(h.own_speed_scatter(), h.robust_speed_scale())
+    };
     // The first initialised speed after a warm-up is checked too. The warm-up's 0 is no measurement (the tracker
     // did not know the speed), so the step from it carries only the new speed's sigma: a step beyond
     // `a_acc dt + z sigma_v` says that the object moved at that speed while the tracker reported 0 (a speed error
@@ -1012,9 +1043,9 @@ pub(crate) fn check_calibrated_sc(
         }
     }
     let b = oldest_clean.or(oldest_alarm_free).or(oldest_any).unwrap_or(n.saturating_sub(1));
-    let sb = h.get(b).copied().unwrap_or(s0);
+    let sb = h.get(b).unwrap_or(s0);
     // Trapezoid over b, the states after it, and s1 (a state whose heading was called flipped lends no velocity).
-    let (pred, cov) = trapezoid(h, &sb, b, s1, true);
+    let (pred, cov) = trapezoid(h, sb, b, s1, true);
     let raw = [s1.x_m - sb.x_m - pred[0], s1.y_m - sb.y_m - pred[1]];
     let r = refit_allowance(raw, u1, f64::from(s1.length_m - sb.length_m), f64::from(s1.width_m - sb.width_m));
     let d2 = mahalanobis2(r, cov);
@@ -1032,8 +1063,9 @@ pub(crate) fn check_calibrated_sc(
     // (Computed once: the same step is kept in the history when the new state raises no alarm.)
     let mut own_position = None;
     let mut position_step = -1.0f32;
-    if n > 0 && clean_pair(&s0, &Entry { suspect: false, ..*s1 }) {
-        let (r1, d1) = one_frame_residual(&s0, s1);
+    // (Both states clean, the new one taken to be alarm-free: `clean_pair` with `s1.suspect` false.)
+    if n > 0 && !s0.suspect && !s0.warmup && !s1.warmup {
+        let (r1, d1) = one_frame_residual(s0, s1);
         let q = 0.5 * d1;
         if q.is_finite() {
             position_step = q as f32;
@@ -1045,13 +1077,15 @@ pub(crate) fn check_calibrated_sc(
         }
     }
     let motion_fired = d2 > gates.chi2_2 || own_position.is_some();
-    let span = (s1.t_s - sb.t_s).max(1e-9);
-    let observed_speed = norm(s1.x_m - sb.x_m, s1.y_m - sb.y_m) / span;
-    let reported_speed = norm(pred[0], pred[1]) / span;
+    // The speeds over the baseline name an alarm's kind; computed only for an alarm.
+    let span = || (s1.t_s - sb.t_s).max(1e-9);
+    let observed_speed = || norm(s1.x_m - sb.x_m, s1.y_m - sb.y_m) / span();
+    let reported_speed = || norm(pred[0], pred[1]) / span();
 
     if motion_fired {
         fired = fired.union(Conditions::POSITION);
         if kind.is_none() {
+            let (observed_speed, reported_speed) = (observed_speed(), reported_speed());
             // Positions only: the straight-line extrapolation of the two newest alarm-free states.
             let mut a = None;
             let mut c2 = None;
@@ -1127,6 +1161,7 @@ pub(crate) fn check_calibrated_sc(
     if accel_fired {
         fired = fired.union(Conditions::ACCELERATION);
         if kind.is_none() {
+            let observed_speed = observed_speed();
             // Which speed agrees with the motion observed over the baseline? At the end of a warm-up, the
             // warm-up's 0 was the error when the new speed agrees with the motion.
             if warmup_end && libm::fabs(v1 - observed_speed) <= libm::fabs(v0 - observed_speed) {
