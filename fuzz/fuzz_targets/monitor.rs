@@ -1,6 +1,7 @@
 //! `Monitor::check` on arbitrary frames: the bytes become timestamps, poses, objects (any f32 bit pattern:
 //! NaN, infinities, subnormals) and points, over three frames so that the plausibility checks run. Asserts the
-//! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates.
+//! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
+//! and without the params key `seen_over`.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -42,7 +43,11 @@ impl Bytes<'_> {
 
 fuzz_target!(|data: &[u8]| {
     let mut b = Bytes(data);
-    let params = MonitorParams { max_points: 4096, max_objects: 64, grid_size_m: 40.0, ..MonitorParams::default() };
+    // The first byte's top bit also switches the free-space test over nearer obstacles on (`seen_over`), without
+    // shifting how the rest of the input is read.
+    let seen_over = data.first().is_some_and(|b| b & 0x80 != 0);
+    let params =
+        MonitorParams { max_points: 4096, max_objects: 64, grid_size_m: 40.0, seen_over, ..MonitorParams::default() };
     let Ok(mut monitor) = Monitor::new(params) else { return };
     let mut t = 0.0f64;
     for _ in 0..3 {

@@ -560,7 +560,7 @@ impl Monitor {
         let o = self.visibility.origin();
         let (dx, dy) = (x - o[0], y - o[1]);
         let r = libm::sqrtf(dx * dx + dy * dy);
-        if !(r > 1e-3) {
+        if r.is_nan() || r <= 1e-3 {
             return false;
         }
         let (ux, uy) = (dx / r, dy / r);
@@ -593,7 +593,8 @@ impl Monitor {
             }
             let Some(&[r2min, zlow, ztop]) = self.cell_returns.get(c as usize) else { return false };
             let rmin = libm::sqrtf(r2min);
-            if !(rmin - r > margin) {
+            let clearance = rmin - r;
+            if clearance.is_nan() || clearance <= margin {
                 return false;
             }
             // The lowest ray that reached the cell, from its lowest return and a range that bounds that return's
