@@ -308,7 +308,13 @@ pub struct OccupancyGrid {
     hit_bits: Vec<u64>,
     /// `P(n)` for `n = 0..=MAX_HITS`.
     probability: [f32; MAX_HITS as usize + 1],
+    /// Empty unless [`OccupancyGrid::with_returns`]: per cell with hits, the smallest squared range of its returns
+    /// from the sensor (m^2), their lowest and their highest z (m); set at the cell's first hit of the frame.
+    returns: Vec<[f32; 3]>,
 }
+
+/// A cell's returns before any: nothing is nearer, lower or higher.
+const NO_RETURNS: [f32; 3] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY];
 
 impl OccupancyGrid {
     /// Allocates a grid; `max_touched` bounds the cells touched per frame (at most one per point).
@@ -328,7 +334,47 @@ impl OccupancyGrid {
             touched_len: 0,
             hit_bits: vec![0; cells.div_ceil(64)],
             probability,
+            returns: Vec::new(),
         }
+    }
+
+    /// The grid also keeps, per cell with hits, the nearest squared range and the lowest and highest z of its
+    /// returns ([`OccupancyGrid::returns`]; the params key `seen_over`). Allocates one entry per cell.
+    #[must_use]
+    pub fn with_returns(mut self) -> Self {
+        self.returns = vec![NO_RETURNS; self.hits.len()];
+        self
+    }
+
+    /// With [`OccupancyGrid::with_returns`], for a cell with hits this frame: the smallest squared range of its
+    /// returns from the sensor (m^2), their lowest and their highest z (m). `None` otherwise.
+    #[must_use]
+    #[inline]
+    pub fn returns(&self, index: u32) -> Option<[f32; 3]> {
+        if self.hits(index) == 0 {
+            return None;
+        }
+        self.returns.get(index as usize).copied()
+    }
+
+    /// Folds returns (squared range, z) into a cell's entry (nothing without [`OccupancyGrid::with_returns`], or
+    /// outside the grid). `min` and `max` do not depend on the order: any split of the returns gives the same entry.
+    #[inline(always)]
+    fn fold_returns(&mut self, index: u32, r2: f32, z_low: f32, z_high: f32) {
+        if let Some(v) = self.returns.get_mut(index as usize) {
+            *v = [v[0].min(r2), v[1].min(z_low), v[2].max(z_high)];
+        }
+    }
+
+    /// [`OccupancyGrid::add_hit`] of an obstacle return with its squared range from the sensor and its z (the
+    /// reference loop's way of [`OccupancyGrid::add_hits_with_returns`]).
+    #[inline]
+    pub(crate) fn add_hit_return(&mut self, index: u32, r2: f32, z: f32) -> bool {
+        let added = self.add_run(index, 1);
+        if added {
+            self.fold_returns(index, r2, z, z);
+        }
+        added
     }
 
     /// Clears every cell touched since the last reset.
@@ -358,8 +404,17 @@ impl OccupancyGrid {
     /// one cell) are added at once, and the runs are found without a branch per point: one hit at a time, each
     /// increment would wait for the previous one's store, and a test per point of whether the cell changed is
     /// mispredicted at every run's end.
-    #[inline]
+    #[cfg(test)]
     pub(crate) fn add_hits(&mut self, cells: &[u32; 64]) {
+        self.add_hits_with_returns(cells, None);
+    }
+
+    /// [`OccupancyGrid::add_hits`], and with [`OccupancyGrid::with_returns`] each run's returns folded into its
+    /// cell at once: `returns` gives each point's squared range from the sensor (as bits: non-negative floats order
+    /// as their bits) and its z.
+    #[inline(always)]
+    pub(crate) fn add_hits_with_returns(&mut self, cells: &[u32; 64], returns: Option<(&[u32; 64], &[f32; 64])>) {
+        let returns = returns.filter(|_| !self.returns.is_empty());
         // Bit j of `ends`: point j ends a run (the next point's cell differs, or j is the last point); of
         // `in_grid`: its cell is in the grid.
         let mut ends = 1u64 << 63;
@@ -379,7 +434,15 @@ impl OccupancyGrid {
             let before = ends & ((1u64 << j) - 1);
             let start = if before == 0 { 0 } else { 64 - before.leading_zeros() };
             if let Some(&c) = cells.get(j as usize) {
-                let _ = self.add_run(c, j + 1 - start);
+                let added = self.add_run(c, j + 1 - start);
+                if let Some((r2_bits, z)) = returns.filter(|_| added) {
+                    let run = start as usize..=j as usize;
+                    let r2 = r2_bits.get(run.clone()).map_or(u32::MAX, |r| r.iter().copied().min().unwrap_or(u32::MAX));
+                    let (lo, hi) = z.get(run).map_or((f32::INFINITY, f32::NEG_INFINITY), |z| {
+                        z.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+                    });
+                    self.fold_returns(c, f32::from_bits(r2), lo, hi);
+                }
             }
         }
     }
@@ -390,7 +453,11 @@ impl OccupancyGrid {
     /// threads (`crate::split`); `other` must have the same geometry.
     pub(crate) fn absorb(&mut self, other: &OccupancyGrid) {
         for &c in other.touched() {
-            let _ = self.add_run(c, u32::from(other.hits(c)));
+            if self.add_run(c, u32::from(other.hits(c))) {
+                if let Some(&[r2, lo, hi]) = other.returns.get(c as usize) {
+                    self.fold_returns(c, r2, lo, hi);
+                }
+            }
         }
     }
 
@@ -403,6 +470,9 @@ impl OccupancyGrid {
             let Some(slot) = self.touched.get_mut(self.touched_len) else { return false };
             *slot = index;
             self.touched_len += 1;
+            if let Some(v) = self.returns.get_mut(index as usize) {
+                *v = NO_RETURNS;
+            }
             if let Some(w) = self.hit_bits.get_mut(index as usize / 64) {
                 *w |= 1 << (index % 64);
             }

@@ -178,10 +178,8 @@ pub struct Monitor {
     edge_map: Vec<u8>,
     /// The second half's buffers of the rasterize stage on two threads ([`Monitor::enable_split`]).
     split: Option<crate::split::SecondHalf>,
-    /// With `seen_over` (empty otherwise), per hit cell (valid where the cell has hits this frame): the smallest
-    /// squared range of its obstacle returns from the sensor (m^2), their lowest and their highest z (m).
-    cell_returns: Vec<[f32; 3]>,
-    /// The sensor origin's height in the ego frame this frame, m.
+    /// The sensor origin's height in the ego frame this frame, m (for `seen_over`: the grid keeps each hit cell's
+    /// returns with `OccupancyGrid::with_returns`).
     sensor_z: f32,
 }
 
@@ -237,7 +235,11 @@ impl Monitor {
         // The calibrated rule's gates now, not in the first frame (bounded time per frame).
         let _ = tracks.prepare_gates(params.false_alarm_probability);
         Ok(Self {
-            grid: OccupancyGrid::new(geometry, params.hit_probability, max_points),
+            grid: if params.seen_over {
+                OccupancyGrid::new(geometry, params.hit_probability, max_points).with_returns()
+            } else {
+                OccupancyGrid::new(geometry, params.hit_probability, max_points)
+            },
             visibility: VisibilityMap::new(params.visibility_bins),
             scratch: Vec::with_capacity(max_objects),
             owner: alloc::vec![0; cells],
@@ -264,7 +266,6 @@ impl Monitor {
             point_cells: Vec::with_capacity(max_points),
             edge_map: alloc::vec![0; EDGE_MAP],
             split: None,
-            cell_returns: alloc::vec![[0.0; 3]; if params.seen_over { cells } else { 0 }],
             sensor_z: 0.0,
             params,
         })
@@ -324,7 +325,11 @@ impl Monitor {
         if self.split.is_none() {
             let max_points = self.params.max_points as usize;
             self.split = Some(crate::split::SecondHalf {
-                grid: OccupancyGrid::new(self.grid.geometry, self.params.hit_probability, max_points),
+                grid: if self.params.seen_over {
+                    OccupancyGrid::new(self.grid.geometry, self.params.hit_probability, max_points).with_returns()
+                } else {
+                    OccupancyGrid::new(self.grid.geometry, self.params.hit_probability, max_points)
+                },
                 visibility: VisibilityMap::new(self.params.visibility_bins),
                 cells: Vec::with_capacity(max_points),
             });
@@ -439,7 +444,6 @@ impl Monitor {
         }
         self.begin_frame(frame, cloud);
         self.rasterize(frame, cloud, join);
-        self.cell_heights(cloud);
         self.mark_scenery(frame);
         on_stage(Stage::Rasterize);
         self.object_regions(frame);
@@ -552,6 +556,7 @@ impl Monitor {
         let Some(cloud) = cloud.filter(|_| self.sensor_status.is_none()) else { return };
         let t = cloud.ego_from_sensor;
         self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
+        self.sensor_z = t.translation_m[2];
         let band = self.band();
         let (grid, visibility) = (&mut self.grid, &mut self.visibility);
         // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
@@ -593,38 +598,6 @@ impl Monitor {
         self.stats.points_total = u32::try_from(cloud.points.len()).unwrap_or(u32::MAX);
         self.stats.points_in_band = in_band;
         self.stats.cells_hit = u32::try_from(self.grid.touched().len()).unwrap_or(u32::MAX);
-    }
-
-    /// With `seen_over`: the nearest range and the lowest and highest z of each hit cell's obstacle returns, by a
-    /// second pass over the sweep (the same transform, band and cell as the rasterize stage's reference loop; no
-    /// square root or division per point). Bounded: one pass over the points.
-    fn cell_heights(&mut self, cloud: Option<Cloud<'_>>) {
-        let Some(cloud) = cloud.filter(|_| self.sensor_status.is_none() && self.params.seen_over) else { return };
-        let t = cloud.ego_from_sensor;
-        let (ox, oy) = (t.translation_m[0], t.translation_m[1]);
-        self.sensor_z = t.translation_m[2];
-        for &c in self.grid.touched() {
-            if let Some(v) = self.cell_returns.get_mut(c as usize) {
-                *v = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY];
-            }
-        }
-        let band = self.band();
-        let geometry = self.grid.geometry;
-        let points = cloud.points;
-        for p in (0..points.len()).filter_map(|i| points.get(i)) {
-            let q = t.transform(p);
-            if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
-                continue;
-            }
-            let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
-            if self.grid.hits(cell) == 0 {
-                continue;
-            }
-            let (dx, dy) = (q[0] - ox, q[1] - oy);
-            if let Some(v) = self.cell_returns.get_mut(cell as usize) {
-                *v = [v[0].min(dx * dx + dy * dy), v[1].min(q[2]), v[2].max(q[2])];
-            }
-        }
     }
 
     /// Hit cells that touch known static scenery (centre within half a cell diagonal of a polygon, so that

@@ -137,8 +137,11 @@ fn scalar<S: Source>(
         }
         visibility.add_return(q[0], q[1], obstacle, cell.unwrap_or(NO_CELL));
         if let Some(cell) = cell {
+            // `VisibilityMap::add_return`'s squared range, the same operations.
+            let o = visibility.origin();
+            let (dx, dy) = (q[0] - o[0], q[1] - o[1]);
             // Cannot fail: the touched list has room for max_points >= points cells.
-            let _ = grid.add_hit(cell);
+            let _ = grid.add_hit_return(cell, dx * dx + dy * dy, q[2]);
             in_band += 1;
         }
     }
@@ -208,7 +211,7 @@ impl Pass1 {
         x: f32,
         y: f32,
         z: f32,
-    ) -> (u32, f32, u32, u32) {
+    ) -> (u32, f32, u32, u32, f32) {
         let [t0, t1, t2] = self.translation;
         // `&` rather than `&&`: no branches. A sum of `zero_if_finite` terms is 0 exactly when all are finite.
         let (q0, q1, q2, finite) = if TRANSLATION_ONLY {
@@ -250,7 +253,7 @@ impl Pass1 {
         // `r2` is never NaN here (finite coordinates), and never `-0.0`: the bits of the non-negative floats
         // order as their values, which `VisibilityMap::add_binned` relies on.
         let near = if obstacle & (r2 < f32::INFINITY) { r2.to_bits() } else { u32::MAX };
-        (bin, far, near, cell)
+        (bin, far, near, cell, q2)
     }
 }
 
@@ -297,10 +300,13 @@ struct Block {
     far_r2: [f32; BLOCK],
     near_bits: [u32; BLOCK],
     cells: [u32; BLOCK],
+    /// Each point's z in the ego frame (read for the points with a cell: obstacle returns in the grid).
+    z: [f32; BLOCK],
 }
 
 impl Block {
-    const EMPTY: Self = Self { bins: [0; BLOCK], far_r2: [0.0; BLOCK], near_bits: [0; BLOCK], cells: [0; BLOCK] };
+    const EMPTY: Self =
+        Self { bins: [0; BLOCK], far_r2: [0.0; BLOCK], near_bits: [0; BLOCK], cells: [0; BLOCK], z: [0.0; BLOCK] };
 
     /// Pass 1 over a block; returns the number of points that fall in the band and in the grid.
     #[inline(always)]
@@ -310,8 +316,9 @@ impl Block {
         points: &[[f32; 3]; BLOCK],
     ) -> u32 {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
-        for ((&[x, y, z], ((bin, far), near)), cell) in points.iter().zip(outputs).zip(self.cells.iter_mut()) {
-            (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+        let cells = self.cells.iter_mut().zip(self.z.iter_mut());
+        for ((&[x, y, z], ((bin, far), near)), (cell, height)) in points.iter().zip(outputs).zip(cells) {
+            (*bin, *far, *near, *cell, *height) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
         }
         self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
     }
@@ -327,8 +334,9 @@ impl Block {
     ) -> u32 {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
         let inputs = xs.iter().zip(ys).zip(zs);
-        for ((((&x, &y), &z), ((bin, far), near)), cell) in inputs.zip(outputs).zip(self.cells.iter_mut()) {
-            (*bin, *far, *near, *cell) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+        let cells = self.cells.iter_mut().zip(self.z.iter_mut());
+        for ((((&x, &y), &z), ((bin, far), near)), (cell, height)) in inputs.zip(outputs).zip(cells) {
+            (*bin, *far, *near, *cell, *height) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
         }
         self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
     }
@@ -337,7 +345,8 @@ impl Block {
     #[inline(always)]
     fn apply(&self, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
         visibility.add_binned(&self.bins, &self.far_r2, &self.near_bits, &self.cells);
-        grid.add_hits(&self.cells);
+        // A point with a cell is an obstacle return in the grid: its `near_bits` are its squared range's bits.
+        grid.add_hits_with_returns(&self.cells, Some((&self.near_bits, &self.z)));
     }
 }
 
@@ -675,7 +684,7 @@ mod tests {
         let [x, y, z]: [Vec<f32>; 3] = core::array::from_fn(|k| points.iter().map(|p| p[k]).collect());
         let columns = PointColumns::new(&x, &y, &z).unwrap();
         let run = |mode: u8| {
-            let mut grid = OccupancyGrid::new(geometry, 0.7, points.len());
+            let mut grid = OccupancyGrid::new(geometry, 0.7, points.len()).with_returns();
             let mut vis = VisibilityMap::new(bins);
             vis.reset([t.translation_m[0], t.translation_m[1]]);
             let mut cells = Vec::with_capacity(points.len());
@@ -694,9 +703,25 @@ mod tests {
             let hits: Vec<u16> = touched.iter().map(|&c| grid.hits(c)).collect();
             let (near, near_cell, far) = vis.arrays();
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
-            ((n, touched, hits, bits(&near), near_cell, bits(&far)), cells)
+            let returns: Vec<[u32; 3]> =
+                touched.iter().map(|&c| grid.returns(c).map_or([0; 3], |r| r.map(f32::to_bits))).collect();
+            ((n, touched, hits, bits(&near), near_cell, bits(&far), returns), cells)
         };
         let (scalar, _) = run(0);
+        // Each hit cell's returns, by their definition: the smallest squared range from the sensor's ground point
+        // and the lowest and highest z of the obstacle returns in the cell.
+        for (&c, r) in scalar.1.iter().zip(&scalar.6) {
+            let mut want = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+            for p in points {
+                let q = t.transform(*p);
+                let obstacle = q[2] >= band.lo_m && q[2] <= band.hi_m && !band.in_ego(q[0], q[1]);
+                if obstacle && geometry.point_to_cell(q[0], q[1]) == Some(c) {
+                    let (dx, dy) = (q[0] - t.translation_m[0], q[1] - t.translation_m[1]);
+                    want = [want[0].min(dx * dx + dy * dy), want[1].min(q[2]), want[2].max(q[2])];
+                }
+            }
+            assert_eq!(*r, want.map(f32::to_bits), "returns of cell {c}");
+        }
         // The recorded cells: one per point, the reference's definition (an obstacle-band return in the grid,
         // outside the ego footprint), the same for the three loops; recording changes nothing else.
         let expected: Vec<u32> = points
@@ -720,6 +745,7 @@ mod tests {
             assert_eq!(scalar.3, blocked.3, "nearest obstacle r2 bits");
             assert_eq!(scalar.4, blocked.4, "nearest obstacle cells");
             assert_eq!(scalar.5, blocked.5, "farthest return r2 bits");
+            assert_eq!(scalar.6, blocked.6, "each hit cell's nearest r2, lowest and highest z");
         }
         scalar.0
     }

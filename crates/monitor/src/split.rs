@@ -162,7 +162,7 @@ mod tests {
     }
 
     fn grid(max_touched: usize) -> OccupancyGrid {
-        OccupancyGrid::new(GridGeometry::new(160, 0.5), 0.7, max_touched)
+        OccupancyGrid::new(GridGeometry::new(160, 0.5), 0.7, max_touched).with_returns()
     }
 
     #[test]
@@ -205,6 +205,8 @@ mod tests {
                             assert_eq!(g1.touched(), g2.touched(), "{what}");
                             for &c in g1.touched() {
                                 assert_eq!(g1.hits(c), g2.hits(c), "{what}, cell {c}");
+                                let bits = |r: Option<[f32; 3]>| r.map(|r| r.map(f32::to_bits));
+                                assert_eq!(bits(g1.returns(c)), bits(g2.returns(c)), "{what}, returns of cell {c}");
                             }
                             assert_eq!(v1.arrays(), v2.arrays(), "{what}");
                             assert_eq!(c1, c2, "{what}");

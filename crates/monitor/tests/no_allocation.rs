@@ -55,70 +55,73 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn check_allocates_nothing_after_construction() {
-    let params = MonitorParams { max_objects: 64, max_points: 200_000, ..MonitorParams::default() };
-    let mut monitor = Monitor::new(params).unwrap();
-    // A busy frame: many objects (some displaced, some duplicated, some invalid), evidence, ground, an
-    // unlisted obstacle in the ROI, and then frames with bad input.
-    let mut objects: Vec<ObjectState> = (0..40)
-        .map(|i| {
-            let a = i as f32 * 0.4;
-            let r = 8.0 + (i % 7) as f32 * 4.0;
-            ObjectState { speed_mps: 2.0, ..object(i, r * a.cos(), r * a.sin(), a, 2.0 + (i % 3) as f32, 1.0) }
-        })
-        .collect();
-    let mut points: Vec<[f32; 3]> = objects.iter().flat_map(|o| visible_face_points(o, 0.1)).collect();
-    points.extend(visible_face_points(&object(999, -12.0, 3.0, 0.0, 0.6, 0.6), 0.05));
-    points.extend(ground_points(48.0));
-    let points = to_sensor(&points);
-    for o in objects.iter_mut().step_by(5) {
-        o.x_m += 2.0;
+    // Also with the free-space test over nearer obstacles (its per-cell returns are allocated with the grid).
+    for seen_over in [false, true] {
+        let params = MonitorParams { max_objects: 64, max_points: 200_000, seen_over, ..MonitorParams::default() };
+        let mut monitor = Monitor::new(params).unwrap();
+        // A busy frame: many objects (some displaced, some duplicated, some invalid), evidence, ground, an
+        // unlisted obstacle in the ROI, and then frames with bad input.
+        let mut objects: Vec<ObjectState> = (0..40)
+            .map(|i| {
+                let a = i as f32 * 0.4;
+                let r = 8.0 + (i % 7) as f32 * 4.0;
+                ObjectState { speed_mps: 2.0, ..object(i, r * a.cos(), r * a.sin(), a, 2.0 + (i % 3) as f32, 1.0) }
+            })
+            .collect();
+        let mut points: Vec<[f32; 3]> = objects.iter().flat_map(|o| visible_face_points(o, 0.1)).collect();
+        points.extend(visible_face_points(&object(999, -12.0, 3.0, 0.0, 0.6, 0.6), 0.05));
+        points.extend(ground_points(48.0));
+        let points = to_sensor(&points);
+        for o in objects.iter_mut().step_by(5) {
+            o.x_m += 2.0;
+        }
+        objects[3].id = objects[4].id;
+        objects[7].length_m = f32::NAN;
+        let road: &[[f32; 2]] = &[[-30.0, -5.0], [30.0, -5.0], [30.0, 5.0], [-30.0, 5.0]];
+        let roi = [road];
+        let frames: Vec<Frame<'_>> = (0..6)
+            .map(|k| Frame {
+                timestamp_s: if k == 4 { f64::NAN } else { k as f64 * 0.1 },
+                world_from_ego: Pose2 { x_m: k as f64, y_m: 0.0, yaw_rad: 0.01 * k as f64 },
+                objects: &objects,
+                cloud: match k {
+                    2 => None,
+                    3 => Some(PointCloud { points_in_sensor: &[], ego_from_sensor: extrinsic() }),
+                    _ => Some(PointCloud { points_in_sensor: &points, ego_from_sensor: extrinsic() }),
+                },
+                roi_in_ego: &roi,
+                static_in_ego: &[],
+            })
+            .collect();
+        // Warm up once (nothing is lazily allocated, but be fair to first-use effects of the test harness).
+        let _ = monitor.check(&frames[0]).unwrap().objects.len();
+        let mut alarms = 0;
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        COUNTING.with(|c| c.set(true));
+        for f in &frames {
+            let report = monitor.check(f).unwrap();
+            alarms += report.object_alarms() + report.missed_objects();
+        }
+        COUNTING.with(|c| c.set(false));
+        // The same sweep handed over as columns (`check_columns`).
+        let [x, y, z]: [Vec<f32>; 3] = std::array::from_fn(|k| points.iter().map(|p| p[k]).collect());
+        let columns =
+            ColumnCloud { points_in_sensor: PointColumns::new(&x, &y, &z).unwrap(), ego_from_sensor: extrinsic() };
+        COUNTING.with(|c| c.set(true));
+        for (k, f) in frames.iter().enumerate() {
+            let f = Frame { cloud: None, timestamp_s: 1.0 + 0.1 * k as f64, ..*f };
+            let report = monitor.check_columns(&f, &columns).unwrap();
+            alarms += report.object_alarms() + report.missed_objects();
+        }
+        COUNTING.with(|c| c.set(false));
+        let after = ALLOCATIONS.load(Ordering::SeqCst);
+        assert_eq!(after - before, 0, "check() allocated {} times", after - before);
+        assert!(alarms > 0, "the frames exercise the alarm paths");
+        // The counter works: an allocation on this thread while counting is seen.
+        COUNTING.with(|c| c.set(true));
+        let v: Vec<u8> = Vec::with_capacity(16);
+        COUNTING.with(|c| c.set(false));
+        drop(v);
+        assert_eq!(ALLOCATIONS.load(Ordering::SeqCst), after + 1);
     }
-    objects[3].id = objects[4].id;
-    objects[7].length_m = f32::NAN;
-    let road: &[[f32; 2]] = &[[-30.0, -5.0], [30.0, -5.0], [30.0, 5.0], [-30.0, 5.0]];
-    let roi = [road];
-    let frames: Vec<Frame<'_>> = (0..6)
-        .map(|k| Frame {
-            timestamp_s: if k == 4 { f64::NAN } else { k as f64 * 0.1 },
-            world_from_ego: Pose2 { x_m: k as f64, y_m: 0.0, yaw_rad: 0.01 * k as f64 },
-            objects: &objects,
-            cloud: match k {
-                2 => None,
-                3 => Some(PointCloud { points_in_sensor: &[], ego_from_sensor: extrinsic() }),
-                _ => Some(PointCloud { points_in_sensor: &points, ego_from_sensor: extrinsic() }),
-            },
-            roi_in_ego: &roi,
-            static_in_ego: &[],
-        })
-        .collect();
-    // Warm up once (nothing is lazily allocated, but be fair to first-use effects of the test harness).
-    let _ = monitor.check(&frames[0]).unwrap().objects.len();
-    let mut alarms = 0;
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
-    COUNTING.with(|c| c.set(true));
-    for f in &frames {
-        let report = monitor.check(f).unwrap();
-        alarms += report.object_alarms() + report.missed_objects();
-    }
-    COUNTING.with(|c| c.set(false));
-    // The same sweep handed over as columns (`check_columns`).
-    let [x, y, z]: [Vec<f32>; 3] = std::array::from_fn(|k| points.iter().map(|p| p[k]).collect());
-    let columns =
-        ColumnCloud { points_in_sensor: PointColumns::new(&x, &y, &z).unwrap(), ego_from_sensor: extrinsic() };
-    COUNTING.with(|c| c.set(true));
-    for (k, f) in frames.iter().enumerate() {
-        let f = Frame { cloud: None, timestamp_s: 1.0 + 0.1 * k as f64, ..*f };
-        let report = monitor.check_columns(&f, &columns).unwrap();
-        alarms += report.object_alarms() + report.missed_objects();
-    }
-    COUNTING.with(|c| c.set(false));
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
-    assert_eq!(after - before, 0, "check() allocated {} times", after - before);
-    assert!(alarms > 0, "the frames exercise the alarm paths");
-    // The counter works: an allocation on this thread while counting is seen.
-    COUNTING.with(|c| c.set(true));
-    let v: Vec<u8> = Vec::with_capacity(16);
-    COUNTING.with(|c| c.set(false));
-    drop(v);
-    assert_eq!(ALLOCATIONS.load(Ordering::SeqCst), after + 1);
 }

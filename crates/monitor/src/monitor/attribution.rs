@@ -591,7 +591,7 @@ impl Monitor {
             if !(own(c) || geometry.neighbours4(c).any(own)) {
                 return false;
             }
-            let Some(&[r2min, zlow, ztop]) = self.cell_returns.get(c as usize) else { return false };
+            let Some([r2min, zlow, ztop]) = self.grid.returns(c) else { return false };
             let rmin = libm::sqrtf(r2min);
             let clearance = rmin - r;
             if clearance.is_nan() || clearance <= margin {
