@@ -133,8 +133,8 @@ pub struct BenchOptions {
     /// Hand every sweep to the monitor as three columns (`x`, `y`, `z` slices, [`Monitor::check_columns`]; the
     /// same verdicts) instead of `[x, y, z]` records. The columns are made once per sweep before the timing.
     pub columns: bool,
-    /// Check with the params key `seen_over` on (the free-space test looks over nearer obstacles; a second pass
-    /// over each sweep: docs/attribution.md). Off: the default parameters.
+    /// Check with the params key `seen_over` on (the free-space test looks over nearer obstacles; the grid keeps
+    /// each hit cell's returns: docs/attribution.md). Off: the default parameters.
     pub seen_over: bool,
 }
 

@@ -98,7 +98,7 @@ enum Command {
         #[arg(long, alias = "soa")]
         columns: bool,
         /// Check with the params key `seen_over` on: the free-space test towards the sensor also looks over
-        /// nearer obstacles, at the cost of a second pass over each sweep (docs/attribution.md).
+        /// nearer obstacles, at the cost of each hit cell's returns kept by the grid (docs/attribution.md).
         #[arg(long)]
         seen_over: bool,
     },

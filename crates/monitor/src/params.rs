@@ -252,8 +252,9 @@ pub struct MonitorParams {
     /// Off by default. The free-space test towards the sensor also looks over nearer obstacles: a sample point of
     /// a confirmed box hidden behind something in front of it (a pedestrian behind a parked car) counts as seen
     /// empty when the rays that reached the object's own evidence behind the point crossed it at a body's height
-    /// (docs/attribution.md, "Seen over the occluder"). Costs a second pass over the sweep per frame (the heights
-    /// of each hit cell's returns): opt-in until that pass is folded into the rasterize stage.
+    /// (docs/attribution.md, "Seen over the occluder"). The grid then also keeps, per hit cell, the nearest range
+    /// and the lowest and highest z of its returns: 1.2-1.4x the sensor checks' time (docs/performance.md), which is
+    /// why it is not the default.
     pub seen_over: bool,
 
     // ---- plausibility checks (Table I) ----
