@@ -164,11 +164,8 @@ fn explain_false_alarm(
 fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
     let run_label = label(run);
     let spec = &run.spec;
-    // `SEEN_OVER=1`: the free-space test also looks over nearer obstacles (params key `seen_over`).
-    let params =
-        MonitorParams { seen_over: spec.params.seen_over || std::env::var_os("SEEN_OVER").is_some(), ..spec.params };
-    let mut monitor = Monitor::new(params).map_err(|e| e.to_string())?;
-    let mut clean_monitor = Monitor::new(params).map_err(|e| e.to_string())?;
+    let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
+    let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
     let mut injector = Injector::new(spec.injection);
     let mut out = BTreeMap::new();
     let tau = spec.params.tau_tp;
@@ -377,15 +374,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scenes = scenes(seed)?;
     let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: Some(2), pedestrians_paper: Some(3) };
     let planned = experiments::plan(Scale::Quick, ids, &MonitorParams::default(), seed);
-    let chosen: Vec<&PlannedRun> = planned.iter().filter(|r| wanted(r) && label(r).contains(&filter)).collect();
+    // `SEEN_OVER=1`: the same runs and injection seeds, with the params key `seen_over` on.
+    let seen_over = std::env::var_os("SEEN_OVER").is_some();
+    let chosen: Vec<PlannedRun> = planned
+        .iter()
+        .filter(|r| wanted(r) && label(r).contains(&filter))
+        .map(|r| {
+            let mut r = r.clone();
+            r.spec.params.seen_over |= seen_over;
+            r
+        })
+        .collect();
     let results: Vec<_> = chosen
         .par_iter()
         .map(|r| {
             let scene = scenes.get(r.spec.scene).ok_or("no scene")?;
-            // The same runs and injection seeds, with `seen_over` switched on by `SEEN_OVER=1`.
-            let mut spec = r.spec.clone();
-            spec.params.seen_over |= std::env::var_os("SEEN_OVER").is_some();
-            let res = run_one(scene, &spec)?;
+            let res = run_one(scene, &r.spec)?;
             let c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
             Ok::<_, String>((res, c))
         })

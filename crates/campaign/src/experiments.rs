@@ -171,19 +171,19 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
     let injection = InjectionConfig { seed: 0, ..spec.injection };
     let text = serde_json::to_string(&(role, &spec.params, &injection, spec.window))
         .unwrap_or_else(|e| format!("{role}: {e}"));
-    let defaults = MonitorParams::default();
-    let text = match serde_json::to_string(&defaults.spill_over_fit) {
-        Ok(default) if spec.params.spill_over_fit == defaults.spill_over_fit => {
-            text.replacen(&format!(",\"spill_over_fit\":{default}"), "", 1)
-        }
-        _ => text,
+    let (Ok(defaults), Ok(params)) =
+        (serde_json::to_value(MonitorParams::default()), serde_json::to_value(spec.params))
+    else {
+        return text;
     };
-    if spec.params.seen_over == defaults.seen_over {
-        text.replacen(&format!(",\"seen_over\":{}", defaults.seen_over), "", 1)
-    } else {
-        text
-    }
+    LATE_PARAMS_KEYS.iter().fold(text, |text, key| match defaults.get(key) {
+        Some(default) if params.get(key) == Some(default) => text.replacen(&format!(",\"{key}\":{default}"), "", 1),
+        _ => text,
+    })
 }
+
+/// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
+const LATE_PARAMS_KEYS: [&str; 2] = ["spill_over_fit", "seen_over"];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].
 #[must_use]

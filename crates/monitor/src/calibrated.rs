@@ -177,7 +177,13 @@ fn order_key(x: f32) -> i32 {
 
 /// Both states are clean: neither raised an alarm nor is in its warm-up.
 fn clean_pair(p: &Entry, e: &Entry) -> bool {
-    !p.suspect && !p.warmup && !e.suspect && !e.warmup
+    clean_unless_alarm(p, e) && !e.suspect
+}
+
+/// [`clean_pair`] for a new state `e` whose own alarm is not decided yet (taken to raise none): `p` raised no alarm,
+/// and neither is in its warm-up.
+fn clean_unless_alarm(p: &Entry, e: &Entry) -> bool {
+    !p.suspect && !p.warmup && !e.warmup
 }
 
 /// The one-frame position residual of `e` from `p` (the box's motion minus the trapezoid of the two reported
@@ -1063,8 +1069,7 @@ pub(crate) fn check_calibrated_sc(
     // (Computed once: the same step is kept in the history when the new state raises no alarm.)
     let mut own_position = None;
     let mut position_step = -1.0f32;
-    // (Both states clean, the new one taken to be alarm-free: `clean_pair` with `s1.suspect` false.)
-    if n > 0 && !s0.suspect && !s0.warmup && !s1.warmup {
+    if n > 0 && clean_unless_alarm(s0, s1) {
         let (r1, d1) = one_frame_residual(s0, s1);
         let q = 0.5 * d1;
         if q.is_finite() {

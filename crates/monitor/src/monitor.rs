@@ -183,6 +183,17 @@ pub struct Monitor {
     sensor_z: f32,
 }
 
+/// The occupancy grid the parameters ask for (touched cells bounded by `max_points`; each hit cell's returns kept
+/// with `seen_over`): the monitor's and the second half's of the rasterize stage on two threads.
+fn grid_for(params: &MonitorParams, geometry: GridGeometry) -> OccupancyGrid {
+    let grid = OccupancyGrid::new(geometry, params.hit_probability, params.max_points as usize);
+    if params.seen_over {
+        grid.with_returns()
+    } else {
+        grid
+    }
+}
+
 /// Checks an object's state: finite values, sizes in `(0, max]`, speed `>= 0`, valid uncertainties.
 #[must_use]
 pub fn object_is_valid(o: &ObjectState, p: &MonitorParams) -> bool {
@@ -235,11 +246,7 @@ impl Monitor {
         // The calibrated rule's gates now, not in the first frame (bounded time per frame).
         let _ = tracks.prepare_gates(params.false_alarm_probability);
         Ok(Self {
-            grid: if params.seen_over {
-                OccupancyGrid::new(geometry, params.hit_probability, max_points).with_returns()
-            } else {
-                OccupancyGrid::new(geometry, params.hit_probability, max_points)
-            },
+            grid: grid_for(&params, geometry),
             visibility: VisibilityMap::new(params.visibility_bins),
             scratch: Vec::with_capacity(max_objects),
             owner: alloc::vec![0; cells],
@@ -325,11 +332,7 @@ impl Monitor {
         if self.split.is_none() {
             let max_points = self.params.max_points as usize;
             self.split = Some(crate::split::SecondHalf {
-                grid: if self.params.seen_over {
-                    OccupancyGrid::new(self.grid.geometry, self.params.hit_probability, max_points).with_returns()
-                } else {
-                    OccupancyGrid::new(self.grid.geometry, self.params.hit_probability, max_points)
-                },
+                grid: grid_for(&self.params, self.grid.geometry),
                 visibility: VisibilityMap::new(self.params.visibility_bins),
                 cells: Vec::with_capacity(max_points),
             });

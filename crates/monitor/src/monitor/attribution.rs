@@ -516,21 +516,19 @@ impl Monitor {
                         && self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
                         && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
                 };
+                // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
+                let near_own = |c: u32| own(c) || self.grid.geometry.neighbours4(c).any(own);
                 let Some((clearance, cell)) = self.visibility.clearance(x, y) else {
-                    let behind_other = |c: u32| {
-                        c != crate::visibility::NO_CELL && !(own(c) || self.grid.geometry.neighbours4(c).any(own))
-                    };
+                    let behind_other = |c: u32| c != crate::visibility::NO_CELL && !near_own(c);
                     if self.params.seen_over
                         && matches!(self.visibility.sight(x, y), crate::visibility::Sight::Shadowed(c) if behind_other(c))
-                        && self.seen_over(x, y, margin, fp, &own)
+                        && self.seen_over(x, y, margin, fp, &near_own)
                     {
                         free += 1;
                     }
                     continue;
                 };
-                // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
-                let near_own = own(cell) || self.grid.geometry.neighbours4(cell).any(own);
-                if clearance > margin && near_own {
+                if clearance > margin && near_own(cell) {
                     free += 1;
                 }
             }
@@ -555,7 +553,7 @@ impl Monitor {
         y: f32,
         margin: f32,
         fp: &crate::geometry::OrientedRect,
-        own: &dyn Fn(u32) -> bool,
+        near_own: &dyn Fn(u32) -> bool,
     ) -> bool {
         let o = self.visibility.origin();
         let (dx, dy) = (x - o[0], y - o[1]);
@@ -576,7 +574,7 @@ impl Monitor {
         while t <= reach {
             let Some(c) = geometry.point_to_cell(x - ux * t, y - uy * t) else { break };
             t += step;
-            if c != c0 && self.grid.hits(c) > 0 && (own(c) || geometry.neighbours4(c).any(own)) {
+            if c != c0 && self.grid.hits(c) > 0 && near_own(c) {
                 return false;
             }
         }
@@ -587,8 +585,7 @@ impl Monitor {
             if c == c0 || self.grid.hits(c) == 0 {
                 continue;
             }
-            // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
-            if !(own(c) || geometry.neighbours4(c).any(own)) {
+            if !near_own(c) {
                 return false;
             }
             let Some([r2min, zlow, ztop]) = self.grid.returns(c) else { return false };
