@@ -257,7 +257,7 @@ pub const STEADY_RANGE_M: f64 = 36.0;
 impl Sequence {
     /// Steady traffic, object lists only (no cloud): `objects` road users (cars, trucks, pedestrians as in the
     /// synthetic scene) each drive on a circle of their own at a speed that varies smoothly about its mean
-    /// (`v(t) = v_mean + A sin(2 pi m t / T + phi)`, `|dv/dt| < 1 m/s^2`, lateral acceleration about 4 m/s^2 at
+    /// (`v(t) = v_mean + A sin(2 pi m t / T + phi)`, `|dv/dt| < 1 m/s^2`, radius 2.4-30 m, lateral acceleration 6 m/s^2 at
     /// most), seen from an ego that drives on a circle of [`STEADY_EGO_RADIUS_M`] (one lap per period). Every
     /// object's heading and speed change from frame to frame (the arguments of the monitor's `sincos` and `exp`
     /// never repeat), and so does the ego's pose. One period of [`STEADY_PERIOD_FRAMES`] frames (`T` = 30 s) holds
