@@ -256,11 +256,12 @@ pub const STEADY_RANGE_M: f64 = 36.0;
 
 impl Sequence {
     /// Steady traffic, object lists only (no cloud): `objects` road users (cars, trucks, pedestrians as in the
-    /// synthetic scene) each drive on a circle of their own at a speed that varies smoothly about its mean
-    /// (`v(t) = v_mean + A sin(2 pi m t / T + phi)`, `|dv/dt| < 1 m/s^2`, radius 2.4-30 m, lateral acceleration 6 m/s^2 at
-    /// most), seen from an ego that drives on a circle of [`STEADY_EGO_RADIUS_M`] (one lap per period). Every
-    /// object's heading and speed change from frame to frame (the arguments of the monitor's `sincos` and `exp`
-    /// never repeat), and so does the ego's pose. One period of [`STEADY_PERIOD_FRAMES`] frames (`T` = 30 s) holds
+    /// synthetic scene) each drive on a circle of their own (radius 2.4-30 m) at a speed that varies smoothly about
+    /// its mean (`v(t) = v_mean + A sin(2 pi m t / T + phi)`, `|dv/dt| < 1 m/s^2`, lateral acceleration at most
+    /// about 6 m/s^2), seen from an ego that drives on a circle of [`STEADY_EGO_RADIUS_M`] (one lap per period).
+    /// Every object's heading changes from frame to frame, and so do its speed (but for the odd frame at the top or
+    /// bottom of its cycle, where two speeds may round to one `f32`) and the ego's pose: the arguments of the
+    /// monitor's `sincos` and `exp` do not repeat as in the 6-frame cycle. One period of [`STEADY_PERIOD_FRAMES`] frames (`T` = 30 s) holds
     /// whole laps and whole speed cycles, so frame `T` is frame 0 again (up to rounding) and cycling the frames with
     /// increasing timestamps shows the monitor continuous motion with no jump, also at the wrap: an alarm-free
     /// case, unlike the 6-frame cycle of [`SyntheticSpec::objects_only`], whose objects jump back every 6th frame.
