@@ -102,6 +102,8 @@ pub struct SequenceFrame {
     pub objects: Vec<ObjectState>,
     /// Index into [`Sequence::sweeps`], `None` for a frame without a cloud.
     pub sweep: Option<usize>,
+    /// The ego pose (`Pose2::default()`, the identity, except in [`Sequence::steady_traffic`], whose ego drives).
+    pub world_from_ego: Pose2,
 }
 
 /// Frames the benchmarks cycle through, with their sweeps stored once.
@@ -132,7 +134,7 @@ impl Sequence {
             .map(|s| PointCloud { points_in_sensor: &s.points_in_sensor, ego_from_sensor: s.ego_from_sensor });
         Some(Frame {
             timestamp_s,
-            world_from_ego: Pose2::default(),
+            world_from_ego: f.world_from_ego,
             objects: &f.objects,
             cloud,
             roi_in_ego: &[],
@@ -210,7 +212,7 @@ impl Sequence {
             } else {
                 None
             };
-            frames.push(SequenceFrame { objects: world.object_list(t), sweep });
+            frames.push(SequenceFrame { objects: world.object_list(t), sweep, world_from_ego: Pose2::default() });
         }
         let name = if spec.points() > 0 {
             format!("synthetic {}-beam, {} objects", spec.beams, spec.objects)
@@ -236,9 +238,161 @@ impl Sequence {
             .map(|k| SequenceFrame {
                 objects: world.object_list((f64::from(k) * FRAME_PERIOD_S) as f32),
                 sweep: Some(k as usize % sweeps.len()),
+                world_from_ego: Pose2::default(),
             })
             .collect();
         Some(Self { name: name.to_string(), sweeps, frames })
+    }
+}
+
+/// Frames of one period of [`Sequence::steady_traffic`] (30 s at [`FRAME_PERIOD_S`]): every object and the ego
+/// are back where they started after it, so the sequence cycles without a jump.
+pub const STEADY_PERIOD_FRAMES: u32 = 300;
+/// Radius of the ego's circle in [`Sequence::steady_traffic`], metres.
+pub const STEADY_EGO_RADIUS_M: f64 = 5.0;
+/// Objects of [`Sequence::steady_traffic`] stay within this distance of the world origin (the centre of the ego's
+/// circle), metres: their centres stay within 41 m of the ego, inside the paper's 100 m grid.
+pub const STEADY_RANGE_M: f64 = 36.0;
+
+impl Sequence {
+    /// Steady traffic, object lists only (no cloud): `objects` road users (cars, trucks, pedestrians as in the
+    /// synthetic scene) each drive on a circle of their own (radius 2.4-30 m) at a speed that varies smoothly about
+    /// its mean (`v(t) = v_mean + A sin(2 pi m t / T + phi)`, `|dv/dt| < 1 m/s^2`, lateral acceleration at most
+    /// about 6 m/s^2), seen from an ego that drives on a circle of [`STEADY_EGO_RADIUS_M`] (one lap per period).
+    /// Every object's heading changes from frame to frame, and so do its speed (but for the odd frame at the top or
+    /// bottom of its cycle, where two speeds may round to one `f32`) and the ego's pose: the arguments of the
+    /// monitor's `sincos` and `exp` do not repeat as in the 6-frame cycle. One period of [`STEADY_PERIOD_FRAMES`] frames (`T` = 30 s) holds
+    /// whole laps and whole speed cycles, so frame `T` is frame 0 again (up to rounding) and cycling the frames with
+    /// increasing timestamps shows the monitor continuous motion with no jump, also at the wrap: an alarm-free
+    /// case, unlike the 6-frame cycle of [`SyntheticSpec::objects_only`], whose objects jump back every 6th frame.
+    #[must_use]
+    pub fn steady_traffic(objects: u32, seed: u64) -> Self {
+        use core::f64::consts::{FRAC_PI_2, PI, TAU as TAU64};
+        let period_s = f64::from(STEADY_PERIOD_FRAMES) * FRAME_PERIOD_S;
+        let mut rng = SplitMix64(seed);
+        struct Mover {
+            id: u64,
+            class: ObjectClass,
+            length_m: f32,
+            width_m: f32,
+            centre: (f64, f64),
+            radius_m: f64,
+            /// +1 counter-clockwise, -1 clockwise.
+            dir: f64,
+            theta0: f64,
+            v_mean: f64,
+            amp: f64,
+            cycles: f64,
+            phase: f64,
+        }
+        impl Mover {
+            /// Position and heading in the world, and speed, at `t`.
+            fn at(&self, t: f64, period_s: f64) -> (f64, f64, f64, f64) {
+                let w = TAU64 * self.cycles / period_s;
+                let v = self.v_mean + self.amp * (w * t + self.phase).sin();
+                let s = self.v_mean * t - self.amp / w * ((w * t + self.phase).cos() - self.phase.cos());
+                let theta = self.theta0 + self.dir * s / self.radius_m;
+                let (st, ct) = theta.sin_cos();
+                (
+                    self.centre.0 + self.radius_m * ct,
+                    self.centre.1 + self.radius_m * st,
+                    theta + self.dir * FRAC_PI_2,
+                    v,
+                )
+            }
+        }
+        let movers: Vec<Mover> = (0..objects)
+            .map(|i| {
+                let r = |rng: &mut SplitMix64, lo: f32, hi: f32| f64::from(rng.range(lo, hi));
+                let (class, length_m, width_m, v_mean, r_target) = match i % 10 {
+                    6 => (ObjectClass::Truck, rng.range(6.0, 9.0), rng.range(2.3, 2.6), r(&mut rng, 2.0, 8.0), 20.0),
+                    7..=9 => {
+                        (ObjectClass::Pedestrian, rng.range(0.5, 0.8), rng.range(0.5, 0.8), r(&mut rng, 0.5, 1.5), 6.0)
+                    }
+                    _ => (ObjectClass::Car, rng.range(4.2, 4.8), rng.range(1.8, 2.0), r(&mut rng, 3.0, 10.0), 25.0),
+                };
+                // Whole laps per period: the radius nearest `r_target` (at most 30 m) with `2 pi radius laps =
+                // v_mean T`.
+                let per_lap = v_mean * period_s / TAU64;
+                let laps = (per_lap / r_target).round().max((per_lap / 30.0).ceil()).max(1.0);
+                let radius_m = per_lap / laps;
+                // The centre: the whole circle within STEADY_RANGE_M of the origin.
+                let room = (STEADY_RANGE_M - radius_m).max(0.0);
+                let (sa, ca) = r(&mut rng, -PI as f32, PI as f32).sin_cos();
+                let d = room * r(&mut rng, 0.0, 1.0).sqrt();
+                let amp = (0.3 * v_mean).min(1.5);
+                let cycles = f64::from(1 + (i % 3));
+                let dir = if rng.next_u64() & 1 == 0 { 1.0 } else { -1.0 };
+                Mover {
+                    id: u64::from(i) + 1,
+                    class,
+                    length_m,
+                    width_m,
+                    centre: (d * ca, d * sa),
+                    radius_m,
+                    dir,
+                    theta0: r(&mut rng, -PI as f32, PI as f32),
+                    v_mean,
+                    amp,
+                    cycles,
+                    phase: r(&mut rng, -PI as f32, PI as f32),
+                }
+            })
+            .collect();
+        let ego = Mover {
+            id: 0,
+            class: ObjectClass::Car,
+            length_m: 0.0,
+            width_m: 0.0,
+            centre: (0.0, 0.0),
+            radius_m: STEADY_EGO_RADIUS_M,
+            dir: 1.0,
+            theta0: 0.0,
+            v_mean: TAU64 * STEADY_EGO_RADIUS_M / period_s,
+            amp: 0.0,
+            cycles: 1.0,
+            phase: 0.0,
+        };
+        let frames = (0..STEADY_PERIOD_FRAMES)
+            .map(|k| {
+                let t = f64::from(k) * FRAME_PERIOD_S;
+                let (ex, ey, eyaw, _) = ego.at(t, period_s);
+                let (s, c) = eyaw.sin_cos();
+                let objects = movers
+                    .iter()
+                    .map(|m| {
+                        let (x, y, h, v) = m.at(t, period_s);
+                        let (dx, dy) = (x - ex, y - ey);
+                        // World -> ego: the inverse rotation; the heading relative to the ego's, in (-pi, pi].
+                        let rel = (h - eyaw).rem_euclid(TAU64);
+                        ObjectState {
+                            id: m.id,
+                            class: m.class,
+                            x_m: (c * dx + s * dy) as f32,
+                            y_m: (-s * dx + c * dy) as f32,
+                            heading_rad: (if rel > PI { rel - TAU64 } else { rel }) as f32,
+                            speed_mps: v as f32,
+                            length_m: m.length_m,
+                            width_m: m.width_m,
+                            uncertainty: None,
+                        }
+                    })
+                    .collect();
+                SequenceFrame {
+                    objects,
+                    sweep: None,
+                    world_from_ego: Pose2 { x_m: ex, y_m: ey, yaw_rad: (eyaw + PI).rem_euclid(TAU64) - PI },
+                }
+            })
+            .collect();
+        Self {
+            name: format!(
+                "steady traffic, object list only, {objects} objects on circles, moving ego, {STEADY_PERIOD_FRAMES} \
+                 frames cycled without a jump"
+            ),
+            sweeps: Vec::new(),
+            frames,
+        }
     }
 }
 

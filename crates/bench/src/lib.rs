@@ -12,7 +12,10 @@
 //!
 //! Each case reuses one [`Monitor`] across its iterations, cycling through the case's frames with timestamps
 //! `i * 0.1 s`; after each cycle the objects jump back to their first positions, which the plausibility checks
-//! flag for that frame (same arithmetic, so the same cost).
+//! flag for that frame: in the 6-frame object-list cases `objects-N/no-cloud` on about 16 % (paper rule) and 46 %
+//! (calibrated rule) of the states, the alarm-heavy worst case. The steady-traffic case [`STEADY_CASE`]
+//! ([`Sequence::steady_traffic`]) cycles without a jump (0 alarms); the 5 us goal of the plausibility checks is
+//! judged on it, with the worst case printed beside it.
 
 pub mod av2;
 pub mod frames;
@@ -24,7 +27,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use pmon_monitor::{
-    ColumnCloud, FrameError, Join, Monitor, MonitorParams, ParamError, PointColumns, Rasterizer, Stage,
+    ColumnCloud, FrameError, Join, Monitor, MonitorParams, MotionVerdict, ParamError, PointColumns, Rasterizer, Stage,
 };
 use serde::{Deserialize, Serialize};
 
@@ -274,6 +277,14 @@ pub struct CaseReport {
     pub sensor_checks: Timing,
     /// The plausibility checks (the plausibility stage).
     pub plausibility: Timing,
+    /// Object states the plausibility checks judged (verdict plausible or implausible) over the timed iterations.
+    #[serde(default)]
+    pub motion_states: u64,
+    /// Of these, the states called implausible (alarms): about 15 % (paper rule) and 45 % (calibrated rule) in the
+    /// `objects-N/no-cloud` cases, whose 6 frames jump back at every wrap; 0 in the steady traffic of
+    /// `objects-30/steady`.
+    #[serde(default)]
+    pub motion_alarms: u64,
     /// The whole `check`.
     pub total: Timing,
     /// The floor: reading every point once ([`frames::coordinate_sum`]); `None` without a cloud.
@@ -364,6 +375,12 @@ pub struct BenchReport {
     pub notes: Vec<String>,
 }
 
+/// The steady-traffic case of the plausibility checks (30 objects, [`Sequence::steady_traffic`]); with
+/// `/calibrated` appended, the calibrated rule on the same frames.
+pub const STEADY_CASE: &str = "objects-30/steady";
+/// Seed of the steady-traffic case's scene.
+pub const STEADY_SEED: u64 = 7;
+
 struct CaseDef<'a> {
     name: String,
     sequence: &'a Sequence,
@@ -371,6 +388,9 @@ struct CaseDef<'a> {
     grid_size_m: f32,
     /// The paper's plausibility rule, or the calibrated one (docs/plausibility.md).
     calibrated: bool,
+    /// Copy each frame's object list into a buffer of the bench before the timed check (as a tracker would have
+    /// just written it): the long steady sequences would otherwise be read from wherever they sit in the caches.
+    copy_objects: bool,
 }
 
 fn params(cell_size_m: f32, grid_size_m: f32) -> MonitorParams {
@@ -416,6 +436,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
     let syn32 = Sequence::synthetic(&SyntheticSpec::BEAMS_32);
     let lists: Vec<Sequence> =
         [30, 100, 300, 1000].iter().map(|&n| Sequence::synthetic(&SyntheticSpec::objects_only(n))).collect();
+    let steady = Sequence::steady_traffic(30, STEADY_SEED);
     let worst = opts.worst_case.then(|| Sequence::synthetic(&SyntheticSpec::WORST_CASE));
     if !opts.real_data {
         notes.push("real sweeps not measured (disabled)".to_string());
@@ -428,6 +449,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
             cell_size_m: 0.5,
             grid_size_m: 100.0,
             calibrated: false,
+            copy_objects: false,
         },
         CaseDef {
             name: "synthetic-64/0.2m".into(),
@@ -435,6 +457,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
             cell_size_m: 0.2,
             grid_size_m: 100.0,
             calibrated: false,
+            copy_objects: false,
         },
         CaseDef {
             name: "synthetic-64/0.1m".into(),
@@ -442,6 +465,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
             cell_size_m: 0.1,
             grid_size_m: 100.0,
             calibrated: false,
+            copy_objects: false,
         },
         CaseDef {
             name: "synthetic-64/0.2m/200m".into(),
@@ -449,6 +473,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
             cell_size_m: 0.2,
             grid_size_m: 200.0,
             calibrated: false,
+            copy_objects: false,
         },
         CaseDef {
             name: "synthetic-32/0.5m".into(),
@@ -456,16 +481,43 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
             cell_size_m: 0.5,
             grid_size_m: 100.0,
             calibrated: false,
+            copy_objects: false,
         },
     ];
     for seq in &lists {
         let name = format!("objects-{}/no-cloud", seq.max_objects());
-        defs.push(CaseDef { name, sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0, calibrated: false });
+        defs.push(CaseDef {
+            name,
+            sequence: seq,
+            cell_size_m: 0.5,
+            grid_size_m: 100.0,
+            calibrated: false,
+            copy_objects: false,
+        });
     }
     // The calibrated plausibility rule on the same 30-object lists, in the same run as the paper's rule.
     if let Some(seq) = lists.first() {
         let name = format!("objects-{}/no-cloud/calibrated", seq.max_objects());
-        defs.push(CaseDef { name, sequence: seq, cell_size_m: 0.5, grid_size_m: 100.0, calibrated: true });
+        defs.push(CaseDef {
+            name,
+            sequence: seq,
+            cell_size_m: 0.5,
+            grid_size_m: 100.0,
+            calibrated: true,
+            copy_objects: false,
+        });
+    }
+    // Steady traffic (no jump: the realistic case the 5 us goal is judged on), both rules.
+    for calibrated in [false, true] {
+        let name = format!("{STEADY_CASE}{}", if calibrated { "/calibrated" } else { "" });
+        defs.push(CaseDef {
+            name,
+            sequence: &steady,
+            cell_size_m: 0.5,
+            grid_size_m: 100.0,
+            calibrated,
+            copy_objects: true,
+        });
     }
     for (name, seq) in [("kitti/0.5m", &real.kitti), ("nuscenes/0.5m", &real.nuscenes), ("av2/0.5m", &real.av2)] {
         if let Some(seq) = seq {
@@ -475,6 +527,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
                 cell_size_m: 0.5,
                 grid_size_m: 100.0,
                 calibrated: false,
+                copy_objects: false,
             });
         }
     }
@@ -485,12 +538,22 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
             cell_size_m: 0.5,
             grid_size_m: 100.0,
             calibrated: false,
+            copy_objects: false,
         });
     }
 
     if !opts.only.is_empty() {
         defs.retain(|d| opts.only.iter().any(|o| d.name.contains(o.as_str())));
         notes.push(format!("only the cases matching {:?}", opts.only));
+    }
+    if defs.iter().any(|d| d.name.starts_with("objects-")) {
+        notes.push(format!(
+            "object lists: {STEADY_CASE} is steady traffic (30 objects moving continuously, {} frames cycled without a \
+             jump: no alarm expected) and carries the 5 us goal of the plausibility checks; objects-N/no-cloud cycle 6 \
+             frames whose objects jump back every 6th frame (the alarm-heavy worst case, printed beside the goal; the \
+             goal was judged on it before round plat3); column alarms o/oo: implausible states per mille of those judged",
+            frames::STEADY_PERIOD_FRAMES
+        ));
     }
     let mut cases = Vec::with_capacity(defs.len());
     for def in &defs {
@@ -637,9 +700,18 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let mut total_us = Vec::with_capacity(opts.iterations);
     let (mut points, mut in_band, mut cells_hit, mut clusters) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let started = Instant::now();
+    let (mut motion_states, mut motion_alarms) = (0u64, 0u64);
+    let mut objects_copy: Vec<pmon_monitor::ObjectState> = Vec::with_capacity(seq.max_objects());
     for i in n..n + opts.iterations {
         let mut roi = Vec::new();
         let Some(frame) = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi) else { break };
+        let frame = if def.copy_objects {
+            objects_copy.clear();
+            objects_copy.extend_from_slice(frame.objects);
+            pmon_monitor::Frame { objects: &objects_copy, ..frame }
+        } else {
+            frame
+        };
         let timed = match column_cloud(i) {
             Some(cloud) => timed_check_columns(&mut monitor, &frame, &cloud, join),
             None => timed_check_with(&mut monitor, &frame, join),
@@ -649,6 +721,15 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         in_band.push(report.grid.points_in_band);
         cells_hit.push(report.grid.cells_hit);
         clusters.push(report.grid.clusters_total);
+        for o in report.objects {
+            match o.motion.verdict {
+                MotionVerdict::Plausible => motion_states += 1,
+                MotionVerdict::Implausible(_) => {
+                    (motion_states, motion_alarms) = (motion_states + 1, motion_alarms + 1)
+                }
+                MotionVerdict::NotMonitored(_) => {}
+            }
+        }
         stage_us.push(row);
         total_us.push(row.iter().sum());
         if i >= n + 10 && started.elapsed().as_secs_f64() > opts.max_seconds_per_case {
@@ -705,12 +786,20 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         stages,
         sensor_checks,
         plausibility: Timing::of(&column(plausibility_k)),
+        motion_states,
+        motion_alarms,
         total: Timing::of(&total_us),
         floor,
         sensor_over_floor,
         native_floor,
         sensor_over_native_floor,
     })
+}
+
+/// Alarms of the plausibility checks per mille of the states they judged (`None` without a judged state).
+#[must_use]
+pub fn alarm_rate(c: &CaseReport) -> Option<f64> {
+    (c.motion_states > 0).then(|| 1e3 * c.motion_alarms as f64 / c.motion_states as f64)
 }
 
 fn find<'a>(cases: &'a [CaseReport], name: &str) -> Option<&'a CaseReport> {
@@ -766,21 +855,37 @@ fn goals(cases: &[CaseReport]) -> Vec<GoalResult> {
     sensor_goal("sensor checks, 64-beam, 100 objects, 0.5 m cells <= 500 us", "synthetic-64/0.5m", 500.0);
     sensor_goal("sensor checks, 64-beam, 100 objects, 0.2 m cells <= 1000 us", "synthetic-64/0.2m", 1000.0);
     sensor_goal("sensor checks, 32-beam, 30 objects, 0.5 m cells <= 200 us", "synthetic-32/0.5m", 200.0);
-    if let Some(c) = find(cases, "objects-30/no-cloud") {
-        let m = c.plausibility.median_us;
-        out.push(GoalResult {
-            goal: "plausibility checks, 30 objects <= 5 us".to_string(),
-            measured: format!("objects-30/no-cloud: median {m:.2} us"),
-            met: m <= 5.0,
-        });
-    }
-    if let Some(c) = find(cases, "objects-30/no-cloud/calibrated") {
-        let m = c.plausibility.median_us;
-        out.push(GoalResult {
-            goal: "plausibility checks, calibrated rule, 30 objects <= 5 us".to_string(),
-            measured: format!("objects-30/no-cloud/calibrated: median {m:.2} us"),
-            met: m <= 5.0,
-        });
+    // The 5 us goal is judged on steady traffic (no jump, no alarm); the alarm-heavy 6-frame cycle, whose objects
+    // jump back every 6th frame, is printed beside it as the worst case.
+    for (rule, suffix) in [("", ""), ("calibrated rule, ", "/calibrated")] {
+        let steady_name = format!("{STEADY_CASE}{suffix}");
+        let worst_name = format!("objects-30/no-cloud{suffix}");
+        let describe = |c: &CaseReport| {
+            format!(
+                "{}: median {:.2} us ({} alarms)",
+                c.name,
+                c.plausibility.median_us,
+                alarm_rate(c).map_or_else(|| "no states judged".to_string(), |r| format!("{r:.1} per mille"))
+            )
+        };
+        let goal = format!("plausibility checks, {rule}30 objects <= 5 us (steady traffic, {steady_name})");
+        match (find(cases, &steady_name), find(cases, &worst_name)) {
+            (Some(st), worst) => {
+                let m = st.plausibility.median_us;
+                let beside = worst
+                    .map_or_else(String::new, |w| format!("; worst case (jumps back every 6th frame) {}", describe(w)));
+                out.push(GoalResult { goal, measured: format!("{}{beside}", describe(st)), met: m <= 5.0 });
+            }
+            (None, Some(w)) => out.push(GoalResult {
+                goal,
+                measured: format!(
+                    "{steady_name} not measured in this run; only the worst case (jumps back every 6th frame) {}",
+                    describe(w)
+                ),
+                met: w.plausibility.median_us <= 5.0,
+            }),
+            (None, None) => {}
+        }
     }
     if let (Some(a), Some(b)) = (find(cases, "objects-30/no-cloud"), find(cases, "objects-1000/no-cloud")) {
         let (pa, pb) = (a.plausibility.median_us / 30.0, b.plausibility.median_us / 1000.0);
@@ -860,13 +965,23 @@ impl BenchReport {
         let _ = writeln!(s, "Frames");
         let _ = writeln!(
             s,
-            "{:<w$} {:>7} {:>7} {:>7} {:>5} {:>5} {:>9} {:>9} {:>8} {:>7}",
-            "case", "frames", "points", "in band", "objs", "cell", "grid", "cells", "cell hit", "clusters"
+            "{:<w$} {:>7} {:>7} {:>7} {:>5} {:>5} {:>9} {:>9} {:>8} {:>7} {:>11}",
+            "case",
+            "frames",
+            "points",
+            "in band",
+            "objs",
+            "cell",
+            "grid",
+            "cells",
+            "cell hit",
+            "clusters",
+            "alarms o/oo"
         );
         for c in &self.cases {
             let _ = writeln!(
                 s,
-                "{:<w$} {:>7} {:>7} {:>7} {:>5} {:>4}m {:>8}m {:>9} {:>8} {:>7}",
+                "{:<w$} {:>7} {:>7} {:>7} {:>5} {:>4}m {:>8}m {:>9} {:>8} {:>7} {:>11}",
                 c.name,
                 c.frames,
                 c.points,
@@ -876,7 +991,8 @@ impl BenchReport {
                 c.grid_size_m,
                 c.grid_cells,
                 c.cells_hit,
-                c.clusters
+                c.clusters,
+                alarm_rate(c).map_or_else(|| "-".to_string(), |r| format!("{r:.1}"))
             );
         }
 

@@ -36,6 +36,8 @@ fn report_has_every_case_stage_and_goal_and_round_trips_through_json() {
             "objects-300/no-cloud",
             "objects-1000/no-cloud",
             "objects-30/no-cloud/calibrated",
+            "objects-30/steady",
+            "objects-30/steady/calibrated",
         ]
     );
     for c in &report.cases {
@@ -123,7 +125,42 @@ fn only_selects_cases_by_name() {
     let report =
         run_bench(&BenchOptions { only: vec!["synthetic-32".into(), "objects-30/".into()], ..quick() }).unwrap();
     let names: Vec<&str> = report.cases.iter().map(|c| c.name.as_str()).collect();
-    assert_eq!(names, ["synthetic-32/0.5m", "objects-30/no-cloud", "objects-30/no-cloud/calibrated"]);
+    assert_eq!(
+        names,
+        [
+            "synthetic-32/0.5m",
+            "objects-30/no-cloud",
+            "objects-30/no-cloud/calibrated",
+            "objects-30/steady",
+            "objects-30/steady/calibrated"
+        ]
+    );
+}
+
+/// The steady-traffic cases raise no alarm (their frames cycle without a jump); the 6-frame cycle of
+/// `objects-30/no-cloud` jumps back at every wrap and alarms. The 5 us goal is judged on the steady case, with the
+/// worst case beside it.
+#[test]
+fn steady_traffic_raises_no_alarm_and_carries_the_goal() {
+    // 700 timed checks after the warm-up of one period (300 frames): the wrap at frame 300 and at 600 included.
+    let report = run_bench(&BenchOptions { iterations: 700, only: vec!["objects-30/".into()], ..quick() }).unwrap();
+    let case = |name: &str| report.cases.iter().find(|c| c.name == name).unwrap();
+    for name in ["objects-30/steady", "objects-30/steady/calibrated"] {
+        let c = case(name);
+        assert_eq!(c.samples, 700, "{name}");
+        assert_eq!(c.frames, pmon_bench::frames::STEADY_PERIOD_FRAMES as usize);
+        assert_eq!(c.motion_states, 700 * 30, "{name}: every state judged");
+        assert_eq!(c.motion_alarms, 0, "{name}");
+    }
+    for name in ["objects-30/no-cloud", "objects-30/no-cloud/calibrated"] {
+        let c = case(name);
+        assert!(c.motion_alarms * 20 > c.motion_states, "{name}: {} of {}", c.motion_alarms, c.motion_states);
+    }
+    for rule in ["", "calibrated rule, "] {
+        let goal = format!("plausibility checks, {rule}30 objects <= 5 us (steady traffic, objects-30/steady");
+        let g = report.goals.iter().find(|g| g.goal.starts_with(&goal)).unwrap();
+        assert!(g.measured.starts_with("objects-30/steady") && g.measured.contains("worst case"), "{g:?}");
+    }
 }
 
 /// A case's medians of the frame statistics: points, points in the band, hit cells and clusters.

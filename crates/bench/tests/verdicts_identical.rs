@@ -99,7 +99,7 @@ fn alternating_sequence() -> Sequence {
         .map(|(k, (fa, fb))| {
             // Objects always from the 64-beam scene (tracks continue), the sweep alternates.
             let sweep = if k % 2 == 0 { fa.sweep } else { fb.sweep.map(|s| s + offset) };
-            SequenceFrame { objects: fa.objects.clone(), sweep }
+            SequenceFrame { objects: fa.objects.clone(), sweep, world_from_ego: fa.world_from_ego }
         })
         .collect();
     Sequence { name: "alternating 64/32-beam".to_string(), sweeps, frames }

@@ -139,9 +139,11 @@ pub struct History {
     /// squares of 11.)
     speed_ring: [f32; SPEED_STEPS],
     /// The same `speed_len` steps in ascending order ([`f32::total_cmp`]; the steps are finite or `+inf`, never
-    /// NaN), kept beside the ring by each push (one removal and one insertion, at most [`SPEED_STEPS`] moves each),
-    /// so that [`History::robust_speed_scale`] reads its order statistic instead of selecting it.
-    speed_sorted: [f32; SPEED_STEPS],
+    /// NaN), kept beside the ring by each push (one removal and one insertion), so that
+    /// [`History::robust_speed_scale`] reads its order statistic instead of selecting it. Kept as their
+    /// [`order_key`]s (a bijection of the bits whose integer order is `total_cmp`'s order, its own inverse), so
+    /// that the searches compare integers.
+    speed_sorted: [i32; SPEED_STEPS],
     speed_start: u8,
     speed_len: u8,
     start: u8,
@@ -173,6 +175,12 @@ const fn ring_index(j: usize, cap: usize) -> usize {
 fn order_key(x: f32) -> i32 {
     let b = x.to_bits() as i32;
     b ^ (((b >> 31) as u32) >> 1) as i32
+}
+
+/// The bits of the `f32` whose [`order_key`] is `k` (the map keeps the sign bit and flips the other bits of a
+/// negative number, so it is its own inverse).
+fn order_key_inverse(k: i32) -> u32 {
+    (k ^ (((k >> 31) as u32) >> 1) as i32) as u32
 }
 
 /// Both states are clean: neither raised an alarm nor is in its warm-up.
@@ -282,7 +290,7 @@ impl History {
         steps: [(0.0, 0.0); HISTORY],
         pos_steps: [0.0; HISTORY],
         speed_ring: [0.0; SPEED_STEPS],
-        speed_sorted: [0.0; SPEED_STEPS],
+        speed_sorted: [0; SPEED_STEPS],
         speed_start: 0,
         speed_len: 0,
         start: 0,
@@ -395,53 +403,62 @@ impl History {
     }
 
     /// Appends a speed step to the ring (dropping the oldest when full) and keeps `speed_sorted` in order: one copy
-    /// of the oldest step's value leaves it (equal under `total_cmp` means equal bits, so which copy does not
-    /// matter), which opens a hole at its place (at the end while the ring is not full); the hole moves towards the
-    /// new step's place, each step over moving one neighbour, and takes the new step.
+    /// of the oldest step's key leaves it (equal keys are equal bits, so which copy does not matter) at its first
+    /// place `i` (at the end, `i = len`, while the ring is not full), the new key goes to the place `j` of the first
+    /// key not below it, and the keys between the two places move by one towards `i` (one `copy_within`).
     fn push_speed_step(&mut self, any: f32) {
         let len = usize::from(self.speed_len).min(SPEED_STEPS);
         let at = ring_index(usize::from(self.speed_start) + len, SPEED_STEPS);
+        let key = order_key(any);
         let sorted = &mut self.speed_sorted;
-        let mut hole = len;
-        let mut filled = len + 1;
-        if len == SPEED_STEPS {
-            filled = len;
-            let old = self.speed_ring.get(at).map_or(0, |&x| order_key(x));
-            // The first sorted step not below the oldest one: a copy of it.
-            hole = sorted.partition_point(|&x| order_key(x) < old).min(len - 1);
-        }
+        let old = self.speed_ring.get(at).map_or(0, |&x| order_key(x));
         if let Some(slot) = self.speed_ring.get_mut(at) {
             *slot = any;
         }
-        let key = order_key(any);
-        // Down while the step before the hole is above the new one, else up while the step after it is below.
-        while let Some(&p) = hole.checked_sub(1).and_then(|j| sorted.get(j)) {
-            if order_key(p) <= key {
-                break;
-            }
-            if let Some(slot) = sorted.get_mut(hole) {
-                *slot = p;
-            }
-            hole -= 1;
+        if len == SPEED_STEPS && old == key {
+            // The step that leaves has the new one's bits: the order stays as it is.
+            self.speed_start = ring_index(usize::from(self.speed_start) + 1, SPEED_STEPS) as u8;
+            return;
         }
-        while hole + 1 < filled {
-            let Some(&n) = sorted.get(hole + 1) else { break };
-            if order_key(n) >= key {
-                break;
+        let (i, filled) = if len == SPEED_STEPS {
+            // The first sorted key not below the oldest one: a copy of it.
+            (sorted.partition_point(|&k| k < old).min(len - 1), len)
+        } else {
+            (len, len + 1)
+        };
+        // The new key's place among the others (the key at `i` left out): before the first key not below it.
+        let j = sorted.get(..len).map_or(0, |keys| keys.partition_point(|&k| k < key));
+        let j = if j > i {
+            // After the leaving key: the keys in (i, j) move down by one, and the new key goes just before the
+            // first key not below it.
+            if let Some(keys) = sorted.get_mut(..filled) {
+                if i < j && j <= keys.len() {
+                    keys.copy_within(i + 1..j, i);
+                }
             }
-            if let Some(slot) = sorted.get_mut(hole) {
-                *slot = n;
+            j - 1
+        } else {
+            // At or before it: the keys in [j, i) move up by one.
+            if let Some(keys) = sorted.get_mut(..filled) {
+                if j <= i && i < keys.len() {
+                    keys.copy_within(j..i, j + 1);
+                }
             }
-            hole += 1;
-        }
-        if let Some(slot) = sorted.get_mut(hole) {
-            *slot = any;
+            j
+        };
+        if let Some(slot) = sorted.get_mut(j) {
+            *slot = key;
         }
         if len < SPEED_STEPS {
             self.speed_len += 1;
         } else {
             self.speed_start = ring_index(usize::from(self.speed_start) + 1, SPEED_STEPS) as u8;
         }
+    }
+
+    /// The `k`-th smallest kept speed step (0-based), as kept in `speed_sorted`.
+    fn sorted_speed_step(&self, k: usize) -> Option<f32> {
+        self.speed_sorted.get(k).map(|&key| f32::from_bits(order_key_inverse(key)))
     }
 
     /// The robust own scatter of the speed: of the `m` kept speed steps (the last [`SPEED_STEPS`] steps between
@@ -457,7 +474,7 @@ impl History {
         }
         // (Read off the steps kept in order: the same value as selecting it in the ring, see
         // `sorted_steps_give_the_ring_s_order_statistic`.)
-        let Some(&q) = self.speed_sorted.get(robust_rank(m as u8).saturating_sub(1)) else { return (0.0, 0) };
+        let Some(q) = self.sorted_speed_step(robust_rank(m as u8).saturating_sub(1)) else { return (0.0, 0) };
         (libm::sqrt(f64::from(q)), m as u8)
     }
 
@@ -1790,8 +1807,8 @@ mod tests {
 
     fn check_sorted_against_ring(h: &History) -> Result<(), proptest::test_runner::TestCaseError> {
         let (selected, m) = selected_from_ring(h);
-        for (k, (got, want)) in h.speed_sorted.iter().zip(selected.iter()).enumerate().take(m) {
-            proptest::prop_assert_eq!(got.to_bits(), *want, "rank {} of {}", k, m);
+        for (k, want) in selected.iter().enumerate().take(m) {
+            proptest::prop_assert_eq!(h.sorted_speed_step(k).map(f32::to_bits), Some(*want), "rank {} of {}", k, m);
         }
         if m >= usize::from(OWN_SCATTER_MIN_INCREMENTS) {
             let (q, mm) = h.robust_speed_scale();
