@@ -33,7 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ground = pmon_datasets::ground::GroundMode::parse(&std::env::var("GROUND").unwrap_or_else(|_| "auto".into()))?;
     let ds = open_with(spec, &ReadOptions { load_clouds: true, roi, ground })?;
     let params =
-        MonitorParams { ground_z_m: ds.info.ground_z_m, ego_footprint_m: ds.info.format.ego_footprint_m(), ..base };
+        MonitorParams { ground_z_m: ds.info.ground_z_m, ego_footprint_m: ds.info.format.ego_footprint_m(), face_in_front: std::env::var_os("FACE").is_some(), ..base };
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();
     let mut monitor = Monitor::new(params)?;
     let mut clean_monitor = Monitor::new(params)?;
