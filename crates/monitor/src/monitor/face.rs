@@ -42,14 +42,16 @@ fn entry_range(fp: &crate::geometry::OrientedRect, origin: [f32; 2], ux: f32, uy
 impl Monitor {
     /// For a box confirmed by its own evidence (no cluster, not seen through): the depth (metres) by which its
     /// own face stands in front of it along the rays through it, when the rays prove it. Of the 3 x 3 sample points
-    /// of the free-space test, a ray is *judged* when the nearest obstacle of its direction is the object's own
-    /// evidence (a hit cell it owns), or lies at or behind the box;
-    /// it counts as *face in front* when that own evidence lies in front of where the ray enters the grown region
-    /// `A_o` (the object may stand anywhere within it). Where the box enters is taken as the nearest entry over the directions the
-    /// visibility bin spans (its nearest return may come from any of them: a face seen at a grazing angle).
-    /// Rays that end on other evidence in front of the box say nothing. The box is displaced away when at least
-    /// [`FACE_MIN_RAYS`] rays, and at least `ghost_visible_fraction` of the judged ones, find the face in front;
-    /// the depth returned is the smallest of theirs. No memory; nine bin look-ups and 27 ray-box entries.
+    /// of the free-space test, a ray is *judged* when the nearest obstacle return of its direction lies in a hit cell
+    /// the object owns, outside every other object's grown region, and farther than `conflict_association_m` from
+    /// every object without evidence of its own and without a cluster (that return may be theirs, lying in this
+    /// object's cells). A judged ray finds the face *in front* when its return lies in front of where the ray
+    /// enters the grown region `A_o` (the object may stand anywhere within it: measured from the box, a sideways
+    /// shift within the margin moves a grazing ray's entry by metres), taken as the nearest entry over the
+    /// directions the visibility bin spans (its nearest return may come from any of them). The box is displaced
+    /// away from the sensor when at least [`FACE_MIN_RAYS`] judged rays, and more than half of them, find the face
+    /// in front; the depth returned is the smallest of theirs, from the box. No memory; nine bin look-ups, 54
+    /// ray-box entries and a look at the nearby regions for each judged ray.
     pub(super) fn face_in_front(&self, j: usize, region: &Region) -> Option<f32> {
         let fp = &region.footprint;
         let origin = self.visibility.origin();
@@ -103,7 +105,7 @@ impl Monitor {
                 }
             }
         }
-        (front >= FACE_MIN_RAYS && front == judged).then_some(depth)
+        (front >= FACE_MIN_RAYS && 2 * front > judged).then_some(depth)
     }
 }
 
