@@ -1,7 +1,7 @@
 //! `Monitor::check` on arbitrary frames: the bytes become timestamps, poses, objects (any f32 bit pattern:
 //! NaN, infinities, subnormals) and points, over three frames so that the plausibility checks run. Asserts the
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
-//! and without the params key `seen_over`.
+//! and without the params keys `seen_over` and `face_in_front`.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -46,8 +46,16 @@ fuzz_target!(|data: &[u8]| {
     // The first byte's top bit also switches the free-space test over nearer obstacles on (`seen_over`), without
     // shifting how the rest of the input is read.
     let seen_over = data.first().is_some_and(|b| b & 0x80 != 0);
-    let params =
-        MonitorParams { max_points: 4096, max_objects: 64, grid_size_m: 40.0, seen_over, ..MonitorParams::default() };
+    // And its next bit the face-in-front test (`face_in_front`).
+    let face_in_front = data.first().is_some_and(|b| b & 0x40 != 0);
+    let params = MonitorParams {
+        max_points: 4096,
+        max_objects: 64,
+        grid_size_m: 40.0,
+        seen_over,
+        face_in_front,
+        ..MonitorParams::default()
+    };
     let Ok(mut monitor) = Monitor::new(params) else { return };
     let mut t = 0.0f64;
     for _ in 0..3 {

@@ -21,6 +21,7 @@ class Params:
     visibility_bins: int
     spill_over_fit: str
     seen_over: bool
+    face_in_front: bool
     motion_limits: Dict[str, Any]
     per_class_limits: Dict[str, Any]
     gamma_plaus: float

@@ -382,6 +382,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|r| {
             let mut r = r.clone();
             r.spec.params.seen_over |= seen_over;
+            r.spec.params.face_in_front |= std::env::var_os("FACE").is_some();
             r
         })
         .collect();

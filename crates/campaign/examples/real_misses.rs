@@ -32,8 +32,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let roi = RoiOptions { mode, grid_half_extent_m: 0.5 * f64::from(base.grid_size_m), ..RoiOptions::default() };
     let ground = pmon_datasets::ground::GroundMode::parse(&std::env::var("GROUND").unwrap_or_else(|_| "auto".into()))?;
     let ds = open_with(spec, &ReadOptions { load_clouds: true, roi, ground })?;
-    let params =
-        MonitorParams { ground_z_m: ds.info.ground_z_m, ego_footprint_m: ds.info.format.ego_footprint_m(), ..base };
+    let params = MonitorParams {
+        ground_z_m: ds.info.ground_z_m,
+        ego_footprint_m: ds.info.format.ego_footprint_m(),
+        face_in_front: std::env::var_os("FACE").is_some(),
+        ..base
+    };
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();
     let mut monitor = Monitor::new(params)?;
     let mut clean_monitor = Monitor::new(params)?;
@@ -125,8 +129,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut roi = Vec::new();
             let view = f.as_frame(&mut roi);
             let rep = monitor.check(&view)?;
+            let (rep_objects, rep_clusters) = (rep.objects.to_vec(), rep.clusters.to_vec());
             let band: Vec<[f32; 3]> = df.points_in_ego().into_iter().filter(|q| q[2] >= lo && q[2] <= hi).collect();
-            for (i, r) in rep.objects.iter().enumerate() {
+            for (i, r) in rep_objects.iter().enumerate() {
                 let injected = inj.contains(&i);
                 if !injected || !confirmed.get(i).copied().unwrap_or(false) {
                     continue;
@@ -189,7 +194,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     (k, n) if k == n => "in",
                     _ => "part",
                 };
-                let hit_cluster = rep.clusters.iter().enumerate().find(|(_, c)| {
+                let hit_cluster = rep_clusters.iter().enumerate().find(|(_, c)| {
                     cells.iter().any(|&cell| {
                         let (x, y) = geometry.cell_center(cell);
                         x >= c.bounds_m[0] - half
@@ -243,6 +248,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     cells.len()
                 );
                 }
+                if std::env::var("RAYS").is_ok() {
+                    let vis = monitor.visibility();
+                    let o = vis.origin();
+                    let mfp = moved_region.footprint;
+                    let mut out = Vec::new();
+                    for u in [-0.6f32, 0.0, 0.6] {
+                        for v in [-0.6f32, 0.0, 0.6] {
+                            let (lu, lv) = (u * mfp.half_length, v * mfp.half_width);
+                            let (x, y) = (mfp.cx + lu * mfp.cos - lv * mfp.sin, mfp.cy + lu * mfp.sin + lv * mfp.cos);
+                            let (dx, dy) = (x - o[0], y - o[1]);
+                            let r = dx.hypot(dy);
+                            let (ux, uy) = (dx / r, dy / r);
+                            let e = entry(&mfp, o, ux, uy);
+                            let eg = entry(&moved_region.grown, o, ux, uy);
+                            match vis.nearest_obstacle(x, y) {
+                                None => out.push("none".to_string()),
+                                Some((near, cell)) => {
+                                    let (cx, cy) = geometry.cell_center(cell);
+                                    out.push(format!(
+                                        "n{near:.1} e{e:.1} g{eg:.1} f{} t{}",
+                                        monitor.grid().flags(cell),
+                                        u8::from(fp.contains(cx, cy))
+                                    ))
+                                }
+                            }
+                        }
+                    }
+                    println!("   rays: {}", out.join(" | "));
+                }
                 *causes.entry(key).or_default() += 1;
             }
             if let Some(w) = writer.as_mut() {
@@ -264,4 +298,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("{n:>5}  {k}");
     }
     Ok(())
+}
+
+fn entry(fp: &OrientedRect, origin: [f32; 2], ux: f32, uy: f32) -> f32 {
+    let (px, py) = (origin[0] - fp.cx, origin[1] - fp.cy);
+    let (ou, ov) = (px * fp.cos + py * fp.sin, -px * fp.sin + py * fp.cos);
+    let (du, dv) = (ux * fp.cos + uy * fp.sin, -ux * fp.sin + uy * fp.cos);
+    let (mut a, mut b) = (f32::NEG_INFINITY, f32::INFINITY);
+    for (o, d, h) in [(ou, du, fp.half_length), (ov, dv, fp.half_width)] {
+        if d.abs() < 1e-9 {
+            if o.abs() > h {
+                return f32::NAN;
+            }
+            continue;
+        }
+        let (t1, t2) = ((-h - o) / d, (h - o) / d);
+        a = a.max(t1.min(t2));
+        b = b.min(t1.max(t2));
+    }
+    if a <= b {
+        a
+    } else {
+        f32::NAN
+    }
 }

@@ -19,6 +19,7 @@ use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
 mod assignment;
 mod attribution;
+mod face;
 mod roi;
 use attribution::{claim, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDERS};
 #[doc(hidden)]
@@ -960,11 +961,24 @@ impl Monitor {
                 }
                 let seen_through =
                     cluster.is_none() && eta_own >= tau_tp && own_sum[2] >= 1.0 && self.seen_through(j, &region);
+                // Confirmed by its own evidence, but that evidence's face stands in front of the box along the
+                // rays through it, beyond the margin: displaced away from the sensor by less than the cells show.
+                let face = if self.params.face_in_front
+                    && cluster.is_none()
+                    && !seen_through
+                    && eta_own >= tau_tp
+                    && own_sum[2] >= 1.0
+                {
+                    self.face_in_front(j, &region)
+                } else {
+                    None
+                };
                 // Confirmed (or hidden) where it is reported, but its evidence stayed where the previous frame's
                 // evidence, moved by the object's stated motion, predicts it, and the box jumped away from it.
                 let moved = if cluster.is_none()
                     && followed.is_none()
                     && !seen_through
+                    && face.is_none()
                     && (eta_own >= tau_tp || shared || occluded)
                 {
                     self.moved_from_evidence(j, &region)
@@ -1005,6 +1019,13 @@ impl Monitor {
                     let c = [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
                     let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
                     s.offset_m = [nx - c[0], ny - c[1]];
+                    SensorVerdict::PositionError
+                } else if let Some(depth) = face {
+                    // Its face stands `depth` in front of it along the rays: the box is that far behind its evidence.
+                    let o = self.visibility.origin();
+                    let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
+                    let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
+                    s.offset_m = [depth * dx / r, depth * dy / r];
                     SensorVerdict::PositionError
                 } else if eta_own >= tau_tp || shared {
                     SensorVerdict::Consistent

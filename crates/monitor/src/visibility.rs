@@ -228,6 +228,15 @@ impl VisibilityMap {
             .then(|| (libm::sqrtf(bin.nearest_obstacle_r2) - libm::sqrtf(r2), bin.nearest_obstacle_cell))
     }
 
+    /// The range of the nearest obstacle return in the bin of an ego-frame position, metres, and its grid cell;
+    /// `None` when the bin holds no obstacle inside the grid. Exact (the return's own range), not a cell's.
+    #[must_use]
+    pub fn nearest_obstacle(&self, x: f32, y: f32) -> Option<(f32, u32)> {
+        let bin = self.bins.get(self.bin(x - self.origin[0], y - self.origin[1])).copied()?;
+        (bin.nearest_obstacle_cell != NO_CELL)
+            .then(|| (libm::sqrtf(bin.nearest_obstacle_r2), bin.nearest_obstacle_cell))
+    }
+
     /// True when the ego-frame position is visible: before the nearest obstacle and the farthest return of
     /// its bin.
     #[must_use]

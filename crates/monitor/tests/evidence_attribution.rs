@@ -573,3 +573,42 @@ fn a_box_displaced_towards_the_sensor_is_seen_over_a_parked_car() {
         }
     }
 }
+
+/// The face in front (params key `face_in_front`): a car 18-22.5 m ahead, reported 0.7 m further away. Its grown
+/// region (margin 0.4 m) then begins at 18.35 m, and the cell of its face (18.0-18.5 m) overlaps it: by the cells,
+/// the box keeps its evidence and is consistent (0.7 m is below `dx_min`). The rays say more: every return of the
+/// car's face lies 0.3 m in front of the grown region. With the key, position error, the offset pointing from the
+/// face back to the box (about +0.7 m along x); at the truth, and shifted sideways within its margin (0.3 m), the
+/// car stays consistent.
+#[test]
+fn a_box_displaced_away_below_dx_min_is_caught_by_its_face_in_front() {
+    let truth = object(1, 20.25, 0.0, 0.0, 4.4, 1.8);
+    let pts = ray_cast(&[[18.05, -0.9, 22.45, 0.9, 1.5]]);
+    let on = MonitorParams { face_in_front: true, ..MonitorParams::default() };
+    let mut away = truth;
+    away.x_m += 0.7;
+    let mut aside = truth;
+    aside.y_m += 0.3;
+    for (params, want) in [(MonitorParams::default(), SensorVerdict::Consistent), (on, SensorVerdict::PositionError)] {
+        let mut m = Monitor::new(params).unwrap();
+        let r = run(&mut m, &[away], &pts);
+        assert!(r[0].sensor.eta_own >= 0.8, "the box keeps its evidence by the cells: {:?}", r[0].sensor);
+        assert_eq!(r[0].sensor.verdict, want, "face_in_front {}: {:?}", params.face_in_front, r[0].sensor);
+        if want == SensorVerdict::PositionError {
+            assert!(r[0].sensor.offset_m[0] > 0.5 && r[0].sensor.offset_m[0] < 0.8, "{:?}", r[0].sensor.offset_m);
+            assert!(r[0].sensor.offset_m[1].abs() < 0.1, "{:?}", r[0].sensor.offset_m);
+        }
+        for clean in [truth, aside] {
+            let mut m = Monitor::new(params).unwrap();
+            let r = run(&mut m, &[clean], &pts);
+            assert_eq!(
+                r[0].sensor.verdict,
+                SensorVerdict::Consistent,
+                "at ({}, {}): {:?}",
+                clean.x_m,
+                clean.y_m,
+                r[0].sensor
+            );
+        }
+    }
+}

@@ -55,9 +55,16 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn check_allocates_nothing_after_construction() {
-    // Also with the free-space test over nearer obstacles (its per-cell returns are allocated with the grid).
-    for seen_over in [false, true] {
-        let params = MonitorParams { max_objects: 64, max_points: 200_000, seen_over, ..MonitorParams::default() };
+    // Also with the free-space test over nearer obstacles (its per-cell returns are allocated with the grid), and
+    // with the face-in-front test.
+    for (seen_over, face_in_front) in [(false, false), (true, false), (false, true)] {
+        let params = MonitorParams {
+            max_objects: 64,
+            max_points: 200_000,
+            seen_over,
+            face_in_front,
+            ..MonitorParams::default()
+        };
         let mut monitor = Monitor::new(params).unwrap();
         // A busy frame: many objects (some displaced, some duplicated, some invalid), evidence, ground, an
         // unlisted obstacle in the ROI, and then frames with bad input.
