@@ -139,6 +139,9 @@ pub struct BenchOptions {
     /// Check with the params key `seen_over` on (the free-space test looks over nearer obstacles; the grid keeps
     /// each hit cell's returns: docs/attribution.md). Off: the default parameters.
     pub seen_over: bool,
+    /// Check with the params key `face_in_front` on (a confirmed box whose rays end on its own evidence in front of
+    /// its grown region is displaced: docs/attribution.md). Off: the default parameters.
+    pub face_in_front: bool,
 }
 
 impl Default for BenchOptions {
@@ -156,6 +159,7 @@ impl Default for BenchOptions {
             split: false,
             columns: false,
             seen_over: false,
+            face_in_front: false,
         }
     }
 }
@@ -662,6 +666,7 @@ fn median_u32(v: &mut [u32]) -> u32 {
 fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, BenchError> {
     let mut p = params(def.cell_size_m, def.grid_size_m);
     p.seen_over = opts.seen_over;
+    p.face_in_front = opts.face_in_front;
     if def.calibrated {
         p.plausibility_mode = pmon_monitor::PlausibilityMode::Calibrated;
     }

@@ -16,6 +16,7 @@ fn quick() -> BenchOptions {
         split: false,
         columns: false,
         seen_over: false,
+        face_in_front: false,
     }
 }
 

@@ -101,6 +101,10 @@ enum Command {
         /// nearer obstacles, at the cost of each hit cell's returns kept by the grid (docs/attribution.md).
         #[arg(long)]
         seen_over: bool,
+        /// Check with the params key `face_in_front` on: a box confirmed by its own evidence whose rays end on that
+        /// evidence in front of its grown region is a position error (docs/attribution.md).
+        #[arg(long)]
+        face_in_front: bool,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -203,6 +207,7 @@ fn main() -> ExitCode {
             split,
             columns,
             seen_over,
+            face_in_front,
         } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
@@ -219,6 +224,7 @@ fn main() -> ExitCode {
                 split,
                 columns,
                 seen_over,
+                face_in_front,
             };
             if let Some(dir) = export_peers {
                 return match pmon_bench::peers::export_peers(&dir, &opts) {

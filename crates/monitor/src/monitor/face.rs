@@ -65,8 +65,18 @@ impl Monitor {
         // A bin spans at most about 1.41 times 360 / bins degrees (diamond angles); half of it, rounded up.
         let half_bin = 1.5 * core::f32::consts::PI / self.params.visibility_bins.max(1) as f32;
         let (sb, cb) = libm::sincosf(half_bin);
-        let (mut judged, mut front) = (0u32, 0u32);
-        let mut depth = f32::INFINITY;
+        let bin_rays = |ux: f32, uy: f32| {
+            [(ux, uy), (ux * cb - uy * sb, ux * sb + uy * cb), (ux * cb + uy * sb, -ux * sb + uy * cb)]
+        };
+        let nearest_entry = |rect: &crate::geometry::OrientedRect, ux: f32, uy: f32| {
+            bin_rays(ux, uy).iter().filter_map(|&(a, b)| entry_range(rect, origin, a, b)).fold(f32::INFINITY, f32::min)
+        };
+        // First the rays that end on the object's own evidence, and whether that return lies in front of the grown
+        // region (the object may stand anywhere within it: measured from the box, a sideways shift within the
+        // margin moves a grazing ray's entry by far more than the margin). A clean box has no such ray: it stops
+        // here, before the look at the other objects.
+        let mut rays = [(0.0f32, 0.0f32, 0.0f32, false); 9];
+        let (mut n, mut candidates) = (0usize, 0u32);
         for u in SAMPLES {
             for v in SAMPLES {
                 let (lu, lv) = (u * fp.half_length, v * fp.half_width);
@@ -78,31 +88,37 @@ impl Monitor {
                 }
                 let (ux, uy) = (dx / r, dy / r);
                 let Some((near, cell)) = self.visibility.nearest_obstacle(x, y) else { continue };
-                let rays = [(ux, uy), (ux * cb - uy * sb, ux * sb + uy * cb), (ux * cb + uy * sb, -ux * sb + uy * cb)];
-                let nearest_entry = |rect: &crate::geometry::OrientedRect| {
-                    rays.iter().filter_map(|&(a, b)| entry_range(rect, origin, a, b)).fold(f32::INFINITY, f32::min)
-                };
-                // The object may stand anywhere within its grown region: its face is in front of the box only where
-                // the return lies in front of the grown region (along a grazing ray a sideways shift within the
-                // margin moves the box's entry by far more than the margin).
-                let (entry, entry_grown) = (nearest_entry(fp), nearest_entry(&region.grown));
-                if !entry.is_finite() {
+                if !own(cell) {
                     continue;
                 }
-                let d = entry - near;
-                if own(cell) {
-                    // A return inside another object's grown region may be that object's (a displaced neighbour's
-                    // evidence in this object's cells): it says nothing about this object's face.
-                    let (px, py) = (origin[0] + ux * near, origin[1] + uy * near);
-                    if self.in_other_region(j, px, py) || self.sought_nearby(j, px, py) {
-                        continue;
-                    }
-                    judged += 1;
-                    if entry_grown - near > 0.0 {
-                        front += 1;
-                        depth = depth.min(d);
-                    }
+                let in_front = nearest_entry(&region.grown, ux, uy) - near > 0.0;
+                if let Some(slot) = rays.get_mut(n) {
+                    *slot = (ux, uy, near, in_front);
+                    n += 1;
+                    candidates += u32::from(in_front);
                 }
+            }
+        }
+        if candidates < FACE_MIN_RAYS {
+            return None;
+        }
+        let (mut judged, mut front) = (0u32, 0u32);
+        let mut depth = f32::INFINITY;
+        for &(ux, uy, near, in_front) in rays.get(..n).unwrap_or(&[]) {
+            let entry = nearest_entry(fp, ux, uy);
+            if !entry.is_finite() {
+                continue;
+            }
+            // A return inside another object's grown region may be that object's (a displaced neighbour's
+            // evidence in this object's cells): it says nothing about this object's face.
+            let (px, py) = (origin[0] + ux * near, origin[1] + uy * near);
+            if self.in_other_region(j, px, py) || self.sought_nearby(j, px, py) {
+                continue;
+            }
+            judged += 1;
+            if in_front {
+                front += 1;
+                depth = depth.min(entry - near);
             }
         }
         (front >= FACE_MIN_RAYS && 2 * front > judged).then_some(depth)
