@@ -265,11 +265,14 @@ fn seen_over_trace(
             let r = dx.hypot(dy);
             let (ux, uy) = (dx / r, dy / r);
             let (ox, oy) = geo.cell_center(occ);
+            let occ_top = grid.returns(occ).map_or(f32::NAN, |[_, _, top]| top);
+            let occ_r = grid.returns(occ).map_or(f32::NAN, |[r2, _, _]| r2.sqrt());
             out += &format!(
-                "   seen_over point ({u:+.1},{v:+.1}) r {r:.2}: occluder at r {:.1} owner {} near-self {}",
+                "   seen_over point ({u:+.1},{v:+.1}) r {r:.2}: occluder at r {:.1} (nearest return {occ_r:.2}, top {occ_top:.2}) owner {} near-self {} returns [{}]",
                 (ox - o[0]).hypot(oy - o[1]),
                 id_of(occ),
-                u8::from(near_self(occ))
+                u8::from(near_self(occ)),
+                returns_by_object(monitor, frame, occ)
             );
             let Some(c0) = geo.point_to_cell(x, y) else { continue };
             if grid.hits(c0) > 0 {
@@ -288,6 +291,7 @@ fn seen_over_trace(
                     break;
                 }
             }
+            let blocked = towards != "none";
             out += &format!(" | towards: {towards}");
             let mut t = step;
             while t <= reach {
@@ -311,9 +315,28 @@ fn seen_over_trace(
                     let dz = zlow - sensor_z;
                     let slope = if dz < 0.0 { dz / (rmin + diagonal) } else { dz / rmin };
                     let h = sensor_z + slope * r;
-                    let fires = rmin - r > margin && h <= ztop - 0.2 && h >= band_lo && near_self(c);
+                    // The occluder's shadow line (condition 5 of `Monitor::seen_over`).
+                    let shadow = grid.returns(occ).map_or(f32::NAN, |[o2, _, otop]| {
+                        let dz = otop - sensor_z;
+                        if dz < 0.0 {
+                            dz / (o2.sqrt() + diagonal)
+                        } else {
+                            dz / o2.sqrt()
+                        }
+                    });
+                    let h_shadow = sensor_z + shadow * r;
+                    let h_eff = h.max(h_shadow);
+                    let fires = !blocked
+                        && rmin - r > margin
+                        && h_eff <= ztop - 0.2
+                        && h_eff >= band_lo
+                        && sensor_z + shadow * rmin <= ztop
+                        && near_self(c);
+                    // The same ray at the occluder's nearest return, lowest (through the nearest range) and highest.
+                    let (h_occ_lo, h_occ_hi) =
+                        (sensor_z + dz / rmin * occ_r, sensor_z + dz / (rmin + diagonal) * occ_r);
                     out += &format!(
-                        " rmin {rmin:.2} clearance {:.2} (margin {margin:.2}) zlow {zlow:.2} ztop {ztop:.2} ray-h {h:.2} (<= {:.2}?) => {} ; returns [{}]",
+                        " rmin {rmin:.2} clearance {:.2} (margin {margin:.2}) zlow {zlow:.2} ztop {ztop:.2} ray-h {h:.2} shadow-h {h_shadow:.2} (<= {:.2}?) ray at occluder {h_occ_lo:.2}..{h_occ_hi:.2} vs its top {occ_top:.2} => {} ; returns [{}]",
                         rmin - r,
                         ztop - 0.2,
                         if fires { "FREE" } else { "no" },
