@@ -11,7 +11,8 @@
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
-//! also the free-space test's walk over the occluder, traced from the outside).
+//! also the free-space test's walk over the occluder, traced from the outside); `MISSES=1` lists each verifiable
+//! miss, and `TRACE=1` with `SEEN_OVER=1` adds that trace to each.
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -566,8 +567,8 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                             format!("[c{ci} {} cells -> {who}]", c.cells)
                         })
                         .collect();
-                    eprintln!(
-                        "MISS frame {k} id {} range {:.1} {:?} eta {:.2} own {:.2} vis {:.2} size {:.1}x{:.1} {}",
+                    let mut text = format!(
+                        "MISS [{run_label}] frame {k} id {} range {:.1} {:?} eta {:.2} own {:.2} vis {:.2} size {:.1}x{:.1} {}\n",
                         o.id,
                         truth.x_m.hypot(truth.y_m),
                         r.sensor.verdict,
@@ -578,6 +579,13 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                         o.width_m,
                         detail.join(" ")
                     );
+                    // `TRACE=1` (with `SEEN_OVER=1`): the seen-over walk of the missed box too.
+                    if spec.params.seen_over && std::env::var_os("TRACE").is_some() {
+                        if let Some(g) = region {
+                            text += &seen_over_trace(&monitor, &clean_monitor, clean, &objects, i, &g);
+                        }
+                    }
+                    eprint!("{text}");
                 }
             }
         }
