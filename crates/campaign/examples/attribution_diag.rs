@@ -1,5 +1,5 @@
-//! Counts the sensor checks' misses and false alarms by cause on the `pmon reproduce --quick` runs (a
-//! development aid for the evidence attribution, docs/attribution.md):
+//! Counts the sensor checks' misses and false alarms by cause on the `pmon reproduce` runs (a development aid
+//! for the evidence attribution, docs/attribution.md):
 //!
 //! `cargo run --release -p pmon-campaign --example attribution_diag -- SEED [summary|causes] [FILTER]`
 //!
@@ -7,7 +7,12 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on.
+//! monitor runs with the params key `seen_over` on. With `FULL=1` the runs are those of the full plan
+//! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
+//! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
+//! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
+//! also the free-space test's walk over the occluder, traced from the outside); `MISSES=1` lists each verifiable
+//! miss, and `TRACE=1` with `SEEN_OVER=1` adds that trace to each.
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -16,17 +21,18 @@ use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
 use pmon_scenario::Simulator;
 use rayon::prelude::*;
 
-/// The scenes of `pmon reproduce --quick` that the sensor runs use (the same configuration as
-/// `crates/cli/src/reproduce.rs`), with empty stand-ins for the others so that the plan's indices hold.
-fn scenes(seed: u64) -> Result<Vec<Scene>, Box<dyn std::error::Error>> {
+/// The scenes of `pmon reproduce` (`--quick` unless `full`) that the sensor runs use, with the lengths of
+/// `pmon_campaign::sim_tasks::scene_specs` (the same configuration as `crates/cli/src/reproduce.rs`), and empty
+/// stand-ins for the others so that the plan's indices hold.
+fn scenes(seed: u64, full: bool) -> Result<Vec<Scene>, Box<dyn std::error::Error>> {
     let mut out = Vec::new();
-    for name in ["pedestrians", "intersection", "pedestrians_20hz", "pedestrians_paper"] {
+    for spec in pmon_campaign::sim_tasks::scene_specs(!full, seed, None)? {
+        let name = spec.name.as_str();
         if name == "intersection" || name == "pedestrians_20hz" {
             out.push(Scene { name: name.into(), source: String::new(), frames: Vec::new() });
             continue;
         }
-        let mut cfg = pmon_campaign::sim_tasks::scenario_config(name, seed, None)?;
-        cfg.duration_s = cfg.duration_s.min(15.0);
+        let cfg = pmon_campaign::sim_tasks::scenario_config(name, spec.seed, Some(spec.duration_s))?;
         let mut sim = Simulator::new(&cfg).map_err(|e| format!("{name}: {e}"))?;
         let mut frames = Vec::new();
         while let Some(f) = sim.step() {
@@ -37,10 +43,13 @@ fn scenes(seed: u64) -> Result<Vec<Scene>, Box<dyn std::error::Error>> {
     Ok(out)
 }
 
-/// The sensor runs of the quick plan worth watching.
-fn wanted(run: &PlannedRun) -> bool {
+/// The sensor runs of the plan worth watching (`correlated`: the false alarms under correlated noise too).
+fn wanted(run: &PlannedRun, correlated: bool) -> bool {
     run.probes.iter().any(|p| {
-        (p.figure == "false_alarms" && p.curve == "sensor checks, white noise" && p.x <= 0.3 + 1e-9)
+        (p.figure == "false_alarms"
+            && (p.curve == "sensor checks, white noise"
+                || (correlated && p.curve == "sensor checks, correlated noise"))
+            && p.x <= 0.3 + 1e-9)
             || ((p.figure == "permanent_position" || p.figure == "permanent_position_paper")
                 && p.measure == Measure::SensorRecallVerifiable)
             || (p.figure == "position_direction" && p.curve.starts_with("towards"))
@@ -48,10 +57,11 @@ fn wanted(run: &PlannedRun) -> bool {
 }
 
 fn label(run: &PlannedRun) -> String {
-    run.probes
-        .iter()
-        .find(|p| p.measure != Measure::PlausibilityRecall)
-        .map_or(String::new(), |p| format!("{} / {} @ {:.1}", p.figure, p.curve, p.x))
+    run.probes.iter().find(|p| p.measure != Measure::PlausibilityRecall).map_or(String::new(), |p| {
+        // The full plan's noise steps are 0.05 m: two decimals there (the quick plan's output unchanged).
+        let digits = if std::env::var_os("FULL").is_some() { 2 } else { 1 };
+        format!("{} / {} @ {:.digits$}", p.figure, p.curve, p.x)
+    })
 }
 
 /// Corners of an object's true footprint.
@@ -96,16 +106,17 @@ fn explain_false_alarm(
     o: &pmon_monitor::ObjectState,
     g: &pmon_monitor::Region,
     run_label: &str,
-) {
+) -> String {
     use pmon_monitor::visibility::Sight;
+    let mut out = String::new();
     let (s, c) = o.heading_rad.sin_cos();
     let (nx, ny) = (o.x_m - truth.x_m, o.y_m - truth.y_m);
     let (nu, nv) = (nx * c + ny * s, -nx * s + ny * c);
     let r = truth.x_m.hypot(truth.y_m).max(1e-3);
     let (rx, ry) = (truth.x_m / r, truth.y_m / r);
     let (radial, tangential) = (nx * rx + ny * ry, -nx * ry + ny * rx);
-    eprintln!(
-        "   run {run_label}: noise (along, across) ({nu:+.2}, {nv:+.2}) m vs margins ({:.2}, {:.2}) = ({:.2}, {:.2}) x margin; radial {radial:+.2} (+: away) tangential {tangential:+.2}",
+    out += &format!(
+        "   run {run_label}: noise (along, across) ({nu:+.2}, {nv:+.2}) m vs margins ({:.2}, {:.2}) = ({:.2}, {:.2}) x margin; radial {radial:+.2} (+: away) tangential {tangential:+.2}\n",
         g.margin_length_m,
         g.margin_width_m,
         nu.abs() / g.margin_length_m,
@@ -136,7 +147,7 @@ fn explain_false_alarm(
             pts.push(text);
         }
     }
-    eprintln!("   free-space points (margin {margin:.2}, * = free): {}", pts.join(" | "));
+    out += &format!("   free-space points (margin {margin:.2}, * = free): {}\n", pts.join(" | "));
     let sight_of = |cx: f32, cy: f32| {
         let rect = pmon_monitor::geometry::OrientedRect::new(cx, cy, o.heading_rad, 0.5 * o.length_m, 0.5 * o.width_m);
         let (mut n, mut visible, mut shadow, mut unreached) = (0, 0, 0, 0);
@@ -153,11 +164,216 @@ fn explain_false_alarm(
         }
         format!("{n} cells: {visible} visible {shadow} shadowed {unreached} unreached")
     };
-    eprintln!(
-        "   sight of the true place: {}; of the noisy box: {}",
+    out += &format!(
+        "   sight of the true place: {}; of the noisy box: {}\n",
         sight_of(truth.x_m, truth.y_m),
         sight_of(o.x_m, o.y_m)
     );
+    out
+}
+
+/// Approximately who owns a cell (the monitor's ownership is private): among the objects whose grown region
+/// holds the cell's centre, the one in whose region it lies deepest (relative to the region's size).
+fn approx_owner(monitor: &Monitor, objects: &[pmon_monitor::ObjectState], cell: u32) -> Option<usize> {
+    let (x, y) = monitor.grid().geometry.cell_center(cell);
+    let mut best: Option<(f32, usize)> = None;
+    for (j, o) in objects.iter().enumerate() {
+        let Some(g) = monitor.region_of(o) else { continue };
+        let r = &g.grown;
+        let (dx, dy) = (x - r.cx, y - r.cy);
+        let (u, v) = (dx * r.cos + dy * r.sin, -dx * r.sin + dy * r.cos);
+        let depth = (u.abs() / r.half_length.max(1e-3)).max(v.abs() / r.half_width.max(1e-3));
+        if depth <= 1.0 && best.is_none_or(|(d, _)| depth < d) {
+            best = Some((depth, j));
+        }
+    }
+    best.map(|(_, j)| j)
+}
+
+/// The obstacle-band returns of a cell, grouped by the clean object whose true footprint (grown by 0.15 m)
+/// holds them: `id:count z lo..hi`, `none` for returns of no object (the ground, scenery, parked cars of the map).
+fn returns_by_object(monitor: &Monitor, frame: &pmon_recording::RecordedFrame, cell: u32) -> String {
+    let Some(cloud) = frame.cloud.as_ref() else { return String::new() };
+    let geo = monitor.grid().geometry;
+    let (lo, hi) = monitor.params().obstacle_band_m();
+    let mut groups: BTreeMap<String, (u32, f32, f32)> = BTreeMap::new();
+    for &p in &cloud.points_in_sensor {
+        let q = cloud.ego_from_sensor.transform(p);
+        if q[2] < lo || q[2] > hi || geo.point_to_cell(q[0], q[1]) != Some(cell) {
+            continue;
+        }
+        let who = frame
+            .objects
+            .iter()
+            .find(|o| rect_distance(o, [q[0], q[1]]) <= 0.15)
+            .map_or("none".to_string(), |o| o.id.to_string());
+        let e = groups.entry(who).or_insert((0, f32::INFINITY, f32::NEG_INFINITY));
+        e.0 += 1;
+        e.1 = e.1.min(q[2]);
+        e.2 = e.2.max(q[2]);
+    }
+    groups.iter().map(|(k, (n, a, b))| format!("{k}:{n} z {a:.2}..{b:.2}")).collect::<Vec<_>>().join(", ")
+}
+
+/// With `seen_over` (`DETAIL=1 SEEN_OVER=1`): for each of the free-space test's 3 x 3 points that the 2-D map
+/// calls shadowed, the walk of `Monitor::seen_over` traced again from the outside (ownership approximated by
+/// [`approx_owner`]): the occluder, the first cell with returns towards and away from the sensor, its owner,
+/// the clearance of its nearest return against the margin, the height of the lowest ray that reached it at the
+/// point against the top of its returns less `SEEN_OVER_BELOW_TOP_M` (0.2 m), and whose returns the cell holds.
+fn seen_over_trace(
+    monitor: &Monitor,
+    clean_monitor: &Monitor,
+    frame: &pmon_recording::RecordedFrame,
+    objects: &[pmon_monitor::ObjectState],
+    i: usize,
+    g: &pmon_monitor::Region,
+) -> String {
+    use pmon_monitor::visibility::Sight;
+    let _ = clean_monitor;
+    let mut out = String::new();
+    let grid = monitor.grid();
+    let geo = grid.geometry;
+    let vis = monitor.visibility();
+    let fp = &g.footprint;
+    let margin = g.margin_length_m.max(g.margin_width_m);
+    let sensor_z = frame.cloud.as_ref().map_or(0.0, |c| c.ego_from_sensor.translation_m[2]);
+    let (band_lo, _) = monitor.params().obstacle_band_m();
+    let id_of = |c: u32| {
+        approx_owner(monitor, objects, c).map_or("-".to_string(), |j| {
+            let id = objects.get(j).map_or(0, |o| o.id);
+            if j == i {
+                format!("SELF({id})")
+            } else {
+                id.to_string()
+            }
+        })
+    };
+    let near_self = |c: u32| {
+        let own =
+            |c: u32| grid.probability(c) > monitor.params().tau_fn && approx_owner(monitor, objects, c) == Some(i);
+        own(c) || geo.neighbours4(c).any(own)
+    };
+    for u in [-0.6f32, 0.0, 0.6] {
+        for v in [-0.6f32, 0.0, 0.6] {
+            let (lu, lv) = (u * fp.half_length, v * fp.half_width);
+            let (x, y) = (fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos);
+            if vis.clearance(x, y).is_some() {
+                continue;
+            }
+            let Sight::Shadowed(occ) = vis.sight(x, y) else { continue };
+            let o = vis.origin();
+            let (dx, dy) = (x - o[0], y - o[1]);
+            let r = dx.hypot(dy);
+            let (ux, uy) = (dx / r, dy / r);
+            let (ox, oy) = geo.cell_center(occ);
+            let occ_top = grid.returns(occ).map_or(f32::NAN, |[_, _, top]| top);
+            let occ_r = grid.returns(occ).map_or(f32::NAN, |[r2, _, _]| r2.sqrt());
+            out += &format!(
+                "   seen_over point ({u:+.1},{v:+.1}) r {r:.2}: occluder at r {:.1} (nearest return {occ_r:.2}, top {occ_top:.2}) owner {} near-self {} returns [{}]",
+                (ox - o[0]).hypot(oy - o[1]),
+                id_of(occ),
+                u8::from(near_self(occ)),
+                returns_by_object(monitor, frame, occ)
+            );
+            let Some(c0) = geo.point_to_cell(x, y) else { continue };
+            if grid.hits(c0) > 0 {
+                out += " | own cell has returns\n";
+                continue;
+            }
+            let step = 0.5 * geo.cell_size_m;
+            let reach = 2.0 * (fp.half_length + fp.half_width + margin);
+            let mut t = step;
+            let mut towards = String::from("none");
+            while t <= reach {
+                let Some(c) = geo.point_to_cell(x - ux * t, y - uy * t) else { break };
+                t += step;
+                if c != c0 && grid.hits(c) > 0 && near_self(c) {
+                    towards = format!("near-self cell at -{:.2} m", t - step);
+                    break;
+                }
+            }
+            let blocked = towards != "none";
+            out += &format!(" | towards: {towards}");
+            let mut t = step;
+            while t <= reach {
+                let Some(c) = geo.point_to_cell(x + ux * t, y + uy * t) else { break };
+                t += step;
+                if c == c0 || grid.hits(c) == 0 {
+                    continue;
+                }
+                let (cx, cy) = geo.cell_center(c);
+                out +=
+                    &format!(
+                    " | away: first cell with returns at +{:.2} m, owner {} near-self {} in-true-footprint-dist {:.2}",
+                    t - step,
+                    id_of(c),
+                    u8::from(near_self(c)),
+                    objects.get(i).and_then(|_| frame.objects.get(i)).map_or(f32::NAN, |tr| rect_distance(tr, [cx, cy]))
+                );
+                if let Some([r2min, zlow, ztop]) = grid.returns(c) {
+                    let rmin = r2min.sqrt();
+                    let diagonal = std::f32::consts::SQRT_2 * geo.cell_size_m;
+                    let dz = zlow - sensor_z;
+                    let slope = if dz < 0.0 { dz / (rmin + diagonal) } else { dz / rmin };
+                    let h = sensor_z + slope * r;
+                    // The occluder's shadow line (condition 5 of `Monitor::seen_over`).
+                    let shadow = grid.returns(occ).map_or(f32::NAN, |[o2, _, otop]| {
+                        let dz = otop - sensor_z;
+                        if dz < 0.0 {
+                            dz / (o2.sqrt() + diagonal)
+                        } else {
+                            dz / o2.sqrt()
+                        }
+                    });
+                    let h_shadow = sensor_z + shadow * r;
+                    let h_eff = h.max(h_shadow);
+                    let fires = !blocked
+                        && rmin - r > margin
+                        && h_eff <= ztop - 0.2
+                        && h_eff >= band_lo
+                        && sensor_z + shadow * rmin <= ztop
+                        && near_self(c);
+                    // The same ray at the occluder's nearest return, lowest (through the nearest range) and highest.
+                    let (h_occ_lo, h_occ_hi) =
+                        (sensor_z + dz / rmin * occ_r, sensor_z + dz / (rmin + diagonal) * occ_r);
+                    out += &format!(
+                        " rmin {rmin:.2} clearance {:.2} (margin {margin:.2}) zlow {zlow:.2} ztop {ztop:.2} ray-h {h:.2} shadow-h {h_shadow:.2} (<= {:.2}?) ray at occluder {h_occ_lo:.2}..{h_occ_hi:.2} vs its top {occ_top:.2} => {} ; returns [{}]",
+                        rmin - r,
+                        ztop - 0.2,
+                        if fires { "FREE" } else { "no" },
+                        returns_by_object(monitor, frame, c)
+                    );
+                }
+                break;
+            }
+            out.push('\n');
+        }
+    }
+    // The true neighbours within 3 m.
+    if let Some(truth) = frame.objects.get(i) {
+        let near: Vec<String> = frame
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|&(j, b)| j != i && (b.x_m - truth.x_m).hypot(b.y_m - truth.y_m) < 3.0)
+            .map(|(_, b)| {
+                format!(
+                    "id {} at r {:.1} ({:+.2} m nearer) gap {:.2} size {:.1}x{:.1}",
+                    b.id,
+                    b.x_m.hypot(b.y_m),
+                    truth.x_m.hypot(truth.y_m) - b.x_m.hypot(b.y_m),
+                    nearest_gap(&[*truth, *b], 0),
+                    b.length_m,
+                    b.width_m
+                )
+            })
+            .collect();
+        out += &format!(
+            "   true neighbours within 3 m: {}\n",
+            if near.is_empty() { "none".into() } else { near.join("; ") }
+        );
+    }
+    out
 }
 
 /// Why a clean object state raised an alarm, or why an injected, verifiable one did not.
@@ -257,8 +473,8 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                             });
                         }
                     }
-                    eprintln!(
-                        "FA frame {k} id {} range {:.1} d {d:.2} {how} eta {:.2} own {:.2} vis {:.2} hit-cells {cells} hits {hits} size {:.1}x{:.1}",
+                    let mut text = format!(
+                        "FA [{run_label}] frame {k} id {} range {:.1} d {d:.2} {how} eta {:.2} own {:.2} vis {:.2} hit-cells {cells} hits {hits} size {:.1}x{:.1}\n",
                         o.id,
                         o.x_m.hypot(o.y_m),
                         r.sensor.eta,
@@ -268,8 +484,12 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                         o.width_m
                     );
                     if let Some(g) = region {
-                        explain_false_alarm(&monitor, truth, o, &g, &run_label);
+                        text += &explain_false_alarm(&monitor, truth, o, &g, &run_label);
+                        if spec.params.seen_over {
+                            text += &seen_over_trace(&monitor, &clean_monitor, clean, &objects, i, &g);
+                        }
                     }
+                    eprint!("{text}");
                 }
             }
             if injected && confirmed.get(i).copied().unwrap_or(false) {
@@ -347,8 +567,8 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                             format!("[c{ci} {} cells -> {who}]", c.cells)
                         })
                         .collect();
-                    eprintln!(
-                        "MISS frame {k} id {} range {:.1} {:?} eta {:.2} own {:.2} vis {:.2} size {:.1}x{:.1} {}",
+                    let mut text = format!(
+                        "MISS [{run_label}] frame {k} id {} range {:.1} {:?} eta {:.2} own {:.2} vis {:.2} size {:.1}x{:.1} {}\n",
                         o.id,
                         truth.x_m.hypot(truth.y_m),
                         r.sensor.verdict,
@@ -359,6 +579,13 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                         o.width_m,
                         detail.join(" ")
                     );
+                    // `TRACE=1` (with `SEEN_OVER=1`): the seen-over walk of the missed box too.
+                    if spec.params.seen_over && std::env::var_os("TRACE").is_some() {
+                        if let Some(g) = region {
+                            text += &seen_over_trace(&monitor, &clean_monitor, clean, &objects, i, &g);
+                        }
+                    }
+                    eprint!("{text}");
                 }
             }
         }
@@ -371,14 +598,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seed: u64 = args.get(1).map_or(Ok(7), |s| s.parse())?;
     let mode = args.get(2).map_or("summary", String::as_str);
     let filter = args.get(3).cloned().unwrap_or_default();
-    let scenes = scenes(seed)?;
+    // `FULL=1`: the full plan (`pmon reproduce --seed SEED` without `--quick`): its scale and scene lengths.
+    let full = std::env::var_os("FULL").is_some();
+    // `CORRELATED=1`: the false alarms under correlated noise as well.
+    let correlated = std::env::var_os("CORRELATED").is_some();
+    let scenes = scenes(seed, full)?;
     let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: Some(2), pedestrians_paper: Some(3) };
-    let planned = experiments::plan(Scale::Quick, ids, &MonitorParams::default(), seed);
+    let scale = if full { Scale::Full } else { Scale::Quick };
+    let planned = experiments::plan(scale, ids, &MonitorParams::default(), seed);
     // `SEEN_OVER=1`: the same runs and injection seeds, with the params key `seen_over` on.
     let seen_over = std::env::var_os("SEEN_OVER").is_some();
     let chosen: Vec<PlannedRun> = planned
         .iter()
-        .filter(|r| wanted(r) && label(r).contains(&filter))
+        .filter(|r| wanted(r, correlated) && label(r).contains(&filter))
         .map(|r| {
             let mut r = r.clone();
             r.spec.params.seen_over |= seen_over;
@@ -396,6 +628,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect::<Result<_, _>>()?;
     let mut fa_total = (0u64, 0u64);
+    let mut fa_by_curve: BTreeMap<String, (u64, u64)> = BTreeMap::new();
     let mut all_causes: BTreeMap<String, BTreeMap<String, u64>> = BTreeMap::new();
     for (r, (res, c)) in chosen.iter().zip(&results) {
         let m = &res.metrics;
@@ -403,6 +636,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if l.starts_with("false_alarms") {
             fa_total.0 += m.sensor.false_alarms();
             fa_total.1 += m.clean_states_in_scope;
+            let curve = l.split(" @ ").next().unwrap_or_default().to_string();
+            let e = fa_by_curve.entry(curve).or_default();
+            e.0 += m.sensor.false_alarms();
+            e.1 += m.clean_states_in_scope;
             println!("{l:<70} FA {} / {}", m.sensor.false_alarms(), m.clean_states_in_scope);
         } else {
             println!(
@@ -426,6 +663,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     println!("sensor false alarms up to 0.3 m noise: {} in {}", fa_total.0, fa_total.1);
+    if correlated {
+        for (curve, (k, n)) in &fa_by_curve {
+            println!("  {curve}: {k} in {n}");
+        }
+    }
     for (group, c) in &all_causes {
         if c.is_empty() {
             continue;

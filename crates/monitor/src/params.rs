@@ -254,7 +254,9 @@ pub struct MonitorParams {
     /// empty when the rays that reached the object's own evidence behind the point crossed it at a body's height
     /// (docs/attribution.md, "Seen over the occluder"). The grid then also keeps, per hit cell, the nearest range
     /// and the lowest and highest z of its returns: 1.2-1.4x the sensor checks' time (docs/performance.md). Not the
-    /// default: that cost, and more sensor false alarms on the full plan of `pmon reproduce` (8 -> 14 on seed 23).
+    /// default: that cost. (Its first version also raised the sensor false alarms on the full plan of
+    /// `pmon reproduce`, 8 -> 14 on seed 23; since its rays must clear the occluder's shadow line, none on the
+    /// plans measured.)
     pub seen_over: bool,
     /// Off by default. A box confirmed by its own evidence whose rays end on that evidence in front of its grown
     /// region is a `position_error` (displaced away from the sensor): the visibility map keeps each direction's

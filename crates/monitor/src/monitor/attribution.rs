@@ -520,11 +520,12 @@ impl Monitor {
                 let near_own = |c: u32| own(c) || self.grid.geometry.neighbours4(c).any(own);
                 let Some((clearance, cell)) = self.visibility.clearance(x, y) else {
                     let behind_other = |c: u32| c != crate::visibility::NO_CELL && !near_own(c);
-                    if self.params.seen_over
-                        && matches!(self.visibility.sight(x, y), crate::visibility::Sight::Shadowed(c) if behind_other(c))
-                        && self.seen_over(x, y, margin, fp, &near_own)
-                    {
-                        free += 1;
+                    if self.params.seen_over {
+                        if let crate::visibility::Sight::Shadowed(occluder) = self.visibility.sight(x, y) {
+                            if behind_other(occluder) && self.seen_over(x, y, margin, fp, occluder, &near_own) {
+                                free += 1;
+                            }
+                        }
                     }
                     continue;
                 };
@@ -546,13 +547,21 @@ impl Monitor {
     /// cell's nearest return lies more than the margin behind the point; and (4) the lowest ray that reached that
     /// cell (through its lowest return; taken no lower than the cell's returns allow) crossed the point above the
     /// obstacle band's floor and at least [`SEEN_OVER_BELOW_TOP_M`] below the top of that cell's returns: where a
-    /// body as tall as the evidence would have stopped it. Bounded: two walks of at most `4 (half length + half width + margin) / cell` steps.
+    /// body as tall as the evidence would have stopped it. (5) A ray along the point's direction that reached
+    /// the point passed over the `occluder` (the 2-D map's nearest obstacle of that direction), so it crossed the
+    /// point no lower than the occluder's shadow line (the line from the sensor over the top of the occluder's
+    /// returns, taken no lower than the occluder cell's ranges allow): (4) is asked of the higher of the two
+    /// heights, and some return of the evidence cell must lie above that line where it stands. The lowest return
+    /// of a cell a cell wide may have come beside the occluder, along another direction, and says nothing
+    /// about the point (the sensor false alarms it raised: docs/attribution.md, "Seen over the occluder").
+    /// Bounded: two walks of at most `4 (half length + half width + margin) / cell` steps.
     fn seen_over(
         &self,
         x: f32,
         y: f32,
         margin: f32,
         fp: &crate::geometry::OrientedRect,
+        occluder: u32,
         near_own: &dyn Fn(u32) -> bool,
     ) -> bool {
         let o = self.visibility.origin();
@@ -597,11 +606,23 @@ impl Monitor {
             // The lowest ray that reached the cell, from its lowest return and a range that bounds that return's
             // from the side that lowers the ray least: the cell's returns lie within a cell diagonal of its nearest.
             let diagonal = core::f32::consts::SQRT_2 * geometry.cell_size_m;
-            let dz = zlow - self.sensor_z;
-            let slope = if dz < 0.0 { dz / (rmin + diagonal) } else { dz / rmin };
-            let h = self.sensor_z + slope * r;
+            // The slope of a ray from the sensor through a return at height `z`, nearest range `range` of its cell:
+            // the return lies within a cell diagonal beyond it, taken where the ray is highest.
+            let slope_through = |z: f32, range: f32| {
+                let dz = z - self.sensor_z;
+                if dz < 0.0 {
+                    dz / (range + diagonal)
+                } else {
+                    dz / range
+                }
+            };
+            let h = self.sensor_z + slope_through(zlow, rmin) * r;
+            // The occluder's shadow line: no ray along this direction passed over it lower.
+            let Some([o2min, _, otop]) = self.grid.returns(occluder) else { return false };
+            let shadow = slope_through(otop, libm::sqrtf(o2min));
+            let h = h.max(self.sensor_z + shadow * r);
             let (lo, _) = self.params.obstacle_band_m();
-            return h <= ztop - SEEN_OVER_BELOW_TOP_M && h >= lo;
+            return h <= ztop - SEEN_OVER_BELOW_TOP_M && h >= lo && self.sensor_z + shadow * rmin <= ztop;
         }
         false
     }
