@@ -1,7 +1,7 @@
 //! `Monitor::check` on arbitrary frames: the bytes become timestamps, poses, objects (any f32 bit pattern:
 //! NaN, infinities, subnormals) and points, over three frames so that the plausibility checks run. Asserts the
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
-//! and without the params keys `seen_over` and `face_in_front`.
+//! and without the params keys `seen_over`, `face_in_front` and `roi_graze_fraction` (with a region of interest).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -48,12 +48,19 @@ fuzz_target!(|data: &[u8]| {
     let seen_over = data.first().is_some_and(|b| b & 0x80 != 0);
     // And its next bit the face-in-front test (`face_in_front`).
     let face_in_front = data.first().is_some_and(|b| b & 0x40 != 0);
+    // And its next bit the grazing rule of a region of interest (`roi_graze_fraction`; the half plane x < 0, the
+    // height low enough for the input's returns to reach it).
+    let graze = data.first().is_some_and(|b| b & 0x20 != 0);
+    let half_plane: &[[f32; 2]] = &[[-20.0, -20.0], [0.0, -20.0], [0.0, 20.0], [-20.0, 20.0]];
+    let roi: &[&[[f32; 2]]] = if graze { &[half_plane] } else { &[] };
     let params = MonitorParams {
         max_points: 4096,
         max_objects: 64,
         grid_size_m: 40.0,
         seen_over,
         face_in_front,
+        roi_graze_fraction: if graze { 0.5 } else { 0.0 },
+        roi_graze_height_m: 2.5,
         ..MonitorParams::default()
     };
     let Ok(mut monitor) = Monitor::new(params) else { return };
@@ -88,7 +95,7 @@ fuzz_target!(|data: &[u8]| {
             world_from_ego: pose,
             objects: &objects,
             cloud,
-            roi_in_ego: &[],
+            roi_in_ego: roi,
             static_in_ego: &[],
         };
         let Ok(report) = monitor.check(&frame) else { continue };

@@ -142,6 +142,10 @@ pub struct BenchOptions {
     /// Check with the params key `face_in_front` on (a confirmed box whose rays end on its own evidence in front of
     /// its grown region is displaced: docs/attribution.md). Off: the default parameters.
     pub face_in_front: bool,
+    /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
+    /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
+    /// "The grazing rule"). Off: the default parameters.
+    pub roi_graze: bool,
 }
 
 impl Default for BenchOptions {
@@ -160,6 +164,7 @@ impl Default for BenchOptions {
             columns: false,
             seen_over: false,
             face_in_front: false,
+            roi_graze: false,
         }
     }
 }
@@ -667,6 +672,9 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let mut p = params(def.cell_size_m, def.grid_size_m);
     p.seen_over = opts.seen_over;
     p.face_in_front = opts.face_in_front;
+    if opts.roi_graze {
+        p.roi_graze_fraction = 0.5;
+    }
     if def.calibrated {
         p.plausibility_mode = pmon_monitor::PlausibilityMode::Calibrated;
     }

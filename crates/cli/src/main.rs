@@ -105,6 +105,11 @@ enum Command {
         /// evidence in front of its grown region is a position error (docs/attribution.md).
         #[arg(long)]
         face_in_front: bool,
+        /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
+        /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
+        /// outside it (docs/datasets.md, "The grazing rule").
+        #[arg(long)]
+        roi_graze: bool,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -208,6 +213,7 @@ fn main() -> ExitCode {
             columns,
             seen_over,
             face_in_front,
+            roi_graze,
         } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
@@ -225,6 +231,7 @@ fn main() -> ExitCode {
                 columns,
                 seen_over,
                 face_in_front,
+                roi_graze,
             };
             if let Some(dir) = export_peers {
                 return match pmon_bench::peers::export_peers(&dir, &opts) {

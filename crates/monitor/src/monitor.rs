@@ -6,7 +6,7 @@ use crate::evidence_memory::{EvidenceKind, EvidenceMemory, Motion};
 use crate::frame::{ColumnCloud, Frame, Isometry3, ObjectState, PointCloud, PointColumns, Uncertainty};
 use crate::grid::{
     GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_RETURN_IN_ROI, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE,
-    FLAG_STATIC, FLAG_VISITED,
+    FLAG_ROI_GRAZE, FLAG_STATIC, FLAG_VISITED,
 };
 use crate::params::{MonitorParams, ParamError, SpillOverFit};
 use crate::plausibility::TrackTable;
@@ -20,8 +20,10 @@ use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 mod assignment;
 mod attribution;
 mod face;
+mod graze;
 mod roi;
 use attribution::{claim, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDERS};
+use graze::RoiAmount;
 #[doc(hidden)]
 pub use roi::roi_index_mismatch;
 use roi::{polygon_box, RoiIndex, RoiSide};
@@ -177,6 +179,13 @@ pub struct Monitor {
     /// at most 65,535 cells (`NO_CELL` maps to byte 0xFFFF, which no cell then sets); for larger grids cells may
     /// share a byte, and each candidate is checked against the cell's flags.
     edge_map: Vec<u8>,
+    /// With the grazing rule (`roi_graze_fraction > 0`): per reported cluster, its obstacle-band returns in
+    /// cells wholly inside the ROI, all its band returns, and whether the amount still decides it (`graze.rs`).
+    roi_amounts: Vec<RoiAmount>,
+    /// With the grazing rule: per cell, the band returns of a `FLAG_ROI_EDGE` cell found inside the ROI, then
+    /// the returns above `roi_graze_height_m` over a `FLAG_ROI_GRAZE` cell (saturating; 0 between frames). Empty
+    /// with the rule off.
+    roi_cell_counts: Vec<u8>,
     /// The second half's buffers of the rasterize stage on two threads ([`Monitor::enable_split`]).
     split: Option<crate::split::SecondHalf>,
     /// The sensor origin's height in the ego frame this frame, m (for `seen_over`: the grid keeps each hit cell's
@@ -273,6 +282,8 @@ impl Monitor {
             roi: RoiIndex::new(geometry),
             point_cells: Vec::with_capacity(max_points),
             edge_map: alloc::vec![0; EDGE_MAP],
+            roi_amounts: Vec::with_capacity(if params.roi_graze_fraction > 0.0 { max_clusters } else { 0 }),
+            roi_cell_counts: if params.roi_graze_fraction > 0.0 { alloc::vec![0; cells] } else { Vec::new() },
             split: None,
             sensor_z: 0.0,
             params,
@@ -718,6 +729,12 @@ impl Monitor {
         let tau = self.params.tau_fn;
         let mut edge_clusters = false;
         self.roi.build(frame.roi_in_ego);
+        // The grazing rule (`graze.rs`): every cell's side is asked, and a cluster that its whole cells do not put
+        // in the ROI with enough of its band returns waits for the amount of its returns inside and its height.
+        let graze = self.params.roi_graze_fraction > 0.0 && !frame.roi_in_ego.is_empty();
+        let fraction = self.params.roi_graze_fraction;
+        let mut pending = false;
+        self.roi_amounts.clear();
         let mut k = 0usize;
         while let Some(&idx) = self.grid.touched().get(k) {
             k += 1;
@@ -780,15 +797,21 @@ impl Monitor {
             // below (`roi_by_returns`).
             let mut in_roi = frame.roi_in_ego.is_empty();
             let mut edge_cells = false;
+            let (mut inside_hits, mut all_hits) = (0u32, 0u32);
             let span = self.queue.get(start..end).unwrap_or(&[]);
             for &c in span {
                 let (x, y) = geometry.cell_center(c);
                 sx += x;
                 sy += y;
                 b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
-                if !in_roi {
+                if !in_roi || graze {
+                    let hits = if graze { u32::from(self.grid.hits(c)) } else { 0 };
+                    all_hits += hits;
                     match self.roi.cell_side(frame.roi_in_ego, c, x, y) {
-                        RoiSide::Inside => in_roi = true,
+                        RoiSide::Inside => {
+                            in_roi = true;
+                            inside_hits += hits;
+                        }
                         RoiSide::Edge => {
                             edge_cells = true;
                             self.grid.set_flags(c, FLAG_ROI_EDGE);
@@ -797,12 +820,22 @@ impl Monitor {
                     }
                 }
             }
+            // With the grazing rule a cluster stays undecided unless its whole cells alone hold the fraction of
+            // its band returns inside; one with neither an inside cell nor an edge cell is outside.
+            let wait = graze && (in_roi || edge_cells) && (inside_hits as f32) < fraction * all_hits as f32;
+            if graze {
+                in_roi &= !wait;
+                if self.roi_amounts.len() < self.roi_amounts.capacity() {
+                    self.roi_amounts.push(RoiAmount { inside: inside_hits, all: all_hits, wait });
+                }
+                pending |= wait;
+            }
             // Only a cluster its cells leave undecided keeps its edge cells marked for the returns (each cell's
             // side asked once: a cluster left undecided had every cell asked above); in the bit set too, which
             // `roi_by_returns` scans the recorded cells with.
             if edge_cells {
                 for &c in span {
-                    if in_roi {
+                    if in_roi || (graze && !wait) {
                         self.grid.clear_flags(c, FLAG_ROI_EDGE);
                     } else if self.grid.flags(c) & FLAG_ROI_EDGE != 0 {
                         if let Some(b) = self.edge_map.get_mut(edge_slot(c)) {
@@ -810,7 +843,7 @@ impl Monitor {
                         }
                     }
                 }
-                edge_clusters |= !in_roi;
+                edge_clusters |= if graze { wait } else { !in_roi };
             }
             if in_roi {
                 for k in start..end {
@@ -829,8 +862,14 @@ impl Monitor {
             });
             self.cluster_spans.push((start as u32, end as u32));
         }
-        if edge_clusters {
+        if graze {
+            if pending {
+                self.roi_by_amount(frame, cloud, edge_clusters);
+            }
+        } else if edge_clusters {
             self.roi_by_returns(frame, cloud);
+        }
+        if edge_clusters {
             // The prefilter is empty again for the next frame (every marked cell is in the queue).
             for &c in &self.queue {
                 if let Some(b) = self.edge_map.get_mut(edge_slot(c)) {

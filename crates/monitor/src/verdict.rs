@@ -401,7 +401,9 @@ pub struct ClusterReport {
     pub centroid_m: [f32; 2],
     /// Axis-aligned bounds `[min_x, min_y, max_x, max_y]`, ego frame, metres.
     pub bounds_m: [f32; 4],
-    /// True when at least one cell centre lies in the frame's region of interest (or there is none).
+    /// True when the frame has no region of interest, or when one of the cluster's obstacle-band returns lies
+    /// inside it (with `roi_graze_fraction > 0`: and at least that fraction of them does, or no return over its
+    /// cells is higher than `roi_graze_height_m` over the ground).
     pub in_roi: bool,
     /// Index into [`FrameReport::objects`] of the object it is attributed to (a position error), if any.
     pub object: Option<u32>,

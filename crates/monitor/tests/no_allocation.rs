@@ -56,13 +56,16 @@ static GLOBAL: Counting = Counting;
 #[test]
 fn check_allocates_nothing_after_construction() {
     // Also with the free-space test over nearer obstacles (its per-cell returns are allocated with the grid), and
-    // with the face-in-front test.
-    for (seen_over, face_in_front) in [(false, false), (true, false), (false, true)] {
+    // with the face-in-front test, and with the grazing rule of the ROI (a tree below grazes the road's edge).
+    for (seen_over, face_in_front, roi_graze_fraction) in
+        [(false, false, 0.0), (true, false, 0.0), (false, true, 0.0), (false, false, 0.5)]
+    {
         let params = MonitorParams {
             max_objects: 64,
             max_points: 200_000,
             seen_over,
             face_in_front,
+            roi_graze_fraction,
             ..MonitorParams::default()
         };
         let mut monitor = Monitor::new(params).unwrap();
@@ -78,6 +81,14 @@ fn check_allocates_nothing_after_construction() {
         let mut points: Vec<[f32; 3]> = objects.iter().flat_map(|o| visible_face_points(o, 0.1)).collect();
         points.extend(visible_face_points(&object(999, -12.0, 3.0, 0.0, 0.6, 0.6), 0.05));
         points.extend(ground_points(48.0));
+        // A tree behind the road's edge (y = 5): its trunk outside, a few branches over the road, its canopy.
+        for i in 0..8 {
+            for j in 0..8 {
+                let (x, y) = (20.05 + 0.1 * i as f32, 5.05 + 0.1 * j as f32);
+                points.extend([[x, y, 1.0], [x, y, 1.5], [x, y - 1.0, 6.0]]);
+            }
+            points.push([20.05 + 0.1 * i as f32, 4.95, 2.0]);
+        }
         let points = to_sensor(&points);
         for o in objects.iter_mut().step_by(5) {
             o.x_m += 2.0;
