@@ -52,7 +52,8 @@ fuzz_target!(|data: &[u8]| {
     // height low enough for the input's returns to reach it).
     let graze = data.first().is_some_and(|b| b & 0x20 != 0);
     let half_plane: &[[f32; 2]] = &[[-20.0, -20.0], [0.0, -20.0], [0.0, 20.0], [-20.0, 20.0]];
-    let roi: &[&[[f32; 2]]] = if graze { &[half_plane] } else { &[] };
+    let polygons = [half_plane];
+    let roi: &[&[[f32; 2]]] = if graze { &polygons } else { &[] };
     let params = MonitorParams {
         max_points: 4096,
         max_objects: 64,

@@ -132,7 +132,7 @@ impl Monitor {
         let (r, tr) = (t.rotation, t.translation_m);
         for p in (0..points.len()).filter_map(|i| points.get(i)) {
             let z = r[2][0] * p[0] + r[2][1] * p[1] + r[2][2] * p[2] + tr[2];
-            if !(z > top) {
+            if z.is_nan() || z <= top {
                 continue;
             }
             let q = t.transform(p);
