@@ -862,6 +862,54 @@ fn trapezoid(h: &History, from: &Entry, b: usize, last: &Entry, skip_flipped: bo
     let sq = |x: f32| f64::from(x) * f64::from(x);
     let mut pred = [0.0f64; 2];
     let mut cov = [sq(from.sx_m) + sq(last.sx_m), 0.0, sq(from.sy_m) + sq(last.sy_m)];
+    if b > n {
+        return (pred, cov);
+    }
+    let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
+        let v = f64::from(e.v_mps);
+        let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
+        pred[0] += w * v * c;
+        pred[1] += w * v * s;
+        let sv = f64::from(e.sv_mps);
+        add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
+    };
+    // The states b..n in the ring's slots (b itself never skipped), then `last`: the sequence
+    // [`trapezoid_reference`] walks, with the same weights added in the same order.
+    let mut prev: &Entry = if b < n { h.get(b).unwrap_or(last) } else { last };
+    let mut prev_w = 0.0f64;
+    if b < n {
+        let mut slot = ring_index(usize::from(h.start) + b, HISTORY);
+        for _ in b + 1..n {
+            slot += 1;
+            if slot >= HISTORY {
+                slot -= HISTORY;
+            }
+            let e = h.items.get(slot).unwrap_or(last);
+            if skip_flipped && e.flipped {
+                continue;
+            }
+            let half = 0.5 * (e.t_s - prev.t_s);
+            add(prev, prev_w + half, &mut pred, &mut cov);
+            prev_w = half;
+            prev = e;
+        }
+        let half = 0.5 * (last.t_s - prev.t_s);
+        add(prev, prev_w + half, &mut pred, &mut cov);
+        prev_w = half;
+        prev = last;
+    }
+    add(prev, prev_w, &mut pred, &mut cov);
+    (pred, cov)
+}
+
+/// [`trapezoid`] as it was written first (state by state through [`History::get`]): the reference the tests hold
+/// it to.
+#[cfg(test)]
+fn trapezoid_reference(h: &History, from: &Entry, b: usize, last: &Entry, skip_flipped: bool) -> ([f64; 2], [f64; 3]) {
+    let n = h.len();
+    let sq = |x: f32| f64::from(x) * f64::from(x);
+    let mut pred = [0.0f64; 2];
+    let mut cov = [sq(from.sx_m) + sq(last.sx_m), 0.0, sq(from.sy_m) + sq(last.sy_m)];
     let mut prev: Option<&Entry> = None;
     let mut prev_w = 0.0f64;
     let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
@@ -1932,6 +1980,45 @@ mod tests {
                 proptest::prop_assert_eq!((na, nb), (nv, nh));
                 proptest::prop_assert!((a - rms(sv, nv)).abs() < 1e-6 * (1.0 + a));
                 proptest::prop_assert!((b - rms(sh, nh)).abs() < 1e-6 * (1.0 + b));
+            }
+        }
+
+        #[test]
+        fn trapezoid_matches_its_reference_bit_for_bit(
+            states in proptest::collection::vec(
+                (0.01f64..0.3, -2.0f32..20.0, -3.2f32..3.2, 0.0f32..2.0, 0.0f32..0.5, proptest::bool::ANY),
+                1..40,
+            ),
+            last in (0.01f64..0.3, -2.0f32..20.0, -3.2f32..3.2, 0.0f32..2.0),
+            b in 0usize..14,
+        ) {
+            // Random times (also out of order: steps of either sign), speeds, headings, sigmas and flipped states,
+            // several wrap-arounds of the ring; every start `b` (also past the end) and both `skip_flipped`.
+            let mut h = History::default();
+            let mut t = 0.0f64;
+            for (k, &(dt, v, th, sv, sh, flipped)) in states.iter().enumerate() {
+                t += if k % 7 == 3 { -dt } else { dt };
+                let mut s = e(t, k as f64 * 0.7, v);
+                s.heading_rad = th;
+                s.sv_mps = sv;
+                s.sh_rad = sh;
+                s.sx_m = 0.1 + sv;
+                s.sy_m = 0.2 + sh;
+                s.flipped = flipped;
+                h.push(s);
+                let mut s1 = e(t + last.0, 3.0, last.1);
+                s1.heading_rad = last.2;
+                s1.sv_mps = last.3;
+                let (sn, cs) = libm::sincos(f64::from(s1.heading_rad));
+                s1.unit = [cs as f32, sn as f32];
+                let from = h.get(b).copied().unwrap_or(s1);
+                for skip in [false, true] {
+                    let (p, c) = trapezoid(&h, &from, b, &s1, skip);
+                    let (pr, cr) = trapezoid_reference(&h, &from, b, &s1, skip);
+                    let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    proptest::prop_assert_eq!(bits(&p), bits(&pr));
+                    proptest::prop_assert_eq!(bits(&c), bits(&cr));
+                }
             }
         }
     }
