@@ -347,14 +347,13 @@ impl History {
         self.push_steps(e, pos, any, step);
     }
 
-    /// [`History::push_with_unit`] with the position step of `e` from the newest state given: the
-    /// [`CalibratedCheck::position_step`] of `e`'s check against this history (the same number, computed once),
-    /// or negative when `e` raised an alarm.
-    pub(crate) fn push_with_unit_and_step(&mut self, e: Entry, pos: f32) {
-        let prev = self.last();
-        let any = speed_step_any(prev, &e);
-        let step = steps_from_any(prev, &e, any);
-        self.push_steps(e, pos, any, step);
+    /// [`History::push_with_unit`] with every step of `e` from the newest state given by the check of `e`
+    /// against this history: [`CalibratedCheck::position_step`], [`CalibratedCheck::speed_step`] and
+    /// [`CalibratedCheck::steps_if_no_alarm`] (the same numbers as the push would compute; a state that raised
+    /// an alarm, `e.suspect`, keeps no position step and no clean steps).
+    pub(crate) fn push_checked(&mut self, e: Entry, c: &CalibratedCheck) {
+        let (pos, step) = if e.suspect { (-1.0, (-1.0, -1.0)) } else { (c.position_step, c.steps_if_no_alarm) };
+        self.push_steps(e, pos, c.speed_step, step);
     }
 
     /// Stores `e` with its steps from the newest state (computed by the callers from one look-up of it): the
@@ -796,6 +795,13 @@ pub struct CalibratedCheck {
     /// [`one_frame_d2`]) when both states are clean (the new one taken to be alarm-free) and it is finite, else
     /// negative: the position step [`History::push`] keeps for a new state that raised no alarm.
     pub position_step: f32,
+    /// The speed step [`History::push`] keeps in the robust scatter's ring for the new state (`speed_step_any`
+    /// of the newest state and the new one: computed here from the same variance and change the acceleration
+    /// test takes), and the clean steps it keeps for the new state when it raises no alarm (`steps_from_any`
+    /// with the new state taken to be alarm-free): the same numbers, computed once.
+    pub speed_step: f32,
+    /// See [`CalibratedCheck::speed_step`].
+    pub steps_if_no_alarm: (f32, f32),
 }
 
 /// `sqrt(a^2 + b^2)` without `hypot`'s care for overflow (the values here are metres, m/s and radians: far from
@@ -1012,8 +1018,16 @@ pub(crate) fn check_calibrated_sc(
     let mut turn = (0.0, 0.0);
     let heading_defined = !s0.warmup && !s1.warmup && v0.min(v1) >= heading_min_speed_mps;
     let d_heading = wrap_difference(f64::from(s1.heading_rad) - f64::from(s0.heading_rad));
+    // `a^2 + b^2` of the two heading sigmas, as `norm` and `steps_from_any` compute it (computed once).
+    let heading_var = || {
+        let (a, b) = (s0.heading_sigma(), s1.heading_sigma());
+        a * a + b * b
+    };
+    let mut var_h = None;
     if heading_defined {
-        let m = gates.factor(h.own_heading_scatter()) * norm(s0.heading_sigma(), s1.heading_sigma());
+        let vh = heading_var();
+        var_h = Some(vh);
+        let m = gates.factor(h.own_heading_scatter()) * libm::sqrt(vh);
         turn = (d_heading / dt, m / dt);
         let w_max = f64::from(limits.turn_rate_max_radps).abs();
         if libm::fabs(d_heading) - m > core::f64::consts::FRAC_PI_2 {
@@ -1075,11 +1089,11 @@ pub(crate) fn check_calibrated_sc(
     // `a_acc dt + z sigma_v` says that the object moved at that speed while the tracker reported 0 (a speed error
     // of the warm-up, named below). (The warm-up sigma stays in the motion test over the baseline.)
     let warmup_end = s0.warmup && !s1.warmup;
-    let accel_margin = if warmup_end {
-        speed_factor * f64::from(s1.sv_mps) / dt
-    } else {
-        speed_factor * norm(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt
-    };
+    // (`norm`'s sum of squares, also the speed step's variance below.)
+    let (sv0, sv1) = (f64::from(s0.sv_mps), f64::from(s1.sv_mps));
+    let var_v = sv0 * sv0 + sv1 * sv1;
+    let accel_margin =
+        if warmup_end { speed_factor * f64::from(s1.sv_mps) / dt } else { speed_factor * libm::sqrt(var_v) / dt };
     let accel_fired = (warmup_end || (!s0.warmup && !s1.warmup))
         && (accel - accel_margin > f64::from(limits.accel_max_mps2)
             || accel + accel_margin < f64::from(limits.brake_max_mps2));
@@ -1146,6 +1160,36 @@ pub(crate) fn check_calibrated_sc(
             own_position = Some((res1, res1 * libm::sqrt(2.0 * gate / d1)));
         }
     }
+    // The steps the push keeps for the new state: `speed_step_any(Some(s0), s1)` and `steps_from_any(Some(s0),
+    // s1, speed_step)` with `s1` taken to be alarm-free, from the variances and changes computed above (the same
+    // expressions; test `checked_steps_match_the_push_s_own`).
+    let speed_step = if n > 0 && !s0.warmup && !s1.warmup {
+        let dv = v1 - v0;
+        let q = dv * dv / var_v;
+        if var_v > 0.0 && q.is_finite() {
+            q as f32
+        } else {
+            -1.0
+        }
+    } else {
+        -1.0
+    };
+    let steps_if_no_alarm = if n > 0 && clean_unless_alarm(s0, s1) {
+        let heading = if s0.v_mps.min(s1.v_mps) >= OWN_HEADING_MIN_SPEED_MPS {
+            let vh = var_h.unwrap_or_else(heading_var);
+            if vh > 0.0 {
+                (d_heading * d_heading / vh) as f32
+            } else {
+                -1.0
+            }
+        } else {
+            -1.0
+        };
+        let speed = if speed_step >= 0.0 { speed_step } else { -1.0 };
+        (if speed.is_finite() { speed } else { -1.0 }, if heading.is_finite() { heading } else { -1.0 })
+    } else {
+        (-1.0, -1.0)
+    };
     let motion_fired = d2 > gates.chi2_2 || own_position.is_some();
     // The speeds over the baseline name an alarm's kind; computed only for an alarm.
     let span = || (s1.t_s - sb.t_s).max(1e-9);
@@ -1263,6 +1307,8 @@ pub(crate) fn check_calibrated_sc(
         allowance,
         own_position: if d2 > gates.chi2_2 { None } else { own_position },
         position_step,
+        speed_step,
+        steps_if_no_alarm,
     }
 }
 
@@ -1300,6 +1346,56 @@ mod tests {
 
     fn run(h: &History, s1: &Entry) -> CalibratedCheck {
         check_calibrated(h, s1, &MotionLimits::default(), &Gates::new(1e-4), 1.0, 0.5)
+    }
+
+    #[test]
+    fn checked_steps_match_the_push_s_own() {
+        // The steps a check hands to the push (`push_checked`) are the ones `push_with_unit` computes: random
+        // tracks with warm-ups, alarms, zero sigmas, speeds about the heading threshold and several heading
+        // thresholds of the check; two histories, one pushed each way, stay alike.
+        let gates = Gates::new(1e-4);
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for track in 0..200 {
+            let min_speed = [1.0, 0.5, 2.0][track % 3];
+            let (mut by_check, mut by_push) = (History::default(), History::default());
+            let mut t = 0.0;
+            for k in 0..40 {
+                t += 0.05 + 0.1 * rnd();
+                let mut s1 = e(t, 10.0 * rnd(), (3.0 * rnd() - 0.2) as f32);
+                if rnd() < 0.2 {
+                    s1.v_mps = [0.0, 1.0, 0.999_999_9][k % 3];
+                }
+                s1.heading_rad = (6.4 * rnd() - 3.2) as f32;
+                s1.sv_mps = if rnd() < 0.1 { 0.0 } else { rnd() as f32 };
+                s1.sh_rad = if rnd() < 0.1 { 0.0 } else { 0.3 * rnd() as f32 };
+                s1.warmup = rnd() < 0.15;
+                let (sn, cs) = libm::sincos(f64::from(s1.heading_rad));
+                s1.unit = [cs as f32, sn as f32];
+                let c = check_calibrated(&by_check, &s1, &MotionLimits::default(), &gates, min_speed, 0.5);
+                let prev = by_check.last().copied();
+                let any = speed_step_any(prev.as_ref(), &s1);
+                assert_eq!(c.speed_step.to_bits(), any.to_bits());
+                let (a, b) = steps_from_any(prev.as_ref(), &s1, any);
+                assert_eq!(
+                    (c.steps_if_no_alarm.0.to_bits(), c.steps_if_no_alarm.1.to_bits()),
+                    (a.to_bits(), b.to_bits())
+                );
+                s1.suspect = !c.fired.is_empty() || rnd() < 0.1;
+                by_check.push_checked(s1, &c);
+                by_push.push_with_unit(s1);
+                let bits = |h: &History| {
+                    let ((sv, nv), (sh, nh)) = h.own_scatter();
+                    let (p, np) = h.own_position_scatter();
+                    let (r, nr) = h.robust_speed_scale();
+                    (sv.to_bits(), nv, sh.to_bits(), nh, p.to_bits(), np, r.to_bits(), nr)
+                };
+                assert_eq!(bits(&by_check), bits(&by_push));
+            }
+        }
     }
 
     #[test]

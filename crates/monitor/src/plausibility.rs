@@ -302,8 +302,8 @@ impl TrackTable {
                                     p.baseline_s,
                                 )
                             };
-                            // The calibrated check's one-frame position step, kept with the new state (computed once).
-                            let mut position_step = None;
+                            // The calibrated check, whose steps of the new state are kept with it (computed once).
+                            let mut checked = None;
                             let outcome = match p.plausibility_mode {
                                 PlausibilityMode::Paper => {
                                     let m = check_motion(&tr.state, &s1, &limits, f64::from(p.gamma_plaus));
@@ -340,7 +340,7 @@ impl TrackTable {
                                 }
                                 PlausibilityMode::Calibrated => {
                                     let cal = cal();
-                                    position_step = Some(cal.position_step);
+                                    checked = Some(cal);
                                     MotionOutcome {
                                         verdict: if cal.fired.is_empty() {
                                             MotionVerdict::Plausible
@@ -371,9 +371,10 @@ impl TrackTable {
                             // The track moves to its new place; its history is updated in its slot.
                             if self.next.len() < cap {
                                 if let Some(h) = self.pool.get_mut(tr.hist as usize) {
-                                    match position_step {
-                                        // (A state that raised an alarm keeps no step.)
-                                        Some(q) => h.push_with_unit_and_step(e1, if e1.suspect { -1.0 } else { q }),
+                                    match checked {
+                                        // (The steps computed by the check; a state that raised an alarm keeps
+                                        // no position step and no clean steps.)
+                                        Some(c) => h.push_checked(e1, &c),
                                         None => h.push_with_unit(e1),
                                     }
                                 }
