@@ -1106,8 +1106,11 @@ pub(crate) fn check_calibrated_sc(
     // from its alarm-free warm-up state (whose speed sigma covers the unknown speed) rather than from the
     // alarmed state, which every later state would echo. (One scan for the three candidates.)
     let (mut oldest_clean, mut oldest_alarm_free, mut oldest_any) = (None, None, None);
+    // (The states in the ring's slots, oldest first: the states `h.get(0..n)`.)
+    let mut slot = usize::from(h.start);
     for i in 0..n {
-        let Some(e) = h.get(i) else { break };
+        let Some(e) = h.items.get(slot) else { break };
+        slot = if slot + 1 >= HISTORY { slot + 1 - HISTORY } else { slot + 1 };
         if !within(e) {
             continue;
         }

@@ -201,7 +201,12 @@ impl TrackTable {
         let pose_sc = libm::sincos(pose.yaw_rad);
         self.order.clear();
         self.order.extend(0..n as u32);
-        self.order.sort_unstable_by_key(|&i| (objects.get(i as usize).map_or(u64::MAX, |o| o.id), i));
+        // (Objects already in strictly increasing id order, as trackers usually list them, are in the order the
+        // sort would give: the keys `(id, i)` ascend already, so the sort is skipped.)
+        let ascending = objects.get(..n).is_some_and(|o| o.windows(2).all(|w| matches!(w, [a, b] if a.id < b.id)));
+        if !ascending {
+            self.order.sort_unstable_by_key(|&i| (objects.get(i as usize).map_or(u64::MAX, |o| o.id), i));
+        }
 
         self.next.clear();
         let cap = self.next.capacity();
@@ -412,17 +417,14 @@ impl TrackTable {
 
 /// True when every estimate and margin of a motion check is finite (also after narrowing to `f32`).
 fn outcome_is_finite(o: &MotionOutcome) -> bool {
-    let f32s = [
-        o.accel_mps2,
-        o.accel_margin_mps2,
-        o.turn_rate_radps,
-        o.turn_rate_margin_radps,
-        o.predicted_margin_m[0],
-        o.predicted_margin_m[1],
-        o.position_residual_m,
-        o.position_allowance_m,
-    ];
-    f32s.iter().all(|v| v.is_finite())
+    o.accel_mps2.is_finite()
+        && o.accel_margin_mps2.is_finite()
+        && o.turn_rate_radps.is_finite()
+        && o.turn_rate_margin_radps.is_finite()
+        && o.predicted_margin_m[0].is_finite()
+        && o.predicted_margin_m[1].is_finite()
+        && o.position_residual_m.is_finite()
+        && o.position_allowance_m.is_finite()
         && o.dt_s.is_finite()
         && o.predicted_world_m[0].is_finite()
         && o.predicted_world_m[1].is_finite()
