@@ -1139,7 +1139,8 @@ pub(crate) fn check_calibrated_sc(
     let d2 = mahalanobis2(r, cov);
     let residual = norm(r[0], r[1]);
     // (A residual of exactly 0, noise-free input, has no direction: the allowance along the wider axis.)
-    let allowance = if d2 > 0.0 && d2.is_finite() {
+    // (`0 < d2 < inf`: positive and finite, as one pair of comparisons.)
+    let allowance = if d2 > 0.0 && d2 < f64::INFINITY {
         residual * libm::sqrt(gates.chi2_2 / d2)
     } else if d2 <= 0.0 {
         libm::sqrt(gates.chi2_2 * cov[0].max(cov[2]))
