@@ -991,11 +991,17 @@ pub fn check_calibrated(
         gates,
         heading_min_speed_mps,
         baseline_s,
+        false,
     )
 }
 
 /// [`check_calibrated`] with `u1 = libm::sincos(f64::from(s1.heading_rad))` given (computed once per state) and
 /// `s1`'s [`Entry::unit`] set from it (`[u1.1 as f32, u1.0 as f32]`, as [`History::push`] sets it).
+/// `times_in_order` says that the history's times are finite and strictly increasing (the track table's
+/// histories are: it pushes a state only after its time, finite, passed `t - t_prev > 0`): the states before
+/// the baseline's window are then skipped by a binary search instead of a scan (the same state is found; test
+/// `ordered_baseline_search_finds_the_scan_s_state`).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn check_calibrated_sc(
     h: &History,
     s1: &Entry,
@@ -1004,6 +1010,7 @@ pub(crate) fn check_calibrated_sc(
     gates: &Gates,
     heading_min_speed_mps: f64,
     baseline_s: f64,
+    times_in_order: bool,
 ) -> CalibratedCheck {
     let n = h.len();
     let s0 = h.last().unwrap_or(s1);
@@ -1106,9 +1113,27 @@ pub(crate) fn check_calibrated_sc(
     // from its alarm-free warm-up state (whose speed sigma covers the unknown speed) rather than from the
     // alarmed state, which every later state would echo. (One scan for the three candidates.)
     let (mut oldest_clean, mut oldest_alarm_free, mut oldest_any) = (None, None, None);
-    // (The states in the ring's slots, oldest first: the states `h.get(0..n)`.)
-    let mut slot = usize::from(h.start);
-    for i in 0..n {
+    // (The states in the ring's slots, oldest first: the states `h.get(first..n)`. With the times in order the
+    // test `within` is false for the states before the first one within the window and true from it on, so
+    // those states, which the scan would skip, are skipped by a binary search.)
+    let mut first = 0;
+    if times_in_order {
+        let mut len = n;
+        while len > 0 {
+            let half = len / 2;
+            let slot = usize::from(h.start) + first + half;
+            let slot = if slot >= HISTORY { slot - HISTORY } else { slot };
+            if h.items.get(slot).is_some_and(|e| !within(e)) {
+                first += half + 1;
+                len -= half + 1;
+            } else {
+                len = half;
+            }
+        }
+    }
+    let slot = usize::from(h.start) + first;
+    let mut slot = if slot >= HISTORY { slot - HISTORY } else { slot };
+    for i in first..n {
         let Some(e) = h.items.get(slot) else { break };
         slot = if slot + 1 >= HISTORY { slot + 1 - HISTORY } else { slot + 1 };
         if !within(e) {
@@ -1400,6 +1425,55 @@ mod tests {
                 assert_eq!(bits(&by_check), bits(&by_push));
             }
         }
+    }
+
+    #[test]
+    fn ordered_baseline_search_finds_the_scan_s_state() {
+        // With the times in order (finite, strictly increasing, as the track table keeps them), the check that
+        // skips the states before the baseline's window by a binary search gives what the scan gives, to the
+        // last bit: random rates (also irregular, some steps much longer than the window), alarms, warm-ups and
+        // flips, every history length, windows from 0 to longer than the ring, and new states right after the
+        // newest one or long after it.
+        let gates = Gates::new(1e-4);
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut checked = 0usize;
+        for track in 0..120 {
+            let rate = [0.1, 0.05, 0.033, 0.2, 0.5][track % 5];
+            let mut h = History::default();
+            let mut t = 1000.0 * rnd();
+            for k in 0..30 {
+                let mut s = e(t, 10.0 * rnd(), (5.0 * rnd()) as f32);
+                s.heading_rad = (6.4 * rnd() - 3.2) as f32;
+                s.suspect = rnd() < 0.2;
+                s.warmup = rnd() < 0.1;
+                s.flipped = s.suspect && rnd() < 0.5;
+                let (sn, cs) = libm::sincos(f64::from(s.heading_rad));
+                s.unit = [cs as f32, sn as f32];
+                for baseline_s in [0.0, 0.1, 0.5, 0.5 + 1e-9, 1.0, 3.0] {
+                    for gap in [rate, 0.5 * rate, 2.0 * rate, 1.0, 1e-9] {
+                        if h.is_empty() {
+                            continue;
+                        }
+                        let mut s1 = s;
+                        s1.t_s = h.last().map_or(0.0, |p| p.t_s) + gap;
+                        let u1 = libm::sincos(f64::from(s1.heading_rad));
+                        let l = MotionLimits::default();
+                        let a = check_calibrated_sc(&h, &s1, u1, &l, &gates, 1.0, baseline_s, true);
+                        let b = check_calibrated_sc(&h, &s1, u1, &l, &gates, 1.0, baseline_s, false);
+                        assert_eq!(format!("{a:?}"), format!("{b:?}"), "track {track}, state {k}");
+                        checked += 1;
+                    }
+                }
+                h.push(s);
+                let step = if rnd() < 0.1 { 5.0 * rnd() + 1e-6 } else { rate * (0.5 + rnd()) };
+                t += step;
+            }
+        }
+        assert!(checked > 40_000);
     }
 
     #[test]

@@ -305,6 +305,9 @@ impl TrackTable {
                                     &gates,
                                     f64::from(p.heading_min_speed_mps),
                                     p.baseline_s,
+                                    // (The histories here hold finite, strictly increasing times: a state is
+                                    // pushed only after `dt > 0` from the newest, and `t_s` is finite.)
+                                    true,
                                 )
                             };
                             // The calibrated check, whose steps of the new state are kept with it (computed once).
