@@ -432,3 +432,56 @@ fn outcome_is_finite(o: &MotionOutcome) -> bool {
         && o.predicted_world_m[0].is_finite()
         && o.predicted_world_m[1].is_finite()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::ObjectClass;
+    use alloc::format;
+
+    #[test]
+    fn objects_in_id_order_and_shuffled_give_the_same_outcomes() {
+        // The sort by id is skipped when the ids ascend already (its result): the same frames with their objects
+        // listed in ascending id order and in a shuffled order give the same outcome per object, to the last
+        // bit, in both modes (duplicates, which always take the sort, included in some frames).
+        for mode in [PlausibilityMode::Paper, PlausibilityMode::Calibrated] {
+            let p = MonitorParams { plausibility_mode: mode, ..MonitorParams::PAPER };
+            let (mut sorted_table, mut shuffled_table) = (TrackTable::new(40), TrackTable::new(40));
+            for k in 0..60u32 {
+                let t = f64::from(k) * 0.1;
+                let mut objects: Vec<ObjectState> = (0..30u64)
+                    .map(|id| ObjectState {
+                        id: 3 * id + 1,
+                        class: if id % 3 == 0 { ObjectClass::Pedestrian } else { ObjectClass::Car },
+                        x_m: (id as f32) * 2.0 + 0.8 * k as f32 * (1.0 + (id % 5) as f32),
+                        y_m: (id as f32) - 0.01 * (k * k) as f32,
+                        heading_rad: 0.05 * (id % 7) as f32 - 0.002 * k as f32,
+                        speed_mps: 8.0 * (1.0 + (id % 5) as f32) + if (k + id as u32) % 17 == 0 { 4.0 } else { 0.0 },
+                        length_m: 4.0,
+                        width_m: 1.8,
+                        uncertainty: None,
+                    })
+                    .collect();
+                if k % 11 == 5 {
+                    if let Some(o) = objects.get_mut(7) {
+                        o.id = 19; // the id of object 6: a duplicate
+                    }
+                }
+                let pose = Pose2 { x_m: 0.3 * t, y_m: 0.0, yaw_rad: 0.01 * t };
+                let valid = alloc::vec![true; objects.len()];
+                let none = MotionOutcome::not_monitored(NotMonitoredReason::InvalidState);
+                let mut out_sorted = alloc::vec![none; objects.len()];
+                sorted_table.check_frame(t, &pose, &objects, &valid, &mut out_sorted, &p);
+                // A fixed shuffle of the same objects.
+                let order: Vec<usize> = (0..objects.len()).map(|i| (i * 7 + k as usize) % objects.len()).collect();
+                let shuffled: Vec<ObjectState> = order.iter().filter_map(|&i| objects.get(i).copied()).collect();
+                let mut out_shuffled = alloc::vec![none; objects.len()];
+                shuffled_table.check_frame(t, &pose, &shuffled, &valid, &mut out_shuffled, &p);
+                for (j, &i) in order.iter().enumerate() {
+                    let (a, b) = (out_sorted.get(i), out_shuffled.get(j));
+                    assert_eq!(format!("{a:?}"), format!("{b:?}"), "frame {k}, object {i}");
+                }
+            }
+        }
+    }
+}
