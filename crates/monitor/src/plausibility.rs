@@ -456,7 +456,8 @@ mod tests {
                         x_m: (id as f32) * 2.0 + 0.8 * k as f32 * (1.0 + (id % 5) as f32),
                         y_m: (id as f32) - 0.01 * (k * k) as f32,
                         heading_rad: 0.05 * (id % 7) as f32 - 0.002 * k as f32,
-                        speed_mps: 8.0 * (1.0 + (id % 5) as f32) + if (k + id as u32) % 17 == 0 { 4.0 } else { 0.0 },
+                        speed_mps: 8.0 * (1.0 + (id % 5) as f32)
+                            + if (k + id as u32).is_multiple_of(17) { 4.0 } else { 0.0 },
                         length_m: 4.0,
                         width_m: 1.8,
                         uncertainty: None,
