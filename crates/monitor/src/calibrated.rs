@@ -347,14 +347,13 @@ impl History {
         self.push_steps(e, pos, any, step);
     }
 
-    /// [`History::push_with_unit`] with the position step of `e` from the newest state given: the
-    /// [`CalibratedCheck::position_step`] of `e`'s check against this history (the same number, computed once),
-    /// or negative when `e` raised an alarm.
-    pub(crate) fn push_with_unit_and_step(&mut self, e: Entry, pos: f32) {
-        let prev = self.last();
-        let any = speed_step_any(prev, &e);
-        let step = steps_from_any(prev, &e, any);
-        self.push_steps(e, pos, any, step);
+    /// [`History::push_with_unit`] with every step of `e` from the newest state given by the check of `e`
+    /// against this history: [`CalibratedCheck::position_step`], [`CalibratedCheck::speed_step`] and
+    /// [`CalibratedCheck::steps_if_no_alarm`] (the same numbers as the push would compute; a state that raised
+    /// an alarm, `e.suspect`, keeps no position step and no clean steps).
+    pub(crate) fn push_checked(&mut self, e: Entry, c: &CalibratedCheck) {
+        let (pos, step) = if e.suspect { (-1.0, (-1.0, -1.0)) } else { (c.position_step, c.steps_if_no_alarm) };
+        self.push_steps(e, pos, c.speed_step, step);
     }
 
     /// Stores `e` with its steps from the newest state (computed by the callers from one look-up of it): the
@@ -796,6 +795,13 @@ pub struct CalibratedCheck {
     /// [`one_frame_d2`]) when both states are clean (the new one taken to be alarm-free) and it is finite, else
     /// negative: the position step [`History::push`] keeps for a new state that raised no alarm.
     pub position_step: f32,
+    /// The speed step [`History::push`] keeps in the robust scatter's ring for the new state (`speed_step_any`
+    /// of the newest state and the new one: computed here from the same variance and change the acceleration
+    /// test takes), and the clean steps it keeps for the new state when it raises no alarm (`steps_from_any`
+    /// with the new state taken to be alarm-free): the same numbers, computed once.
+    pub speed_step: f32,
+    /// See [`CalibratedCheck::speed_step`].
+    pub steps_if_no_alarm: (f32, f32),
 }
 
 /// `sqrt(a^2 + b^2)` without `hypot`'s care for overflow (the values here are metres, m/s and radians: far from
@@ -858,6 +864,54 @@ fn add_velocity_cov(cov: &mut [f64; 3], w: f64, (s, c): (f64, f64), sv: f64, sc:
 /// half of its two adjacent intervals), and its covariance: both positions' and every velocity's. With
 /// `skip_flipped`, a state after `from` whose heading was called flipped lends no velocity.
 fn trapezoid(h: &History, from: &Entry, b: usize, last: &Entry, skip_flipped: bool) -> ([f64; 2], [f64; 3]) {
+    let n = h.len();
+    let sq = |x: f32| f64::from(x) * f64::from(x);
+    let mut pred = [0.0f64; 2];
+    let mut cov = [sq(from.sx_m) + sq(last.sx_m), 0.0, sq(from.sy_m) + sq(last.sy_m)];
+    if b > n {
+        return (pred, cov);
+    }
+    let add = |e: &Entry, w: f64, pred: &mut [f64; 2], cov: &mut [f64; 3]| {
+        let v = f64::from(e.v_mps);
+        let (s, c) = (f64::from(e.unit[1]), f64::from(e.unit[0]));
+        pred[0] += w * v * c;
+        pred[1] += w * v * s;
+        let sv = f64::from(e.sv_mps);
+        add_velocity_cov(cov, w, (s, c), sv, v * f64::from(e.sh_rad) + sv);
+    };
+    // The states b..n in the ring's slots (b itself never skipped), then `last`: the sequence
+    // [`trapezoid_reference`] walks, with the same weights added in the same order.
+    let mut prev: &Entry = if b < n { h.get(b).unwrap_or(last) } else { last };
+    let mut prev_w = 0.0f64;
+    if b < n {
+        let mut slot = ring_index(usize::from(h.start) + b, HISTORY);
+        for _ in b + 1..n {
+            slot += 1;
+            if slot >= HISTORY {
+                slot -= HISTORY;
+            }
+            let e = h.items.get(slot).unwrap_or(last);
+            if skip_flipped && e.flipped {
+                continue;
+            }
+            let half = 0.5 * (e.t_s - prev.t_s);
+            add(prev, prev_w + half, &mut pred, &mut cov);
+            prev_w = half;
+            prev = e;
+        }
+        let half = 0.5 * (last.t_s - prev.t_s);
+        add(prev, prev_w + half, &mut pred, &mut cov);
+        prev_w = half;
+        prev = last;
+    }
+    add(prev, prev_w, &mut pred, &mut cov);
+    (pred, cov)
+}
+
+/// [`trapezoid`] as it was written first (state by state through [`History::get`]): the reference the tests hold
+/// it to.
+#[cfg(test)]
+fn trapezoid_reference(h: &History, from: &Entry, b: usize, last: &Entry, skip_flipped: bool) -> ([f64; 2], [f64; 3]) {
     let n = h.len();
     let sq = |x: f32| f64::from(x) * f64::from(x);
     let mut pred = [0.0f64; 2];
@@ -937,11 +991,17 @@ pub fn check_calibrated(
         gates,
         heading_min_speed_mps,
         baseline_s,
+        false,
     )
 }
 
 /// [`check_calibrated`] with `u1 = libm::sincos(f64::from(s1.heading_rad))` given (computed once per state) and
 /// `s1`'s [`Entry::unit`] set from it (`[u1.1 as f32, u1.0 as f32]`, as [`History::push`] sets it).
+/// `times_in_order` says that the history's times are finite and strictly increasing (the track table's
+/// histories are: it pushes a state only after its time, finite, passed `t - t_prev > 0`): the states before
+/// the baseline's window are then skipped by a binary search instead of a scan (the same state is found; test
+/// `ordered_baseline_search_finds_the_scan_s_state`).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn check_calibrated_sc(
     h: &History,
     s1: &Entry,
@@ -950,6 +1010,7 @@ pub(crate) fn check_calibrated_sc(
     gates: &Gates,
     heading_min_speed_mps: f64,
     baseline_s: f64,
+    times_in_order: bool,
 ) -> CalibratedCheck {
     let n = h.len();
     let s0 = h.last().unwrap_or(s1);
@@ -964,8 +1025,16 @@ pub(crate) fn check_calibrated_sc(
     let mut turn = (0.0, 0.0);
     let heading_defined = !s0.warmup && !s1.warmup && v0.min(v1) >= heading_min_speed_mps;
     let d_heading = wrap_difference(f64::from(s1.heading_rad) - f64::from(s0.heading_rad));
+    // `a^2 + b^2` of the two heading sigmas, as `norm` and `steps_from_any` compute it (computed once).
+    let heading_var = || {
+        let (a, b) = (s0.heading_sigma(), s1.heading_sigma());
+        a * a + b * b
+    };
+    let mut var_h = None;
     if heading_defined {
-        let m = gates.factor(h.own_heading_scatter()) * norm(s0.heading_sigma(), s1.heading_sigma());
+        let vh = heading_var();
+        var_h = Some(vh);
+        let m = gates.factor(h.own_heading_scatter()) * libm::sqrt(vh);
         turn = (d_heading / dt, m / dt);
         let w_max = f64::from(limits.turn_rate_max_radps).abs();
         if libm::fabs(d_heading) - m > core::f64::consts::FRAC_PI_2 {
@@ -1027,11 +1096,11 @@ pub(crate) fn check_calibrated_sc(
     // `a_acc dt + z sigma_v` says that the object moved at that speed while the tracker reported 0 (a speed error
     // of the warm-up, named below). (The warm-up sigma stays in the motion test over the baseline.)
     let warmup_end = s0.warmup && !s1.warmup;
-    let accel_margin = if warmup_end {
-        speed_factor * f64::from(s1.sv_mps) / dt
-    } else {
-        speed_factor * norm(f64::from(s0.sv_mps), f64::from(s1.sv_mps)) / dt
-    };
+    // (`norm`'s sum of squares, also the speed step's variance below.)
+    let (sv0, sv1) = (f64::from(s0.sv_mps), f64::from(s1.sv_mps));
+    let var_v = sv0 * sv0 + sv1 * sv1;
+    let accel_margin =
+        if warmup_end { speed_factor * f64::from(s1.sv_mps) / dt } else { speed_factor * libm::sqrt(var_v) / dt };
     let accel_fired = (warmup_end || (!s0.warmup && !s1.warmup))
         && (accel - accel_margin > f64::from(limits.accel_max_mps2)
             || accel + accel_margin < f64::from(limits.brake_max_mps2));
@@ -1044,8 +1113,29 @@ pub(crate) fn check_calibrated_sc(
     // from its alarm-free warm-up state (whose speed sigma covers the unknown speed) rather than from the
     // alarmed state, which every later state would echo. (One scan for the three candidates.)
     let (mut oldest_clean, mut oldest_alarm_free, mut oldest_any) = (None, None, None);
-    for i in 0..n {
-        let Some(e) = h.get(i) else { break };
+    // (The states in the ring's slots, oldest first: the states `h.get(first..n)`. With the times in order the
+    // test `within` is false for the states before the first one within the window and true from it on, so
+    // those states, which the scan would skip, are skipped by a binary search.)
+    let mut first = 0;
+    if times_in_order {
+        let mut len = n;
+        while len > 0 {
+            let half = len / 2;
+            let slot = usize::from(h.start) + first + half;
+            let slot = if slot >= HISTORY { slot - HISTORY } else { slot };
+            if h.items.get(slot).is_some_and(|e| !within(e)) {
+                first += half + 1;
+                len -= half + 1;
+            } else {
+                len = half;
+            }
+        }
+    }
+    let slot = usize::from(h.start) + first;
+    let mut slot = if slot >= HISTORY { slot - HISTORY } else { slot };
+    for i in first..n {
+        let Some(e) = h.items.get(slot) else { break };
+        slot = if slot + 1 >= HISTORY { slot + 1 - HISTORY } else { slot + 1 };
         if !within(e) {
             continue;
         }
@@ -1074,7 +1164,8 @@ pub(crate) fn check_calibrated_sc(
     let d2 = mahalanobis2(r, cov);
     let residual = norm(r[0], r[1]);
     // (A residual of exactly 0, noise-free input, has no direction: the allowance along the wider axis.)
-    let allowance = if d2 > 0.0 && d2.is_finite() {
+    // (`0 < d2 < inf`: positive and finite, as one pair of comparisons.)
+    let allowance = if d2 > 0.0 && d2 < f64::INFINITY {
         residual * libm::sqrt(gates.chi2_2 / d2)
     } else if d2 <= 0.0 {
         libm::sqrt(gates.chi2_2 * cov[0].max(cov[2]))
@@ -1098,6 +1189,36 @@ pub(crate) fn check_calibrated_sc(
             own_position = Some((res1, res1 * libm::sqrt(2.0 * gate / d1)));
         }
     }
+    // The steps the push keeps for the new state: `speed_step_any(Some(s0), s1)` and `steps_from_any(Some(s0),
+    // s1, speed_step)` with `s1` taken to be alarm-free, from the variances and changes computed above (the same
+    // expressions; test `checked_steps_match_the_push_s_own`).
+    let speed_step = if n > 0 && !s0.warmup && !s1.warmup {
+        let dv = v1 - v0;
+        let q = dv * dv / var_v;
+        if var_v > 0.0 && q.is_finite() {
+            q as f32
+        } else {
+            -1.0
+        }
+    } else {
+        -1.0
+    };
+    let steps_if_no_alarm = if n > 0 && clean_unless_alarm(s0, s1) {
+        let heading = if s0.v_mps.min(s1.v_mps) >= OWN_HEADING_MIN_SPEED_MPS {
+            let vh = var_h.unwrap_or_else(heading_var);
+            if vh > 0.0 {
+                (d_heading * d_heading / vh) as f32
+            } else {
+                -1.0
+            }
+        } else {
+            -1.0
+        };
+        let speed = if speed_step >= 0.0 { speed_step } else { -1.0 };
+        (if speed.is_finite() { speed } else { -1.0 }, if heading.is_finite() { heading } else { -1.0 })
+    } else {
+        (-1.0, -1.0)
+    };
     let motion_fired = d2 > gates.chi2_2 || own_position.is_some();
     // The speeds over the baseline name an alarm's kind; computed only for an alarm.
     let span = || (s1.t_s - sb.t_s).max(1e-9);
@@ -1215,6 +1336,8 @@ pub(crate) fn check_calibrated_sc(
         allowance,
         own_position: if d2 > gates.chi2_2 { None } else { own_position },
         position_step,
+        speed_step,
+        steps_if_no_alarm,
     }
 }
 
@@ -1252,6 +1375,105 @@ mod tests {
 
     fn run(h: &History, s1: &Entry) -> CalibratedCheck {
         check_calibrated(h, s1, &MotionLimits::default(), &Gates::new(1e-4), 1.0, 0.5)
+    }
+
+    #[test]
+    fn checked_steps_match_the_push_s_own() {
+        // The steps a check hands to the push (`push_checked`) are the ones `push_with_unit` computes: random
+        // tracks with warm-ups, alarms, zero sigmas, speeds about the heading threshold and several heading
+        // thresholds of the check; two histories, one pushed each way, stay alike.
+        let gates = Gates::new(1e-4);
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for track in 0..200 {
+            let min_speed = [1.0, 0.5, 2.0][track % 3];
+            let (mut by_check, mut by_push) = (History::default(), History::default());
+            let mut t = 0.0;
+            for k in 0..40 {
+                t += 0.05 + 0.1 * rnd();
+                let mut s1 = e(t, 10.0 * rnd(), (3.0 * rnd() - 0.2) as f32);
+                if rnd() < 0.2 {
+                    s1.v_mps = [0.0, 1.0, 0.999_999_9][k % 3];
+                }
+                s1.heading_rad = (6.4 * rnd() - 3.2) as f32;
+                s1.sv_mps = if rnd() < 0.1 { 0.0 } else { rnd() as f32 };
+                s1.sh_rad = if rnd() < 0.1 { 0.0 } else { 0.3 * rnd() as f32 };
+                s1.warmup = rnd() < 0.15;
+                let (sn, cs) = libm::sincos(f64::from(s1.heading_rad));
+                s1.unit = [cs as f32, sn as f32];
+                let c = check_calibrated(&by_check, &s1, &MotionLimits::default(), &gates, min_speed, 0.5);
+                let prev = by_check.last().copied();
+                let any = speed_step_any(prev.as_ref(), &s1);
+                assert_eq!(c.speed_step.to_bits(), any.to_bits());
+                let (a, b) = steps_from_any(prev.as_ref(), &s1, any);
+                assert_eq!(
+                    (c.steps_if_no_alarm.0.to_bits(), c.steps_if_no_alarm.1.to_bits()),
+                    (a.to_bits(), b.to_bits())
+                );
+                s1.suspect = !c.fired.is_empty() || rnd() < 0.1;
+                by_check.push_checked(s1, &c);
+                by_push.push_with_unit(s1);
+                let bits = |h: &History| {
+                    let ((sv, nv), (sh, nh)) = h.own_scatter();
+                    let (p, np) = h.own_position_scatter();
+                    let (r, nr) = h.robust_speed_scale();
+                    (sv.to_bits(), nv, sh.to_bits(), nh, p.to_bits(), np, r.to_bits(), nr)
+                };
+                assert_eq!(bits(&by_check), bits(&by_push));
+            }
+        }
+    }
+
+    #[test]
+    fn ordered_baseline_search_finds_the_scan_s_state() {
+        // With the times in order (finite, strictly increasing, as the track table keeps them), the check that
+        // skips the states before the baseline's window by a binary search gives what the scan gives, to the
+        // last bit: random rates (also irregular, some steps much longer than the window), alarms, warm-ups and
+        // flips, every history length, windows from 0 to longer than the ring, and new states right after the
+        // newest one or long after it.
+        let gates = Gates::new(1e-4);
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut checked = 0usize;
+        for track in 0..120 {
+            let rate = [0.1, 0.05, 0.033, 0.2, 0.5][track % 5];
+            let mut h = History::default();
+            let mut t = 1000.0 * rnd();
+            for k in 0..30 {
+                let mut s = e(t, 10.0 * rnd(), (5.0 * rnd()) as f32);
+                s.heading_rad = (6.4 * rnd() - 3.2) as f32;
+                s.suspect = rnd() < 0.2;
+                s.warmup = rnd() < 0.1;
+                s.flipped = s.suspect && rnd() < 0.5;
+                let (sn, cs) = libm::sincos(f64::from(s.heading_rad));
+                s.unit = [cs as f32, sn as f32];
+                for baseline_s in [0.0, 0.1, 0.5, 0.5 + 1e-9, 1.0, 3.0] {
+                    for gap in [rate, 0.5 * rate, 2.0 * rate, 1.0, 1e-9] {
+                        if h.is_empty() {
+                            continue;
+                        }
+                        let mut s1 = s;
+                        s1.t_s = h.last().map_or(0.0, |p| p.t_s) + gap;
+                        let u1 = libm::sincos(f64::from(s1.heading_rad));
+                        let l = MotionLimits::default();
+                        let a = check_calibrated_sc(&h, &s1, u1, &l, &gates, 1.0, baseline_s, true);
+                        let b = check_calibrated_sc(&h, &s1, u1, &l, &gates, 1.0, baseline_s, false);
+                        assert_eq!(format!("{a:?}"), format!("{b:?}"), "track {track}, state {k}");
+                        checked += 1;
+                    }
+                }
+                h.push(s);
+                let step = if rnd() < 0.1 { 5.0 * rnd() + 1e-6 } else { rate * (0.5 + rnd()) };
+                t += step;
+            }
+        }
+        assert!(checked > 40_000);
     }
 
     #[test]
@@ -1932,6 +2154,45 @@ mod tests {
                 proptest::prop_assert_eq!((na, nb), (nv, nh));
                 proptest::prop_assert!((a - rms(sv, nv)).abs() < 1e-6 * (1.0 + a));
                 proptest::prop_assert!((b - rms(sh, nh)).abs() < 1e-6 * (1.0 + b));
+            }
+        }
+
+        #[test]
+        fn trapezoid_matches_its_reference_bit_for_bit(
+            states in proptest::collection::vec(
+                (0.01f64..0.3, -2.0f32..20.0, -3.2f32..3.2, 0.0f32..2.0, 0.0f32..0.5, proptest::bool::ANY),
+                1..40,
+            ),
+            last in (0.01f64..0.3, -2.0f32..20.0, -3.2f32..3.2, 0.0f32..2.0),
+            b in 0usize..14,
+        ) {
+            // Random times (also out of order: steps of either sign), speeds, headings, sigmas and flipped states,
+            // several wrap-arounds of the ring; every start `b` (also past the end) and both `skip_flipped`.
+            let mut h = History::default();
+            let mut t = 0.0f64;
+            for (k, &(dt, v, th, sv, sh, flipped)) in states.iter().enumerate() {
+                t += if k % 7 == 3 { -dt } else { dt };
+                let mut s = e(t, k as f64 * 0.7, v);
+                s.heading_rad = th;
+                s.sv_mps = sv;
+                s.sh_rad = sh;
+                s.sx_m = 0.1 + sv;
+                s.sy_m = 0.2 + sh;
+                s.flipped = flipped;
+                h.push(s);
+                let mut s1 = e(t + last.0, 3.0, last.1);
+                s1.heading_rad = last.2;
+                s1.sv_mps = last.3;
+                let (sn, cs) = libm::sincos(f64::from(s1.heading_rad));
+                s1.unit = [cs as f32, sn as f32];
+                let from = h.get(b).copied().unwrap_or(s1);
+                for skip in [false, true] {
+                    let (p, c) = trapezoid(&h, &from, b, &s1, skip);
+                    let (pr, cr) = trapezoid_reference(&h, &from, b, &s1, skip);
+                    let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    proptest::prop_assert_eq!(bits(&p), bits(&pr));
+                    proptest::prop_assert_eq!(bits(&c), bits(&cr));
+                }
             }
         }
     }

@@ -201,7 +201,12 @@ impl TrackTable {
         let pose_sc = libm::sincos(pose.yaw_rad);
         self.order.clear();
         self.order.extend(0..n as u32);
-        self.order.sort_unstable_by_key(|&i| (objects.get(i as usize).map_or(u64::MAX, |o| o.id), i));
+        // (Objects already in strictly increasing id order, as trackers usually list them, are in the order the
+        // sort would give: the keys `(id, i)` ascend already, so the sort is skipped.)
+        let ascending = objects.get(..n).is_some_and(|o| o.windows(2).all(|w| matches!(w, [a, b] if a.id < b.id)));
+        if !ascending {
+            self.order.sort_unstable_by_key(|&i| (objects.get(i as usize).map_or(u64::MAX, |o| o.id), i));
+        }
 
         self.next.clear();
         let cap = self.next.capacity();
@@ -300,10 +305,13 @@ impl TrackTable {
                                     &gates,
                                     f64::from(p.heading_min_speed_mps),
                                     p.baseline_s,
+                                    // (The histories here hold finite, strictly increasing times: a state is
+                                    // pushed only after `dt > 0` from the newest, and `t_s` is finite.)
+                                    true,
                                 )
                             };
-                            // The calibrated check's one-frame position step, kept with the new state (computed once).
-                            let mut position_step = None;
+                            // The calibrated check, whose steps of the new state are kept with it (computed once).
+                            let mut checked = None;
                             let outcome = match p.plausibility_mode {
                                 PlausibilityMode::Paper => {
                                     let m = check_motion(&tr.state, &s1, &limits, f64::from(p.gamma_plaus));
@@ -340,7 +348,7 @@ impl TrackTable {
                                 }
                                 PlausibilityMode::Calibrated => {
                                     let cal = cal();
-                                    position_step = Some(cal.position_step);
+                                    checked = Some(cal);
                                     MotionOutcome {
                                         verdict: if cal.fired.is_empty() {
                                             MotionVerdict::Plausible
@@ -371,9 +379,10 @@ impl TrackTable {
                             // The track moves to its new place; its history is updated in its slot.
                             if self.next.len() < cap {
                                 if let Some(h) = self.pool.get_mut(tr.hist as usize) {
-                                    match position_step {
-                                        // (A state that raised an alarm keeps no step.)
-                                        Some(q) => h.push_with_unit_and_step(e1, if e1.suspect { -1.0 } else { q }),
+                                    match checked {
+                                        // (The steps computed by the check; a state that raised an alarm keeps
+                                        // no position step and no clean steps.)
+                                        Some(c) => h.push_checked(e1, &c),
                                         None => h.push_with_unit(e1),
                                     }
                                 }
@@ -411,18 +420,69 @@ impl TrackTable {
 
 /// True when every estimate and margin of a motion check is finite (also after narrowing to `f32`).
 fn outcome_is_finite(o: &MotionOutcome) -> bool {
-    let f32s = [
-        o.accel_mps2,
-        o.accel_margin_mps2,
-        o.turn_rate_radps,
-        o.turn_rate_margin_radps,
-        o.predicted_margin_m[0],
-        o.predicted_margin_m[1],
-        o.position_residual_m,
-        o.position_allowance_m,
-    ];
-    f32s.iter().all(|v| v.is_finite())
+    o.accel_mps2.is_finite()
+        && o.accel_margin_mps2.is_finite()
+        && o.turn_rate_radps.is_finite()
+        && o.turn_rate_margin_radps.is_finite()
+        && o.predicted_margin_m[0].is_finite()
+        && o.predicted_margin_m[1].is_finite()
+        && o.position_residual_m.is_finite()
+        && o.position_allowance_m.is_finite()
         && o.dt_s.is_finite()
         && o.predicted_world_m[0].is_finite()
         && o.predicted_world_m[1].is_finite()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::ObjectClass;
+    use alloc::format;
+
+    #[test]
+    fn objects_in_id_order_and_shuffled_give_the_same_outcomes() {
+        // The sort by id is skipped when the ids ascend already (its result): the same frames with their objects
+        // listed in ascending id order and in a shuffled order give the same outcome per object, to the last
+        // bit, in both modes (duplicates, which always take the sort, included in some frames).
+        for mode in [PlausibilityMode::Paper, PlausibilityMode::Calibrated] {
+            let p = MonitorParams { plausibility_mode: mode, ..MonitorParams::PAPER };
+            let (mut sorted_table, mut shuffled_table) = (TrackTable::new(40), TrackTable::new(40));
+            for k in 0..60u32 {
+                let t = f64::from(k) * 0.1;
+                let mut objects: Vec<ObjectState> = (0..30u64)
+                    .map(|id| ObjectState {
+                        id: 3 * id + 1,
+                        class: if id % 3 == 0 { ObjectClass::Pedestrian } else { ObjectClass::Car },
+                        x_m: (id as f32) * 2.0 + 0.8 * k as f32 * (1.0 + (id % 5) as f32),
+                        y_m: (id as f32) - 0.01 * (k * k) as f32,
+                        heading_rad: 0.05 * (id % 7) as f32 - 0.002 * k as f32,
+                        speed_mps: 8.0 * (1.0 + (id % 5) as f32)
+                            + if (k + id as u32).is_multiple_of(17) { 4.0 } else { 0.0 },
+                        length_m: 4.0,
+                        width_m: 1.8,
+                        uncertainty: None,
+                    })
+                    .collect();
+                if k % 11 == 5 {
+                    if let Some(o) = objects.get_mut(7) {
+                        o.id = 19; // the id of object 6: a duplicate
+                    }
+                }
+                let pose = Pose2 { x_m: 0.3 * t, y_m: 0.0, yaw_rad: 0.01 * t };
+                let valid = alloc::vec![true; objects.len()];
+                let none = MotionOutcome::not_monitored(NotMonitoredReason::InvalidState);
+                let mut out_sorted = alloc::vec![none; objects.len()];
+                sorted_table.check_frame(t, &pose, &objects, &valid, &mut out_sorted, &p);
+                // A fixed shuffle of the same objects.
+                let order: Vec<usize> = (0..objects.len()).map(|i| (i * 7 + k as usize) % objects.len()).collect();
+                let shuffled: Vec<ObjectState> = order.iter().filter_map(|&i| objects.get(i).copied()).collect();
+                let mut out_shuffled = alloc::vec![none; objects.len()];
+                shuffled_table.check_frame(t, &pose, &shuffled, &valid, &mut out_shuffled, &p);
+                for (j, &i) in order.iter().enumerate() {
+                    let (a, b) = (out_sorted.get(i), out_shuffled.get(j));
+                    assert_eq!(format!("{a:?}"), format!("{b:?}"), "frame {k}, object {i}");
+                }
+            }
+        }
+    }
 }

@@ -25,7 +25,12 @@ pub struct Region {
 /// along the unit heading `u` is `sqrt(u^T Sigma u)`.
 #[must_use]
 pub fn axis_sigmas(u: &Uncertainty, heading_rad: f32) -> (f32, f32) {
-    let (s, c) = libm::sincosf(heading_rad);
+    axis_sigmas_sc(u, libm::sincosf(heading_rad))
+}
+
+/// [`axis_sigmas`] with `(s, c) = libm::sincosf(heading_rad)` given (computed once per object: the footprint
+/// takes the same pair).
+fn axis_sigmas_sc(u: &Uncertainty, (s, c): (f32, f32)) -> (f32, f32) {
     let (vx, vy) = (u.x_m * u.x_m, u.y_m * u.y_m);
     (libm::sqrtf(vx * c * c + vy * s * s), libm::sqrtf(vx * s * s + vy * c * c))
 }
@@ -47,10 +52,13 @@ impl Region {
     /// what makes eq. (gridCapabilities)'s `dx_min` a guarantee (see [`crate::theory::dx_min_m`]).
     #[must_use]
     pub fn of(o: &ObjectState, u: &Uncertainty, p: &MonitorParams) -> Self {
-        let (lon, lat) = axis_sigmas(u, o.heading_rad);
+        // (One `sincosf` of the heading for both: the same call `OrientedRect::new` makes.)
+        let (sin, cos) = libm::sincosf(o.heading_rad);
+        let (lon, lat) = axis_sigmas_sc(u, (sin, cos));
         let margin_length_m = p.safety_margin_m + p.gamma_sens * (lon + u.length_m);
         let margin_width_m = p.safety_margin_m + p.gamma_sens * (lat + u.width_m);
-        let footprint = OrientedRect::new(o.x_m, o.y_m, o.heading_rad, 0.5 * o.length_m, 0.5 * o.width_m);
+        let footprint =
+            OrientedRect { cx: o.x_m, cy: o.y_m, cos, sin, half_length: 0.5 * o.length_m, half_width: 0.5 * o.width_m };
         let grown = OrientedRect {
             half_length: footprint.half_length + margin_length_m,
             half_width: footprint.half_width + margin_width_m,
@@ -100,5 +108,41 @@ mod tests {
         let u = Uncertainty { x_m: 0.3, y_m: 0.1, heading_rad: 0.0, speed_mps: 0.0, length_m: 0.0, width_m: 0.0 };
         let (lon, lat) = axis_sigmas(&u, core::f32::consts::FRAC_PI_2);
         assert!((lon - 0.1).abs() < 1e-5 && (lat - 0.3).abs() < 1e-5);
+    }
+
+    #[test]
+    fn one_sincos_gives_the_footprint_and_margins_of_two() {
+        // `Region::of` takes one `sincosf` for the margins and the footprint: the same bits as `axis_sigmas` and
+        // `OrientedRect::new`, which take one each.
+        let p = MonitorParams::default();
+        for k in -700i32..700 {
+            let heading_rad = k as f32 * 0.01 + 0.003;
+            let u = Uncertainty {
+                x_m: 0.1 + (k.rem_euclid(7)) as f32 * 0.11,
+                y_m: 0.3,
+                heading_rad: 0.0,
+                speed_mps: 0.0,
+                length_m: 0.2,
+                width_m: 0.1,
+            };
+            let o = ObjectState {
+                id: 1,
+                class: ObjectClass::Car,
+                x_m: 10.0,
+                y_m: -3.0,
+                heading_rad,
+                speed_mps: 1.0,
+                length_m: 4.0,
+                width_m: 2.0,
+                uncertainty: Some(u),
+            };
+            let r = Region::of(&o, &u, &p);
+            let (lon, lat) = axis_sigmas(&u, heading_rad);
+            let f = OrientedRect::new(o.x_m, o.y_m, heading_rad, 0.5 * o.length_m, 0.5 * o.width_m);
+            assert_eq!(r.footprint, f);
+            assert_eq!(r.margin_length_m.to_bits(), (p.safety_margin_m + p.gamma_sens * (lon + u.length_m)).to_bits());
+            assert_eq!(r.margin_width_m.to_bits(), (p.safety_margin_m + p.gamma_sens * (lat + u.width_m)).to_bits());
+            assert_eq!(r.delta_b_m.to_bits(), delta_b(&u, heading_rad).to_bits());
+        }
     }
 }
