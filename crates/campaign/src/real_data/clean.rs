@@ -263,7 +263,7 @@ impl CleanSummary {
         let fa = get("ghost") + get("position_error");
         let claim = format!(
             "{key}: {fa} of {in_scope} clean boxes in scope flagged ({} ghost, {} position error; {}), {missed_alarms} \
-             missed-object alarms (ROI: {roi}; per frame {})",
+             missed-object alarms (ROI: {roi}; per frame, min / median / max: {})",
             get("ghost"),
             get("position_error"),
             mechanisms.iter().map(|(m, n)| format!("{m}: {n}")).collect::<Vec<_>>().join(", "),
