@@ -272,7 +272,8 @@ pub struct MonitorParams {
     /// of 1.2 m with the default uncertainty, 0.5 m cells and `delta_safe` 0.1 m; the box jumped when either test
     /// says so (docs/attribution.md, "Step 9 from the returns"). Costs a pass over the sweep's recorded cells per
     /// frame and a sum per grid cell (12 bytes, allocated in `Monitor::new` with the key). Changes nothing without
-    /// a previous frame (single keyframes).
+    /// a previous frame (single keyframes). Not the default: +17-51 % of the checks' instructions, and up to 0.9
+    /// points less combined precision on the simulated transient errors (Argoverse 2 at 1 m: 10 -> 24 of 38).
     pub jump_from_returns: bool,
     /// Off (0) by default. Kerb-side scenery that only grazes the region of interest (docs/datasets.md, "The
     /// grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
