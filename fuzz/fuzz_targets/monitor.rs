@@ -51,6 +51,8 @@ fuzz_target!(|data: &[u8]| {
     // And its next bit the grazing rule of a region of interest (`roi_graze_fraction`; the half plane x < 0, the
     // height low enough for the input's returns to reach it).
     let graze = data.first().is_some_and(|b| b & 0x20 != 0);
+    // And its next bit step 9 from the returns (`jump_from_returns`).
+    let jump_from_returns = data.first().is_some_and(|b| b & 0x10 != 0);
     let half_plane: &[[f32; 2]] = &[[-20.0, -20.0], [0.0, -20.0], [0.0, 20.0], [-20.0, 20.0]];
     let polygons = [half_plane];
     let roi: &[&[[f32; 2]]] = if graze { &polygons } else { &[] };
@@ -60,6 +62,7 @@ fuzz_target!(|data: &[u8]| {
         grid_size_m: 40.0,
         seen_over,
         face_in_front,
+        jump_from_returns,
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,
         ..MonitorParams::default()

@@ -22,6 +22,7 @@ class Params:
     spill_over_fit: str
     seen_over: bool
     face_in_front: bool
+    jump_from_returns: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

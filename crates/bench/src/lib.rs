@@ -142,6 +142,9 @@ pub struct BenchOptions {
     /// Check with the params key `face_in_front` on (a confirmed box whose rays end on its own evidence in front of
     /// its grown region is displaced: docs/attribution.md). Off: the default parameters.
     pub face_in_front: bool,
+    /// Check with the params key `jump_from_returns` on (step 9 takes evidence centres from the returns: a pass
+    /// over the recorded cells per frame; docs/attribution.md). Off: the default parameters.
+    pub jump_from_returns: bool,
     /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
     /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
     /// "The grazing rule"). Off: the default parameters.
@@ -164,6 +167,7 @@ impl Default for BenchOptions {
             columns: false,
             seen_over: false,
             face_in_front: false,
+            jump_from_returns: false,
             roi_graze: false,
         }
     }
@@ -672,6 +676,7 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let mut p = params(def.cell_size_m, def.grid_size_m);
     p.seen_over = opts.seen_over;
     p.face_in_front = opts.face_in_front;
+    p.jump_from_returns = opts.jump_from_returns;
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
     }

@@ -17,6 +17,7 @@ fn quick() -> BenchOptions {
         columns: false,
         seen_over: false,
         face_in_front: false,
+        jump_from_returns: false,
         roi_graze: false,
     }
 }

@@ -7,12 +7,13 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on. With `FULL=1` the runs are those of the full plan
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
 //! also the free-space test's walk over the occluder, traced from the outside); `MISSES=1` lists each verifiable
-//! miss, and `TRACE=1` with `SEEN_OVER=1` adds that trace to each.
+//! miss, and `TRACE=1` with `SEEN_OVER=1` adds that trace to each. `TRANSIENT=1` adds the transient random
+//! position errors (`random_position_*`: sensor recall over every injected error and the combined precision).
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -28,7 +29,9 @@ fn scenes(seed: u64, full: bool) -> Result<Vec<Scene>, Box<dyn std::error::Error
     let mut out = Vec::new();
     for spec in pmon_campaign::sim_tasks::scene_specs(!full, seed, None)? {
         let name = spec.name.as_str();
-        if name == "intersection" || name == "pedestrians_20hz" {
+        // The intersection is simulated for the transient errors only (`TRANSIENT=1`).
+        let skip_intersection = std::env::var_os("TRANSIENT").is_none();
+        if (name == "intersection" && skip_intersection) || name == "pedestrians_20hz" {
             out.push(Scene { name: name.into(), source: String::new(), frames: Vec::new() });
             continue;
         }
@@ -53,6 +56,9 @@ fn wanted(run: &PlannedRun, correlated: bool) -> bool {
             || ((p.figure == "permanent_position" || p.figure == "permanent_position_paper")
                 && p.measure == Measure::SensorRecallVerifiable)
             || (p.figure == "position_direction" && p.curve.starts_with("towards"))
+            || (std::env::var_os("TRANSIENT").is_some()
+                && p.figure.starts_with("random_position_")
+                && p.measure == Measure::SensorRecall)
     })
 }
 
@@ -615,6 +621,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut r = r.clone();
             r.spec.params.seen_over |= seen_over;
             r.spec.params.face_in_front |= std::env::var_os("FACE").is_some();
+            // `JUMP=1`: step 9 from the returns (the params key `jump_from_returns`).
+            r.spec.params.jump_from_returns |= std::env::var_os("JUMP").is_some();
             r
         })
         .collect();
@@ -641,6 +649,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             e.0 += m.sensor.false_alarms();
             e.1 += m.clean_states_in_scope;
             println!("{l:<70} FA {} / {}", m.sensor.false_alarms(), m.clean_states_in_scope);
+        } else if l.starts_with("random_position_") {
+            // Transient errors (`TRANSIENT=1`): the figure's sensor recall (all injected) and the combined precision.
+            println!(
+                "{l:<70} recall {:5.1} % ({}/{})  verifiable {:5.1} %  combined precision {:5.1} % ({}/{})",
+                100.0 * m.sensor.recall().value,
+                m.sensor.detected,
+                m.sensor.injected,
+                100.0 * m.sensor_verifiable.recall().value,
+                100.0 * m.combined.precision().value,
+                m.combined.true_alarms,
+                m.combined.alarms
+            );
         } else {
             println!(
                 "{l:<70} recall(verifiable) {:5.1} % ({}/{})  precision {:5.1} % ({}/{})",

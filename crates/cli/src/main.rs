@@ -105,6 +105,10 @@ enum Command {
         /// evidence in front of its grown region is a position error (docs/attribution.md).
         #[arg(long)]
         face_in_front: bool,
+        /// Check with the params key `jump_from_returns` on: step 9 (a box that jumps away from evidence that
+        /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md).
+        #[arg(long)]
+        jump_from_returns: bool,
         /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
         /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
         /// outside it (docs/datasets.md, "The grazing rule").
@@ -213,6 +217,7 @@ fn main() -> ExitCode {
             columns,
             seen_over,
             face_in_front,
+            jump_from_returns,
             roi_graze,
         } => {
             let opts = pmon_bench::BenchOptions {
@@ -231,6 +236,7 @@ fn main() -> ExitCode {
                 columns,
                 seen_over,
                 face_in_front,
+                jump_from_returns,
                 roi_graze,
             };
             if let Some(dir) = export_peers {

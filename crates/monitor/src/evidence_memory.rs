@@ -45,6 +45,9 @@ pub(crate) struct Motion {
     pub(crate) centre_world_m: [f64; 2],
     pub(crate) velocity_world_mps: [f32; 2],
     pub(crate) cells: f32,
+    /// With the params key `jump_from_returns`: the offset from the reported centre to the mean of the returns
+    /// in its own evidence's cells (world axes, metres).
+    pub(crate) returns_offset_world_m: Option<[f32; 2]>,
 }
 
 /// The evidence offsets of the previous frame's tracks.
@@ -55,7 +58,7 @@ pub(crate) struct EvidenceMemory {
 }
 
 /// `R(yaw) v`.
-fn rotate(v: [f32; 2], yaw_rad: f64) -> [f32; 2] {
+pub(crate) fn rotate(v: [f32; 2], yaw_rad: f64) -> [f32; 2] {
     let (s, c) = libm::sincos(yaw_rad);
     let (x, y) = (f64::from(v[0]), f64::from(v[1]));
     [(c * x - s * y) as f32, (s * x + c * y) as f32]
@@ -84,8 +87,9 @@ impl EvidenceMemory {
     }
 
     /// Where track `id`'s centre should stand now (current ego frame, metres) if it moved as the previous frame's
-    /// object list said (its centre then, plus its velocity times the time step), and how many occupied cells its
-    /// own evidence held then; `None` under the same conditions as [`EvidenceMemory::recall`], or when the previous
+    /// object list said (its centre then, plus its velocity times the time step), how many occupied cells its
+    /// own evidence held then, and (when recorded) the offset from its centre to its returns' mean then, in the
+    /// current ego frame's axes; `None` under the same conditions as [`EvidenceMemory::recall`], or when the previous
     /// frame recorded no motion for it (its evidence was not its own).
     pub(crate) fn predicted_centre(
         &self,
@@ -93,7 +97,7 @@ impl EvidenceMemory {
         t_s: f64,
         world_from_ego: &Pose2,
         max_dt_s: f64,
-    ) -> Option<([f32; 2], f32)> {
+    ) -> Option<([f32; 2], f32, Option<[f32; 2]>)> {
         let i = self.prev.binary_search_by_key(&id, |e| e.id).ok()?;
         let e = self.prev.get(i)?;
         let m = e.motion?;
@@ -107,7 +111,8 @@ impl EvidenceMemory {
         ];
         let (s, c) = libm::sincos(world_from_ego.yaw_rad);
         let p = [(c * w[0] + s * w[1]) as f32, (-s * w[0] + c * w[1]) as f32];
-        p.iter().all(|v| v.is_finite()).then_some((p, m.cells))
+        let returns = m.returns_offset_world_m.map(|r| rotate(r, -world_from_ego.yaw_rad));
+        p.iter().all(|v| v.is_finite()).then_some((p, m.cells, returns))
     }
 
     /// Starts recording a frame.
@@ -136,6 +141,10 @@ impl EvidenceMemory {
             m.centre_world_m.iter().all(|v| v.is_finite())
                 && m.velocity_world_mps.iter().all(|v| v.is_finite())
                 && m.cells.is_finite()
+        });
+        let motion = motion.map(|m| Motion {
+            returns_offset_world_m: m.returns_offset_world_m.filter(|r| r.iter().all(|v| v.is_finite())),
+            ..m
         });
         self.next.push(Entry { id, seq, t_s, offset_world_m, kind, motion, duplicate: false });
     }
@@ -195,15 +204,23 @@ mod tests {
     fn the_predicted_centre_moves_with_the_object_and_the_ego() {
         let mut m = EvidenceMemory::new(4);
         m.begin();
-        let motion = Motion { centre_world_m: [110.0, 50.0], velocity_world_mps: [10.0, 0.0], cells: 6.0 };
+        let motion = Motion {
+            centre_world_m: [110.0, 50.0],
+            velocity_world_mps: [10.0, 0.0],
+            cells: 6.0,
+            returns_offset_world_m: Some([-0.4, 0.1]),
+        };
         m.record(5, 0, 2.0, 0.0, (EvidenceKind::Own, [0.5, 0.0]), Some(motion));
         m.record(6, 1, 2.0, 0.0, (EvidenceKind::Own, [0.5, 0.0]), None);
         m.commit();
         // 0.1 s later the object is at (111, 50) in the world; the ego stands at (100, 50), turned by 90 degrees.
         let pose = Pose2 { x_m: 100.0, y_m: 50.0, yaw_rad: core::f64::consts::FRAC_PI_2 };
-        let (p, cells) = m.predicted_centre(5, 2.1, &pose, 0.5).unwrap();
+        let (p, cells, returns) = m.predicted_centre(5, 2.1, &pose, 0.5).unwrap();
         assert!((p[0] - 0.0).abs() < 1e-4 && (p[1] + 11.0).abs() < 1e-4, "{p:?}");
         assert!((cells - 6.0).abs() < 1e-6);
+        // The returns' offset turns with the ego like the centre: world (-0.4, 0.1) is ego (0.1, 0.4).
+        let r = returns.unwrap();
+        assert!((r[0] - 0.1).abs() < 1e-5 && (r[1] - 0.4).abs() < 1e-5, "{r:?}");
         assert!(m.predicted_centre(6, 2.1, &pose, 0.5).is_none(), "no motion recorded");
         assert!(m.predicted_centre(5, 2.7, &pose, 0.5).is_none(), "too old");
         let bad = Pose2 { x_m: f64::NAN, ..pose };

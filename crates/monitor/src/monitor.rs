@@ -119,11 +119,14 @@ struct ObjectScratch {
     recalled: Option<(EvidenceKind, [f32; 2])>,
     /// Sum of the centres of the occupied cells the object owns, and their number.
     own_sum: [f32; 3],
+    /// With `jump_from_returns`: the sum of the returns in those cells, and their number.
+    own_returns: [f32; 3],
     /// The last cluster found where the track's remembered offset puts its evidence (`u32::MAX`: none yet).
     followed: u32,
     /// Where the track's centre should stand now if it moved as the previous frame's object list said, and how
     /// many occupied cells its own evidence held then (tracks confirmed by their own evidence last frame only).
-    predicted: Option<([f32; 2], f32)>,
+    /// With `jump_from_returns`, also the offset from its centre to its returns' mean then (current ego axes).
+    predicted: Option<([f32; 2], f32, Option<[f32; 2]>)>,
 }
 
 /// The perception monitor. Construct once with [`Monitor::new`]; call [`Monitor::check`] every frame.
@@ -191,6 +194,10 @@ pub struct Monitor {
     /// The sensor origin's height in the ego frame this frame, m (for `seen_over`: the grid keeps each hit cell's
     /// returns with `OccupancyGrid::with_returns`).
     sensor_z: f32,
+    /// With the params key `jump_from_returns`, per cell with hits this frame that step 9 may look at: the sum of
+    /// its obstacle-band returns' x and y (ego frame, metres) and their number (step 9 takes evidence centres from
+    /// the returns); a negative number for the other hit cells. Empty without the key.
+    cell_returns: Vec<[f32; 3]>,
 }
 
 /// The occupancy grid the parameters ask for (touched cells bounded by `max_points`; each hit cell's returns kept
@@ -286,6 +293,7 @@ impl Monitor {
             roi_cell_counts: if params.roi_graze_fraction > 0.0 { alloc::vec![0; cells] } else { Vec::new() },
             split: None,
             sensor_z: 0.0,
+            cell_returns: if params.jump_from_returns { alloc::vec![[0.0; 3]; cells] } else { Vec::new() },
             params,
         })
     }
@@ -466,6 +474,7 @@ impl Monitor {
         if self.sensor_status.is_none() {
             self.cluster_conflicts(frame, cloud);
             self.attribute_clusters();
+            self.sum_cell_returns(cloud);
         }
         on_stage(Stage::Conflicts);
         self.tracks.check_frame(
@@ -513,6 +522,7 @@ impl Monitor {
                 sight: None,
                 recalled,
                 own_sum: [0.0; 3],
+                own_returns: [0.0; 3],
                 followed: u32::MAX,
                 predicted: self.memory.predicted_centre(
                     o.id,
@@ -574,9 +584,10 @@ impl Monitor {
         self.sensor_z = t.translation_m[2];
         let band = self.band();
         let (grid, visibility) = (&mut self.grid, &mut self.visibility);
-        // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
+        // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them), and
+        // with `jump_from_returns` (`sum_cell_returns` reads them).
         let cells = &mut self.point_cells;
-        let record = !frame.roi_in_ego.is_empty();
+        let record = !frame.roi_in_ego.is_empty() || !self.cell_returns.is_empty();
         // The blocked loop with the wider vector unit or on the baseline; `None`: the scalar reference.
         let wide = match self.rasterizer {
             Rasterizer::Blocked => Some(true),
@@ -879,6 +890,101 @@ impl Monitor {
         }
     }
 
+    /// With `jump_from_returns`, after the attribution: the obstacle-band returns of the cells step 9 may look at
+    /// (each object's own occupied cells, and the occupied cells of the grown region placed at the predicted centre
+    /// of an object whose box jumped beyond the returns' allowance) summed per cell (x and y) and counted, through the cells the rasterizer recorded per point (a transform only for the returns of those
+    /// cells), or by a pass over the sweep when they were not recorded; then each object's own returns summed
+    /// (`own_returns`). Nothing without the key.
+    fn sum_cell_returns(&mut self, cloud: Option<Cloud<'_>>) {
+        if self.cell_returns.is_empty() || self.sensor_status.is_some() {
+            return;
+        }
+        let Some(cloud) = cloud else { return };
+        let tau = self.params.tau_fn;
+        // Every hit cell unwanted (a negative count), then the wanted ones at zero.
+        for &c in self.grid.touched() {
+            if let Some(e) = self.cell_returns.get_mut(c as usize) {
+                *e = [0.0, 0.0, -1.0];
+            }
+        }
+        let own = |grid: &crate::grid::OccupancyGrid, idx: u32| {
+            grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED && grid.probability(idx) > tau
+        };
+        for &c in self.grid.touched() {
+            if own(&self.grid, c) {
+                if let Some(e) = self.cell_returns.get_mut(c as usize) {
+                    *e = [0.0; 3];
+                }
+            }
+        }
+        let geometry = self.grid.geometry;
+        for j in 0..self.scratch.len() {
+            let Some(s) = self.scratch.get(j) else { continue };
+            let (Some(region), Some((p, _, Some(_)))) = (s.region, s.predicted) else { continue };
+            let (_, allow) = self.jump_allowances(&region);
+            let fp = &region.footprint;
+            if !attribution::beyond_allowance(fp, [fp.cx - p[0], fp.cy - p[1]], allow) {
+                continue;
+            }
+            let moved = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..region.grown };
+            let Some(range) = geometry.cell_range(moved.aabb()) else { continue };
+            let (grid, sums) = (&self.grid, &mut self.cell_returns);
+            geometry.for_each_cell_overlapping(&moved, range, |idx, _, _| {
+                if grid.probability(idx) > tau && grid.flags(idx) & FLAG_STATIC == 0 {
+                    if let Some(e) = sums.get_mut(idx as usize) {
+                        e[2] = e[2].max(0.0);
+                    }
+                }
+            });
+        }
+        let t = cloud.ego_from_sensor;
+        let points = cloud.points;
+        let band = self.band();
+        let (grid, sums) = (&self.grid, &mut self.cell_returns);
+        // Adds a return to its cell's sum when the cell is wanted (a count not below zero; `NO_CELL` is outside).
+        let add = |sums: &mut Vec<[f32; 3]>, cell: u32, q: [f32; 3]| {
+            if let Some(e) = sums.get_mut(cell as usize).filter(|e| e[2] >= 0.0) {
+                *e = [e[0] + q[0], e[1] + q[1], e[2] + 1.0];
+            }
+        };
+        if self.point_cells.len() == points.len() {
+            let (r, tr) = (&t.rotation, &t.translation_m);
+            for (i, &cell) in self.point_cells.iter().enumerate() {
+                // Unwanted cells and `NO_CELL` are skipped before the transform (a cell without hits this frame is
+                // never read: its entry, whatever it holds, is not looked at).
+                let Some(e) = sums.get_mut(cell as usize).filter(|e| e[2] >= 0.0) else { continue };
+                if let Some(p) = points.get(i) {
+                    // x and y of `t.transform(p)` (the same operations, so the same values).
+                    let x = r[0][0] * p[0] + r[0][1] * p[1] + r[0][2] * p[2] + tr[0];
+                    let y = r[1][0] * p[0] + r[1][1] * p[1] + r[1][2] * p[2] + tr[1];
+                    *e = [e[0] + x, e[1] + y, e[2] + 1.0];
+                }
+            }
+        } else {
+            // Not recorded (never with the capacities of `new`): the same returns, found by a pass over the sweep.
+            for p in (0..points.len()).filter_map(|i| points.get(i)) {
+                let q = t.transform(p);
+                if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
+                    continue;
+                }
+                if let Some(cell) = geometry.point_to_cell(q[0], q[1]).filter(|&c| grid.hits(c) > 0) {
+                    add(sums, cell, q);
+                }
+            }
+        }
+        // Each object's own returns: the returns of the occupied cells it owns.
+        for &c in self.grid.touched() {
+            if !own(&self.grid, c) {
+                continue;
+            }
+            let (Some(&o), Some(e)) = (self.owner.get(c as usize), self.cell_returns.get(c as usize)) else { continue };
+            if let Some(s) = self.scratch.get_mut(o as usize) {
+                let r = s.own_returns;
+                s.own_returns = [r[0] + e[0], r[1] + e[1], r[2] + e[2]];
+            }
+        }
+    }
+
     /// Decides the clusters left undecided by their cells (every cell centre outside the ROI or within half a
     /// cell diagonal of its edge): such a cluster is in the ROI when one of the obstacle-band returns in its edge
     /// cells lies inside a polygon. The returns are found through the cells the rasterizer recorded per point (no
@@ -1101,10 +1207,17 @@ impl Monitor {
                         let heading = f64::from(o.heading_rad) + pose.yaw_rad;
                         let (s, c) = libm::sincos(heading);
                         let v = f64::from(o.speed_mps);
+                        // With `jump_from_returns`: from the centre to its own returns' mean, world axes.
+                        let returns = scratch.own_returns;
+                        let returns_offset_world_m = (!self.cell_returns.is_empty() && returns[2] >= 1.0).then(|| {
+                            let at = [returns[0] / returns[2] - centre[0], returns[1] / returns[2] - centre[1]];
+                            crate::evidence_memory::rotate(at, pose.yaw_rad)
+                        });
                         Motion {
                             centre_world_m: [x, y],
                             velocity_world_mps: [(v * c) as f32, (v * s) as f32],
                             cells: own_sum[2],
+                            returns_offset_world_m,
                         }
                     });
                     self.memory.record(id, j, frame.timestamp_s, frame.world_from_ego.yaw_rad, (kind, offset), motion);

@@ -493,6 +493,55 @@ fn a_box_that_jumps_away_from_evidence_that_stayed_is_a_position_error() {
     }
 }
 
+/// Step 9 from the returns (params key `jump_from_returns`): the same street, the parked car reported right in one
+/// sweep and 1 m further away in the next, its returns where they were. With 0.5 m cells the cells' centres allow
+/// 1.2 m (half a cell of rounding in each sweep), so the jump is left to the one-frame rules, which confirm the
+/// car; the returns' mean allows 0.9 m, and the box is a position error, the offset pointing from where its
+/// evidence puts it back to the box. Jumps a box's stated uncertainty allows over two sweeps (0.3 m one way in
+/// the first and 0.3 m the other way in the next), 0.3 m errors of either object, and the walking pedestrian
+/// predicted by its own speed raise nothing with the key; a single sweep (no history) is the same with it.
+#[test]
+fn a_box_that_jumps_1_m_from_returns_that_stayed_is_caught_by_their_mean() {
+    let off = MonitorParams::default();
+    let on = MonitorParams { jump_from_returns: true, ..off };
+    let verdicts = |params: MonitorParams, first: (f32, f32), second: (f32, f32)| {
+        let mut m = Monitor::new(params).unwrap();
+        let (objects, pts, pose) = street_at(0.0, first.0, first.1);
+        let r0 = check_at(&mut m, 0.0, &objects, &pts, pose);
+        assert!(r0.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent), "{r0:?}");
+        let (objects, pts, pose) = street_at(0.1, second.0, second.1);
+        check_at(&mut m, 0.1, &objects, &pts, pose)
+    };
+    // The jump of 1 m: confirmed by the cells, a position error by the returns.
+    let r = verdicts(off, (0.0, 0.0), (1.0, 0.0));
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "without the key: {:?}", r[0].sensor);
+    let r = verdicts(on, (0.0, 0.0), (1.0, 0.0));
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "with the key: {:?}", r[0].sensor);
+    let o = r[0].sensor.offset_m;
+    assert!(o[0] > 0.7 && o[0] < 1.3 && o[1].abs() < 0.3, "offset {o:?}");
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "pedestrian: {:?}", r[1].sensor);
+    // Noise-like jumps and small errors: nothing, with the key as without it.
+    for (first, second) in
+        [((-0.3, 0.0), (0.3, 0.0)), ((0.0, 0.0), (0.3, 0.0)), ((0.0, 0.0), (0.0, 0.3)), ((0.0, -0.3), (0.0, 0.3))]
+    {
+        for params in [off, on] {
+            let r = verdicts(params, first, second);
+            assert!(
+                r.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent),
+                "{first:?} then {second:?}, key {}: {r:?}",
+                params.jump_from_returns
+            );
+        }
+    }
+    // No history: a single sweep is judged the same with the key.
+    for params in [off, on] {
+        let mut m = Monitor::new(params).unwrap();
+        let (objects, pts, pose) = street_at(0.1, 1.0, 0.0);
+        let r = check_at(&mut m, 0.1, &objects, &pts, pose);
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "one sweep, key {}", params.jump_from_returns);
+    }
+}
+
 /// A ray-cast sweep from the sensor of [`extrinsic`] over axis-aligned boxes `[x0, y0, x1, y1, top]` standing on
 /// the ground (and the ground itself): beams every 0.2 degrees from -15 to +2 degrees of elevation, every 0.1
 /// degrees of azimuth from -30 to +30 degrees. Returns the first hit of each ray within 60 m, ego frame.

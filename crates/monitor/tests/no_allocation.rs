@@ -56,16 +56,23 @@ static GLOBAL: Counting = Counting;
 #[test]
 fn check_allocates_nothing_after_construction() {
     // Also with the free-space test over nearer obstacles (its per-cell returns are allocated with the grid), and
-    // with the face-in-front test, and with the grazing rule of the ROI (a tree below grazes the road's edge).
-    for (seen_over, face_in_front, roi_graze_fraction) in
-        [(false, false, 0.0), (true, false, 0.0), (false, true, 0.0), (false, false, 0.5)]
-    {
+    // with the face-in-front test, and with the grazing rule of the ROI (a tree below grazes the road's edge), and
+    // with step 9 from the returns (`jump_from_returns`: per-cell sums allocated in `new`; the last frame's boxes
+    // jump).
+    for (seen_over, face_in_front, roi_graze_fraction, jump_from_returns) in [
+        (false, false, 0.0, false),
+        (true, false, 0.0, false),
+        (false, true, 0.0, false),
+        (false, false, 0.5, false),
+        (false, false, 0.0, true),
+    ] {
         let params = MonitorParams {
             max_objects: 64,
             max_points: 200_000,
             seen_over,
             face_in_front,
             roi_graze_fraction,
+            jump_from_returns,
             ..MonitorParams::default()
         };
         let mut monitor = Monitor::new(params).unwrap();
@@ -95,13 +102,18 @@ fn check_allocates_nothing_after_construction() {
         }
         objects[3].id = objects[4].id;
         objects[7].length_m = f32::NAN;
+        // The last frame: every third box jumps 1.5 m away from its evidence.
+        let mut jumped = objects.clone();
+        for o in jumped.iter_mut().step_by(3) {
+            o.x_m += 1.5;
+        }
         let road: &[[f32; 2]] = &[[-30.0, -5.0], [30.0, -5.0], [30.0, 5.0], [-30.0, 5.0]];
         let roi = [road];
         let frames: Vec<Frame<'_>> = (0..6)
             .map(|k| Frame {
                 timestamp_s: if k == 4 { f64::NAN } else { k as f64 * 0.1 },
                 world_from_ego: Pose2 { x_m: k as f64, y_m: 0.0, yaw_rad: 0.01 * k as f64 },
-                objects: &objects,
+                objects: if k == 5 { &jumped } else { &objects },
                 cloud: match k {
                     2 => None,
                     3 => Some(PointCloud { points_in_sensor: &[], ego_from_sensor: extrinsic() }),

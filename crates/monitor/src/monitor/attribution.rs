@@ -709,28 +709,34 @@ impl Monitor {
     /// `2 (margin - delta_safe) + delta_safe + cell size`: the stated uncertainty in each of the two frames, the
     /// safety margin, and half a cell of rounding of each frame's evidence centre. Bounded: one walk over the cells
     /// of one region, for objects whose reported centre jumped only.
+    ///
+    /// With the params key `jump_from_returns` (and the previous frame's returns recorded), the same tests are also
+    /// made with both evidence centres taken as the mean of the returns in the same cells instead of the mean of the
+    /// cells' centres, and an allowance whose rounding term (a cell) gives way to twice the safety margin:
+    /// `2 (margin - delta_safe) + 3 delta_safe` (docs/attribution.md, "Step 9 from the returns"); the box jumped
+    /// when either centre says so. The centre returned (what the memory keeps) stays the cells' mean; where the
+    /// evidence puts the box is the mean the test that fired used, less its remembered offset.
     pub(super) fn moved_from_evidence(&self, j: usize, region: &Region) -> Option<([f32; 2], [f32; 2])> {
         let s = self.scratch.get(j)?;
-        let (p, before) = s.predicted?;
-        let Some((EvidenceKind::Own, r)) = s.recalled else { return None };
+        let (p, before, returns_offset) = s.predicted?;
+        let Some((EvidenceKind::Own, cell_offset)) = s.recalled else { return None };
+        let returns_offset = returns_offset.filter(|_| !self.cell_returns.is_empty());
         let fp = &region.footprint;
         let geometry = self.grid.geometry;
-        let delta = self.params.safety_margin_m;
-        let cell = geometry.cell_size_m;
-        let allow_u = 2.0 * (region.margin_length_m - delta) + delta + cell;
-        let allow_v = 2.0 * (region.margin_width_m - delta) + delta + cell;
-        // `true` when a vector (ego axes) reaches beyond the allowance along or across the box.
-        let beyond = |d: [f32; 2]| {
-            let (u, v) = (d[0] * fp.cos + d[1] * fp.sin, -d[0] * fp.sin + d[1] * fp.cos);
-            !(u.abs() <= allow_u && v.abs() <= allow_v)
-        };
-        if !beyond([fp.cx - p[0], fp.cy - p[1]]) {
+        let (cells_allow, returns_allow) = self.jump_allowances(region);
+        let beyond = |d: [f32; 2], allow: [f32; 2]| beyond_allowance(fp, d, allow);
+        // The box jumped: its centre beyond an allowance from the prediction (each test with its own).
+        let jump = [fp.cx - p[0], fp.cy - p[1]];
+        let returns_offset = returns_offset.filter(|_| beyond(jump, returns_allow));
+        let by_cells = beyond(jump, cells_allow);
+        if returns_offset.is_none() && !by_cells {
             return None;
         }
         let moved = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..region.grown };
         let range = geometry.cell_range(moved.aabb())?;
         let tau = self.params.tau_fn;
         let mut sum = [0.0f32; 3];
+        let mut ret = [0.0f32; 3];
         geometry.for_each_cell_overlapping(&moved, range, |idx, x, y| {
             if self.grid.hits(idx) == 0 || self.grid.probability(idx) <= tau || self.grid.flags(idx) & FLAG_STATIC != 0
             {
@@ -745,14 +751,38 @@ impl Monitor {
                 }
             }
             sum = [sum[0] + x, sum[1] + y, sum[2] + 1.0];
+            if let (Some(e), true) = (self.cell_returns.get(idx as usize), returns_offset.is_some()) {
+                if e[2] > 0.0 {
+                    ret = [ret[0] + e[0], ret[1] + e[1], ret[2] + e[2]];
+                }
+            }
         });
         if sum[2] < (0.5 * before).max(1.0) {
             return None;
         }
-        let c = [sum[0] / sum[2], sum[1] / sum[2]];
-        let from_prediction = [c[0] - (p[0] + r[0]), c[1] - (p[1] + r[1])];
-        let from_box = [c[0] - (fp.cx + r[0]), c[1] - (fp.cy + r[1])];
-        (!beyond(from_prediction) && beyond(from_box)).then_some((c, [c[0] - r[0], c[1] - r[1]]))
+        let cells = [sum[0] / sum[2], sum[1] / sum[2]];
+        // The evidence moved as the object said (within the allowance of where the remembered offset puts it from
+        // the prediction) and the box did not (beyond it from where the offset puts it from the box).
+        let jumped = |c: [f32; 2], r: [f32; 2], allow: [f32; 2]| {
+            let from_prediction = [c[0] - (p[0] + r[0]), c[1] - (p[1] + r[1])];
+            let from_box = [c[0] - (fp.cx + r[0]), c[1] - (fp.cy + r[1])];
+            (!beyond(from_prediction, allow) && beyond(from_box, allow)).then_some([c[0] - r[0], c[1] - r[1]])
+        };
+        let by_returns = returns_offset
+            .filter(|_| ret[2] >= 1.0)
+            .and_then(|r| jumped([ret[0] / ret[2], ret[1] / ret[2]], r, returns_allow));
+        by_returns.or_else(|| jumped(cells, cell_offset, cells_allow).filter(|_| by_cells)).map(|at| (cells, at))
+    }
+
+    /// Step 9's allowances along and across the box, `(cells' mean, returns' mean)`: the stated uncertainty in
+    /// each of the two frames and the safety margin, plus the scatter of each frame's evidence centre (half a cell
+    /// of rounding of the cells' mean in each frame, or one safety margin of the returns' mean in each).
+    pub(super) fn jump_allowances(&self, region: &Region) -> ([f32; 2], [f32; 2]) {
+        let delta = self.params.safety_margin_m;
+        let base_u = 2.0 * (region.margin_length_m - delta) + delta;
+        let base_v = 2.0 * (region.margin_width_m - delta) + delta;
+        let cell = self.grid.geometry.cell_size_m;
+        ([base_u + cell, base_v + cell], [base_u + 2.0 * delta, base_v + 2.0 * delta])
     }
 
     /// A sight brought up to date after the attribution: shadows cast by evidence now attributed to an object
@@ -1072,6 +1102,12 @@ pub(super) fn claim(
         }
     }
     grid.set_flags(idx, FLAG_EXPLAINED);
+}
+
+/// `true` when a vector (ego axes) reaches beyond an allowance along or across a box (step 9).
+pub(super) fn beyond_allowance(fp: &crate::geometry::OrientedRect, d: [f32; 2], allow: [f32; 2]) -> bool {
+    let (u, v) = (d[0] * fp.cos + d[1] * fp.sin, -d[0] * fp.sin + d[1] * fp.cos);
+    !(u.abs() <= allow[0] && v.abs() <= allow[1])
 }
 
 #[cfg(test)]
