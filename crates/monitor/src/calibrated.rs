@@ -1373,6 +1373,14 @@ mod tests {
         h
     }
 
+    /// Uniform numbers in [0, 1) from a seeded 64-bit LCG (the tests' random tracks).
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     fn run(h: &History, s1: &Entry) -> CalibratedCheck {
         check_calibrated(h, s1, &MotionLimits::default(), &Gates::new(1e-4), 1.0, 0.5)
     }
@@ -1383,11 +1391,7 @@ mod tests {
         // tracks with warm-ups, alarms, zero sigmas, speeds about the heading threshold and several heading
         // thresholds of the check; two histories, one pushed each way, stay alike.
         let gates = Gates::new(1e-4);
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(0x9e37_79b9_7f4a_7c15u64);
         for track in 0..200 {
             let min_speed = [1.0, 0.5, 2.0][track % 3];
             let (mut by_check, mut by_push) = (History::default(), History::default());
@@ -1435,11 +1439,7 @@ mod tests {
         // flips, every history length, windows from 0 to longer than the ring, and new states right after the
         // newest one or long after it.
         let gates = Gates::new(1e-4);
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(0x2545_f491_4f6c_dd1du64);
         let mut checked = 0usize;
         for track in 0..120 {
             let rate = [0.1, 0.05, 0.033, 0.2, 0.5][track % 5];
