@@ -13,7 +13,8 @@
 //! `delta_safe` (0.1 m) beyond it. A rule that knows only the sweep and the stated uncertainty cannot prove more,
 //! so the share of provable errors bounds the recall any such rule can reach; the clean confirmed boxes of the
 //! same frames are counted the same way as a check of the bound's soundness (a clean box must not be provable).
-//! `MIN_RAYS=k` asks k rays per shift instead of one.
+//! `MIN_RAYS=k` asks k rays per shift instead of one. `SVG=path` also draws the curves (recall today, the share
+//! provable by the rays, the ceiling, the goal) as an SVG figure, with its data beside it as CSV (`path.csv`).
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
 use pmon_campaign::{run_one, Injector, Scene};
 use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, ObjectState, SensorVerdict};
@@ -362,6 +363,45 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             c.clean_provable,
             c.clean
         );
+    }
+    if let Some(path) = std::env::var_os("SVG") {
+        use pmon_report::{LineChart, RefLine, Series, SeriesColor};
+        let x = |r: &(String, Count, f64)| r.0.rsplit(" @ ").next().and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+        let pct = |a: u64, b: u64| 100.0 * a as f64 / b.max(1) as f64;
+        let curve = |f: &dyn Fn(&Count) -> f64| results.iter().map(|r| (x(r), f(&r.1))).collect::<Vec<_>>();
+        let chart = LineChart::new(
+            format!("Towards the ego, seed {seed} (quick plan, 0.5 m cells, verifiable errors)"),
+            "position error towards the ego [m]",
+            "share of verifiable errors [%]",
+        )
+        .with_y_range(0.0, 100.0)
+        .with_ref_line(RefLine::horizontal(90.0, "goal 90 %"))
+        .with_series(
+            Series::new("detected by pmon today", curve(&|c| pct(c.detected, c.verifiable)))
+                .with_markers()
+                .with_color(SeriesColor::Palette(0)),
+        )
+        .with_series(
+            Series::new(
+                "provable by rays through the box (free space alone)",
+                curve(&|c| pct(c.provable, c.verifiable)),
+            )
+            .with_markers()
+            .with_color(SeriesColor::Palette(1)),
+        )
+        .with_series(
+            Series::new(
+                "ceiling: not indistinguishable from a correct box",
+                curve(&|c| 100.0 - pct(c.indistinguishable, c.verifiable)),
+            )
+            .dashed()
+            .with_color(SeriesColor::Palette(3)),
+        );
+        let path = std::path::PathBuf::from(path);
+        chart.render_svg(&path)?;
+        let mut csv = path.clone().into_os_string();
+        csv.push(".csv");
+        chart.write_csv(csv)?;
     }
     Ok(())
 }
