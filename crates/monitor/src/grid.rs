@@ -217,18 +217,36 @@ impl GridGeometry {
         step: u32,
         mut f: impl FnMut(u32, f32, f32),
     ) {
+        let step = step.max(1);
+        self.for_each_sampled_run(rect, range, step, |iy, first, last, cy| {
+            let mut ix = first;
+            while ix <= last {
+                f(iy * self.cells_per_side + ix, self.cell_center_axis(ix), cy);
+                let Some(next) = ix.checked_add(step) else { break };
+                ix = next;
+            }
+        });
+    }
+
+    /// The rows of [`GridGeometry::for_each_cell_overlapping_every`]: for every `step`-th row of the range that
+    /// overlaps `rect`, `f(iy, first, last, cy)` with the row's first sampled column `first` (possibly beyond
+    /// `last`: no sampled cell in the row), the run's last column `last` and the row centre `cy`; the row's cells
+    /// are the columns `first, first + step, ...` up to `last`. In the walk's order. `step` at least 1.
+    #[inline(always)]
+    pub fn for_each_sampled_run(
+        self,
+        rect: &OrientedRect,
+        range: (u32, u32, u32, u32),
+        step: u32,
+        mut f: impl FnMut(u32, u32, u32, f32),
+    ) {
         let (ix0, iy0, ix1, iy1) = range;
         let step = step.max(1);
         let mut iy = iy0;
         while iy <= iy1 {
             if let Some((a, b, cy)) = self.row_run(rect, ix0, ix1, iy) {
                 // The first sampled column at or after the run's start (`a >= ix0`).
-                let mut ix = ix0 + (a - ix0).div_ceil(step) * step;
-                while ix <= b {
-                    f(iy * self.cells_per_side + ix, self.cell_center_axis(ix), cy);
-                    let Some(next) = ix.checked_add(step) else { break };
-                    ix = next;
-                }
+                f(iy, ix0 + (a - ix0).div_ceil(step) * step, b, cy);
             }
             let Some(next) = iy.checked_add(step) else { break };
             iy = next;

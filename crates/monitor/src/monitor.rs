@@ -1236,7 +1236,8 @@ impl Monitor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::{Isometry3, PointCloud, Pose2};
+    use crate::frame::{Isometry3, ObjectClass, PointCloud, Pose2};
+    use crate::geometry::OrientedRect;
 
     use super::roi::tests::Rng;
 
@@ -1309,5 +1310,108 @@ mod tests {
         }
         // The frames do exercise the path: edge cells of undecided clusters were marked.
         assert!(undecided > 20, "{undecided} marked edge cells");
+    }
+
+    /// A placement of the ghost test decided early (`placement_hidden`: after each sampled row, when the rows left
+    /// cannot change the answer) gives the answer of its whole sight (`placement_hidden_by_full_sight`), for the
+    /// eight placements of every object and for random shifts and turns of each footprint, on random clumps of
+    /// returns (some under the objects, some beside them, some far) at three ghost fractions; both answers and both
+    /// early exits occur.
+    #[test]
+    fn a_placement_decided_early_equals_its_whole_sight() {
+        let mut rng = Rng(0x2545_F491_4F6C_DD1D);
+        let (mut hidden, mut seen, mut early) = (0usize, 0usize, 0usize);
+        for cell_size_m in [0.5f32, 0.2] {
+            let mut monitor = Monitor::new(MonitorParams { cell_size_m, ..MonitorParams::default() }).unwrap();
+            for frame_no in 0..12 {
+                let mut objects = Vec::new();
+                let mut points = Vec::new();
+                for id in 0..30u64 {
+                    let (x, y) = (rng.range(-35.0, 35.0), rng.range(-35.0, 35.0));
+                    let (length_m, width_m) =
+                        if id % 3 == 0 { (0.6, 0.6) } else { (rng.range(3.5, 5.0), rng.range(1.6, 2.1)) };
+                    objects.push(ObjectState {
+                        id,
+                        class: if id % 3 == 0 { ObjectClass::Pedestrian } else { ObjectClass::Car },
+                        x_m: x,
+                        y_m: y,
+                        heading_rad: rng.range(-3.2, 3.2),
+                        speed_mps: 0.0,
+                        length_m,
+                        width_m,
+                        uncertainty: None,
+                    });
+                    // Evidence under the box, beside it (displaced), or none (a ghost, visible or hidden).
+                    let kind = id % 4;
+                    if kind < 3 {
+                        let (ox, oy) =
+                            if kind == 0 { (0.0, 0.0) } else { (rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)) };
+                        for _ in 0..60 {
+                            let z = rng.range(0.3, 1.6);
+                            points.push([x + ox + rng.range(-1.0, 1.0), y + oy + rng.range(-1.0, 1.0), z - 1.8]);
+                        }
+                    }
+                }
+                // Walls and clutter that hide some boxes, and ground that shows others empty.
+                for _ in 0..40 {
+                    let (cx, cy) = (rng.range(-40.0, 40.0), rng.range(-40.0, 40.0));
+                    for _ in 0..30 {
+                        let z = if rng.range(0.0, 1.0) < 0.3 { rng.range(-0.2, 0.1) } else { rng.range(0.3, 1.8) };
+                        points.push([cx + rng.range(-1.5, 1.5), cy + rng.range(-1.5, 1.5), z - 1.8]);
+                    }
+                }
+                for _ in 0..20_000 {
+                    let (r, a) = (rng.range(3.0, 49.0), rng.range(0.0, core::f32::consts::TAU));
+                    points.push([r * libm::cosf(a), r * libm::sinf(a), -1.8 + rng.range(-0.05, 0.05)]);
+                }
+                let frame = Frame {
+                    timestamp_s: f64::from(frame_no) * 0.1,
+                    world_from_ego: Pose2::default(),
+                    objects: &objects,
+                    cloud: Some(PointCloud {
+                        points_in_sensor: &points,
+                        ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
+                    }),
+                    roi_in_ego: &[],
+                    static_in_ego: &[],
+                };
+                monitor.check(&frame).unwrap();
+                for fraction in [0.2f32, 0.5, 0.8] {
+                    monitor.params.ghost_visible_fraction = fraction;
+                    for j in 0..objects.len() {
+                        let Some(region) = monitor.scratch.get(j).and_then(|s| s.region) else { continue };
+                        let margin = region.margin_length_m.max(region.margin_width_m);
+                        let mut moves: Vec<_> = attribution::placements(&region).collect();
+                        for _ in 0..8 {
+                            let fp = region.footprint;
+                            let heading = libm::atan2f(fp.sin, fp.cos) + rng.range(-0.5, 0.5);
+                            moves.push(OrientedRect::new(
+                                fp.cx + rng.range(-3.0, 3.0),
+                                fp.cy + rng.range(-3.0, 3.0),
+                                heading,
+                                fp.half_length,
+                                fp.half_width,
+                            ));
+                        }
+                        for moved in &moves {
+                            let fast = monitor.placement_hidden(j, moved, margin);
+                            let full = monitor.placement_hidden_by_full_sight(j, moved, margin);
+                            assert_eq!(fast, full, "cell {cell_size_m}, frame {frame_no}, object {j}, {moved:?}");
+                            let total = monitor.sight_at(j, moved, margin).total;
+                            if fast {
+                                hidden += 1
+                            } else {
+                                seen += 1
+                            }
+                            if total > 0 && monitor.placement_test(j, moved, margin).1 < total {
+                                early += 1;
+                            }
+                        }
+                    }
+                }
+                monitor.params.ghost_visible_fraction = MonitorParams::default().ghost_visible_fraction;
+            }
+        }
+        assert!(hidden > 100 && seen > 100 && early > 100, "hidden {hidden}, seen {seen}, decided early {early}");
     }
 }

@@ -86,11 +86,10 @@ impl Monitor {
     }
 
     /// [`Monitor::footprint_sight`] of a footprint placed anywhere (for the ghost test's shifted boxes).
-    fn sight_at(&self, j: usize, footprint: &crate::geometry::OrientedRect, margin: f32) -> FootprintSight {
+    pub(super) fn sight_at(&self, j: usize, footprint: &crate::geometry::OrientedRect, margin: f32) -> FootprintSight {
         let geometry = self.grid.geometry;
         let mut sight = FootprintSight { occluder: NO_CELL, ..FootprintSight::default() };
         let Some(range) = geometry.cell_range(footprint.aabb()) else { return sight };
-        let (grid, visibility, tau) = (&self.grid, &self.visibility, self.params.tau_fn);
         // At most `SIGHT_SAMPLES` cells along each axis of the range are looked at (every `stride`-th row and
         // column): the fractions need no more, and a car at 0.1 m cells would otherwise cost 900 look-ups.
         let span = (range.2 - range.0).max(range.3 - range.1) + 1;
@@ -98,44 +97,147 @@ impl Monitor {
         // Only the sampled rows and columns are walked (the same cells, in the same order, as filtering the walk
         // of every overlapping cell).
         geometry.for_each_cell_overlapping_every(footprint, range, stride, |idx, cx, cy| {
-            sight.total += 1;
-            if grid.probability(idx) > tau && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED {
-                let other = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
-                let taken = other != j
-                    && self.scratch.get(other).and_then(|s| s.region).is_some_and(|r| r.footprint.contains(cx, cy));
-                if taken {
-                    sight.foreign += 1;
-                    return;
-                }
-            }
-            let (px, py) = footprint.nearest_point(cx, cy);
-            // One look at the bin for the sight and the clearance (`VisibilityMap::sight_with_clearance`).
-            match visibility.sight_with_clearance(px, py) {
-                (Sight::Visible, clearance) => {
-                    if clearance.is_none_or(|clearance| clearance > margin) {
-                        sight.visible += 1;
-                    }
-                }
-                // Behind evidence nobody explains, in the region of interest.
-                (Sight::Shadowed(c), _) => {
-                    if let Some(k) = self.unexplained_at(c) {
-                        sight.unexplained_shadow += 1;
-                        sight.occluder = k;
-                        let n = sight.occluders_len.min(OCCLUDERS);
-                        if let Some(o) = sight.occluders.get_mut(..n).and_then(|l| l.iter_mut().find(|o| o.0 == k)) {
-                            o.1 += 1;
-                        } else {
-                            if let Some(o) = sight.occluders.get_mut(n) {
-                                *o = (k, 1);
-                            }
-                            sight.occluders_len += 1;
-                        }
-                    }
-                }
-                (Sight::Unreached, _) => {}
-            }
+            self.sight_cell(&mut sight, j, footprint, margin, idx, cx, cy);
         });
         sight
+    }
+
+    /// One cell of [`Monitor::sight_at`]'s walk, counted into `sight`: in `total`, and in at most one of
+    /// `foreign`, `visible` and `unexplained_shadow`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn sight_cell(
+        &self,
+        sight: &mut FootprintSight,
+        j: usize,
+        footprint: &crate::geometry::OrientedRect,
+        margin: f32,
+        idx: u32,
+        cx: f32,
+        cy: f32,
+    ) {
+        let (grid, visibility, tau) = (&self.grid, &self.visibility, self.params.tau_fn);
+        sight.total += 1;
+        if grid.probability(idx) > tau && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED {
+            let other = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
+            let taken = other != j
+                && self.scratch.get(other).and_then(|s| s.region).is_some_and(|r| r.footprint.contains(cx, cy));
+            if taken {
+                sight.foreign += 1;
+                return;
+            }
+        }
+        let (px, py) = footprint.nearest_point(cx, cy);
+        // One look at the bin for the sight and the clearance (`VisibilityMap::sight_with_clearance`).
+        match visibility.sight_with_clearance(px, py) {
+            (Sight::Visible, clearance) => {
+                if clearance.is_none_or(|clearance| clearance > margin) {
+                    sight.visible += 1;
+                }
+            }
+            // Behind evidence nobody explains, in the region of interest.
+            (Sight::Shadowed(c), _) => {
+                if let Some(k) = self.unexplained_at(c) {
+                    sight.unexplained_shadow += 1;
+                    sight.occluder = k;
+                    let n = sight.occluders_len.min(OCCLUDERS);
+                    if let Some(o) = sight.occluders.get_mut(..n).and_then(|l| l.iter_mut().find(|o| o.0 == k)) {
+                        o.1 += 1;
+                    } else {
+                        if let Some(o) = sight.occluders.get_mut(n) {
+                            *o = (k, 1);
+                        }
+                        sight.occluders_len += 1;
+                    }
+                }
+            }
+            (Sight::Unreached, _) => {}
+        }
+    }
+
+    /// [`Monitor::hidden_within_margin`]'s test of one placement `moved`: the footprint's sight there, brought up
+    /// to date for evidence attributed since ([`Monitor::without_attributed`]), has cells and less than
+    /// `ghost_visible_fraction` of them visible or behind unexplained evidence. The same answer as computing the
+    /// whole sight ([`Monitor::placement_hidden_by_full_sight`], the reference kept for the tests), decided as
+    /// soon as the rows left cannot change it: the sampled rows (at most [`SIGHT_SAMPLES`]) are found first,
+    /// which gives the final `total` before any cell is looked at; after each row, with `v` visible cells, `s`
+    /// cells behind unexplained evidence and `r` cells left, the test's final count `k` lies between `v` and
+    /// `v + s + r` (each cell adds at most one to `visible + unexplained_shadow`, and the update for attributed
+    /// evidence only lowers `unexplained_shadow`), and the test's quotient `k as f32 / total as f32` (its own
+    /// rounding, monotonic in `k`) at `v` already at least the fraction means not hidden, at `v + s + r` below
+    /// it means hidden. (A NaN fraction, which validated parameters exclude, is never reached and never missed.)
+    pub(super) fn placement_hidden(&self, j: usize, moved: &crate::geometry::OrientedRect, margin: f32) -> bool {
+        self.placement_test(j, moved, margin).0
+    }
+
+    /// [`Monitor::placement_hidden`], and the number of cells it looked at.
+    #[inline(always)]
+    pub(super) fn placement_test(&self, j: usize, moved: &crate::geometry::OrientedRect, margin: f32) -> (bool, u32) {
+        let geometry = self.grid.geometry;
+        let Some(range) = geometry.cell_range(moved.aabb()) else { return (false, 0) };
+        let span = (range.2 - range.0).max(range.3 - range.1) + 1;
+        let stride = span.div_ceil(SIGHT_SAMPLES).max(1);
+        let mut rows = [(0u32, 0u32, 0u32, 0.0f32); SIGHT_SAMPLES as usize];
+        let (mut len, mut total) = (0usize, 0u32);
+        geometry.for_each_sampled_run(moved, range, stride, |iy, first, last, cy| {
+            if let Some(row) = rows.get_mut(len) {
+                *row = (iy, first, last, cy);
+                total += if first <= last { (last - first) / stride + 1 } else { 0 };
+            }
+            len += 1;
+        });
+        let fraction = self.params.ghost_visible_fraction;
+        if len > rows.len() {
+            // Not for a range sampled as `sight_at` samples it (at most `SIGHT_SAMPLES` rows); kept exact anyway.
+            let sight = self.sight_at(j, moved, margin);
+            return (self.hidden_by_sight(sight), sight.total);
+        }
+        let mut sight = FootprintSight { occluder: NO_CELL, ..FootprintSight::default() };
+        for &(iy, first, last, cy) in rows.get(..len).unwrap_or(&[]) {
+            let mut ix = first;
+            while ix <= last {
+                let idx = iy * geometry.cells_per_side + ix;
+                self.sight_cell(&mut sight, j, moved, margin, idx, geometry.cell_center_axis(ix), cy);
+                let Some(next) = ix.checked_add(stride) else { break };
+                ix = next;
+            }
+            // Decided: the final count, at least `visible`, already reaches the fraction, or, at most `visible +
+            // shadow + cells left`, cannot. (Tested per row: per cell cost more than it saved.)
+            if total > 0 {
+                let t = total as f32;
+                if sight.visible as f32 / t >= fraction {
+                    return (false, sight.total);
+                }
+                let most = sight.visible + sight.unexplained_shadow + total.saturating_sub(sight.total);
+                if (most as f32) / t < fraction {
+                    return (true, sight.total);
+                }
+            }
+        }
+        (self.hidden_by_sight(sight), sight.total)
+    }
+
+    /// The reference of [`Monitor::placement_hidden`]: the whole sight of the placement, then the test.
+    #[cfg(test)]
+    pub(super) fn placement_hidden_by_full_sight(
+        &self,
+        j: usize,
+        moved: &crate::geometry::OrientedRect,
+        margin: f32,
+    ) -> bool {
+        self.hidden_by_sight(self.sight_at(j, moved, margin))
+    }
+
+    /// The test of [`Monitor::hidden_within_margin`] on a placement's whole sight.
+    fn hidden_by_sight(&self, sight: FootprintSight) -> bool {
+        let sight = if sight.unexplained_shadow > 0 && sight.occluders_len <= OCCLUDERS {
+            self.without_attributed(sight)
+        } else {
+            sight
+        };
+        // Seen empty or behind evidence nobody took: not there. Hidden, or on evidence another object
+        // owns (two objects the sensor cannot tell apart, as in the verdicts' shared case): maybe there.
+        sight.total > 0 && sight.fraction(sight.visible + sight.unexplained_shadow) < self.params.ghost_visible_fraction
     }
 
     /// The conflict cell (of a cluster in the region of interest) that stands for the nearest return `c` of a
@@ -637,18 +739,8 @@ impl Monitor {
     /// `reproduce --quick`, seeds 7 and 11, were such ghosts while the eight extreme places alone were tried).
     pub(super) fn hidden_within_margin(&self, j: usize, region: &Region) -> bool {
         let margin = region.margin_length_m.max(region.margin_width_m);
-        placements(region).any(|moved| {
-            let sight = self.sight_at(j, &moved, margin);
-            let sight = if sight.unexplained_shadow > 0 && sight.occluders_len <= OCCLUDERS {
-                self.without_attributed(sight)
-            } else {
-                sight
-            };
-            // Seen empty or behind evidence nobody took: not there. Hidden, or on evidence another object
-            // owns (two objects the sensor cannot tell apart, as in the verdicts' shared case): maybe there.
-            sight.total > 0
-                && sight.fraction(sight.visible + sight.unexplained_shadow) < self.params.ghost_visible_fraction
-        })
+        // Each placement decided as soon as its rows left cannot change the answer (`placement_hidden`).
+        placements(region).any(|moved| self.placement_hidden(j, &moved, margin))
     }
 
     /// For a track whose evidence stood apart from it last frame (remembered as displaced): the centre of the
