@@ -133,6 +133,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let rep = monitor.check(&view)?;
             let (rep_objects, rep_clusters) = (rep.objects.to_vec(), rep.clusters.to_vec());
             let band: Vec<[f32; 3]> = df.points_in_ego().into_iter().filter(|q| q[2] >= lo && q[2] <= hi).collect();
+            // With HISTORY=1: the other boxes of the check are clean boxes after a clean sweep (step 9 runs on them).
+            if history && one_box {
+                for (i, r) in rep_objects.iter().enumerate() {
+                    if !inj.contains(&i)
+                        && matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost)
+                    {
+                        println!(
+                            "clean box after a clean sweep flagged: frame {k} index {i} id {} {:?} (displaced: {inj:?})",
+                            r.id, r.sensor.verdict
+                        );
+                    }
+                }
+            }
             for (i, r) in rep_objects.iter().enumerate() {
                 let injected = inj.contains(&i);
                 if !injected || !confirmed.get(i).copied().unwrap_or(false) {

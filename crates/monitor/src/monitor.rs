@@ -923,7 +923,7 @@ impl Monitor {
             let (Some(region), Some((p, _, Some(_)))) = (s.region, s.predicted) else { continue };
             let (_, allow) = self.jump_allowances(&region);
             let fp = &region.footprint;
-            if !attribution::beyond_allowance(fp, [fp.cx - p[0], fp.cy - p[1]], allow) {
+            if !attribution::beyond_ellipse(fp, [fp.cx - p[0], fp.cy - p[1]], allow) {
                 continue;
             }
             let moved = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..region.grown };

@@ -806,8 +806,14 @@ impl Monitor {
     /// made with both evidence centres taken as the mean of the returns in the same cells instead of the mean of the
     /// cells' centres, and an allowance whose rounding term (a cell) gives way to twice the safety margin:
     /// `2 (margin - delta_safe) + 3 delta_safe` (docs/attribution.md, "Step 9 from the returns"); the box jumped
-    /// when either centre says so. The centre returned (what the memory keeps) stays the cells' mean; where the
-    /// evidence puts the box is the mean the test that fired used, less its remembered offset.
+    /// when either centre says so. The returns' test also flags a box whose jump and whose distance from where the
+    /// returns put it both reach beyond the *ellipse* with those semi-axes (a jump diagonal to the box, under the
+    /// allowance along each axis), when the returns stand within `3 delta_safe` (as a distance, not per axis) of
+    /// where the prediction puts them: that quantity holds no box noise, so a tight bound on its length shows the
+    /// object moved as stated, and what is left of the jump is the two frames' position noise, whose stated
+    /// covariance bounds it by an ellipse rather than a rectangle (docs/attribution.md, "The diagonal test"). The
+    /// centre returned (what the memory keeps) stays the cells' mean; where the evidence puts the box is the mean
+    /// the test that fired used, less its remembered offset.
     pub(super) fn moved_from_evidence(&self, j: usize, region: &Region) -> Option<([f32; 2], [f32; 2])> {
         let s = self.scratch.get(j)?;
         let (p, before, returns_offset) = s.predicted?;
@@ -817,9 +823,10 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let (cells_allow, returns_allow) = self.jump_allowances(region);
         let beyond = |d: [f32; 2], allow: [f32; 2]| beyond_allowance(fp, d, allow);
-        // The box jumped: its centre beyond an allowance from the prediction (each test with its own).
+        // The box jumped: its centre beyond an allowance from the prediction (each test with its own; the returns'
+        // beyond its ellipse, which every jump beyond the rectangle also is).
         let jump = [fp.cx - p[0], fp.cy - p[1]];
-        let returns_offset = returns_offset.filter(|_| beyond(jump, returns_allow));
+        let returns_offset = returns_offset.filter(|_| beyond_ellipse(fp, jump, returns_allow));
         let by_cells = beyond(jump, cells_allow);
         if returns_offset.is_none() && !by_cells {
             return None;
@@ -860,9 +867,21 @@ impl Monitor {
             let from_box = [c[0] - (fp.cx + r[0]), c[1] - (fp.cy + r[1])];
             (!beyond(from_prediction, allow) && beyond(from_box, allow)).then_some([c[0] - r[0], c[1] - r[1]])
         };
-        let by_returns = returns_offset
-            .filter(|_| ret[2] >= 1.0)
-            .and_then(|r| jumped([ret[0] / ret[2], ret[1] / ret[2]], r, returns_allow));
+        // The diagonal test (returns only): the returns within `3 delta_safe` of the prediction as a distance, and
+        // the box beyond the allowance's ellipse both from the prediction (above) and from where they put it.
+        let evidence_allow = 3.0 * self.params.safety_margin_m;
+        let diagonal = |c: [f32; 2], r: [f32; 2]| {
+            let from_prediction = [c[0] - (p[0] + r[0]), c[1] - (p[1] + r[1])];
+            let from_box = [c[0] - (fp.cx + r[0]), c[1] - (fp.cy + r[1])];
+            (from_prediction[0] * from_prediction[0] + from_prediction[1] * from_prediction[1]
+                <= evidence_allow * evidence_allow
+                && beyond_ellipse(fp, from_box, returns_allow))
+            .then_some([c[0] - r[0], c[1] - r[1]])
+        };
+        let by_returns = returns_offset.filter(|_| ret[2] >= 1.0).and_then(|r| {
+            let c = [ret[0] / ret[2], ret[1] / ret[2]];
+            jumped(c, r, returns_allow).filter(|_| beyond(jump, returns_allow)).or_else(|| diagonal(c, r))
+        });
         by_returns.or_else(|| jumped(cells, cell_offset, cells_allow).filter(|_| by_cells)).map(|at| (cells, at))
     }
 
@@ -1200,6 +1219,16 @@ pub(super) fn claim(
 pub(super) fn beyond_allowance(fp: &crate::geometry::OrientedRect, d: [f32; 2], allow: [f32; 2]) -> bool {
     let (u, v) = (d[0] * fp.cos + d[1] * fp.sin, -d[0] * fp.sin + d[1] * fp.cos);
     !(u.abs() <= allow[0] && v.abs() <= allow[1])
+}
+
+/// `true` when a vector (ego axes) reaches beyond the ellipse whose semi-axes along and across a box are the
+/// allowance, `(u / a_u)^2 + (v / a_v)^2 > 1` (step 9's diagonal test), written without a division. Every vector
+/// beyond the allowance along or across the box ([`beyond_allowance`]) is beyond the ellipse, also when a
+/// semi-axis is zero (then only the other axis's segment is inside).
+pub(super) fn beyond_ellipse(fp: &crate::geometry::OrientedRect, d: [f32; 2], allow: [f32; 2]) -> bool {
+    let (u, v) = (d[0] * fp.cos + d[1] * fp.sin, -d[0] * fp.sin + d[1] * fp.cos);
+    let (a2, b2) = (allow[0] * allow[0], allow[1] * allow[1]);
+    u * u * b2 + v * v * a2 > a2 * b2 || !(u.abs() <= allow[0] && v.abs() <= allow[1])
 }
 
 #[cfg(test)]
