@@ -314,7 +314,21 @@ pub struct OccupancyGrid {
     /// Empty unless [`OccupancyGrid::with_returns`]: per cell with hits, the smallest squared range of its returns
     /// from the sensor (m^2), their lowest and their highest z (m); set at the cell's first hit of the frame.
     returns: Vec<[f32; 3]>,
+    /// Empty unless [`OccupancyGrid::with_sums`]: per cell with hits, the sum of its obstacle returns' x and y (ego
+    /// frame, metres, added one return at a time in point order) and their number (the params key
+    /// `jump_from_returns`); set to zero at the cell's first hit of the frame.
+    sums: Vec<[f32; 3]>,
+    /// Empty unless [`OccupancyGrid::with_tall`]: one bit per cell, set when a return of the frame in the cell
+    /// stands higher than `tall_above_m` (any return of the sweep, in the band or not, ego footprint or not; the
+    /// grazing rule's `ground_z_m + roi_graze_height_m`). Only words `tall_words.0..tall_words.1` may hold set bits
+    /// ([`NO_TALL_WORDS`]: none); the reset clears those only.
+    tall_bits: Vec<u64>,
+    tall_above_m: f32,
+    tall_words: (usize, usize),
 }
+
+/// No word of the tall bits set (an empty range: `OccupancyGrid::tall_words`).
+const NO_TALL_WORDS: (usize, usize) = (usize::MAX, 0);
 
 /// A cell's returns before any: nothing is nearer, lower or higher.
 const NO_RETURNS: [f32; 3] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY];
@@ -338,6 +352,81 @@ impl OccupancyGrid {
             hit_bits: vec![0; cells.div_ceil(64)],
             probability,
             returns: Vec::new(),
+            sums: Vec::new(),
+            tall_bits: Vec::new(),
+            tall_above_m: f32::INFINITY,
+            tall_words: NO_TALL_WORDS,
+        }
+    }
+
+    /// The grid also keeps, per cell with hits, the sum of its obstacle returns' x and y and their number
+    /// ([`OccupancyGrid::sums`]; the params key `jump_from_returns`). Allocates one entry per cell.
+    #[must_use]
+    pub fn with_sums(mut self) -> Self {
+        self.sums = vec![[0.0; 3]; self.hits.len()];
+        self
+    }
+
+    /// The grid also keeps a bit per cell: a return higher than `above_m` in the cell this frame
+    /// ([`OccupancyGrid::tall`]; the grazing rule). Allocates one bit per cell.
+    #[must_use]
+    pub fn with_tall(mut self, above_m: f32) -> Self {
+        self.tall_bits = vec![0; self.hits.len().div_ceil(64)];
+        self.tall_above_m = above_m;
+        self
+    }
+
+    /// With [`OccupancyGrid::with_sums`], for a cell with hits this frame: the sum of its obstacle returns' x, the
+    /// sum of their y (ego frame, metres, in point order: `((0 + x1) + x2) + ...`) and their number. `None`
+    /// otherwise.
+    #[must_use]
+    #[inline]
+    pub fn sums(&self, index: u32) -> Option<[f32; 3]> {
+        if self.hits(index) == 0 {
+            return None;
+        }
+        self.sums.get(index as usize).copied()
+    }
+
+    /// True when the grid keeps [`OccupancyGrid::sums`].
+    #[must_use]
+    #[inline]
+    pub fn has_sums(&self) -> bool {
+        !self.sums.is_empty()
+    }
+
+    /// With [`OccupancyGrid::with_tall`]: the height above which a return marks its cell tall.
+    #[must_use]
+    #[inline]
+    pub fn tall_above_m(&self) -> Option<f32> {
+        (!self.tall_bits.is_empty()).then_some(self.tall_above_m)
+    }
+
+    /// With [`OccupancyGrid::with_tall`]: some return of this frame in the cell stood higher than
+    /// [`OccupancyGrid::tall_above_m`]. False otherwise (and outside the grid).
+    #[must_use]
+    #[inline]
+    pub fn tall(&self, index: u32) -> bool {
+        self.tall_bits.get(index as usize / 64).is_some_and(|w| w & (1 << (index % 64)) != 0)
+    }
+
+    /// Marks a cell tall (nothing without [`OccupancyGrid::with_tall`], or outside the grid).
+    #[inline(always)]
+    pub(crate) fn add_tall(&mut self, index: u32) {
+        let word = index as usize / 64;
+        if let Some(w) = self.tall_bits.get_mut(word) {
+            *w |= 1 << (index % 64);
+            let (lo, hi) = self.tall_words;
+            self.tall_words = (lo.min(word), hi.max(word + 1));
+        }
+    }
+
+    /// Adds a return's x and y to a cell's sums (nothing without [`OccupancyGrid::with_sums`], or outside the
+    /// grid).
+    #[inline(always)]
+    fn add_sum(&mut self, index: u32, x: f32, y: f32) {
+        if let Some(e) = self.sums.get_mut(index as usize) {
+            *e = [e[0] + x, e[1] + y, e[2] + 1.0];
         }
     }
 
@@ -369,13 +458,14 @@ impl OccupancyGrid {
         }
     }
 
-    /// [`OccupancyGrid::add_hit`] of an obstacle return with its squared range from the sensor and its z (the
-    /// reference loop's way of [`OccupancyGrid::add_hits_with_returns`]).
+    /// [`OccupancyGrid::add_hit`] of an obstacle return at `q` (ego frame) with its squared range from the sensor
+    /// (the reference loop's way of [`OccupancyGrid::add_hits_with_returns`]).
     #[inline]
-    pub(crate) fn add_hit_return(&mut self, index: u32, r2: f32, z: f32) -> bool {
+    pub(crate) fn add_hit_return(&mut self, index: u32, r2: f32, q: [f32; 3]) -> bool {
         let added = self.add_run(index, 1);
         if added {
-            self.fold_returns(index, r2, z, z);
+            self.fold_returns(index, r2, q[2], q[2]);
+            self.add_sum(index, q[0], q[1]);
         }
         added
     }
@@ -394,6 +484,10 @@ impl OccupancyGrid {
             }
         }
         self.touched_len = 0;
+        let (lo, hi) = core::mem::replace(&mut self.tall_words, NO_TALL_WORDS);
+        for w in self.tall_bits.get_mut(lo..hi).unwrap_or(&mut []) {
+            *w = 0;
+        }
     }
 
     /// Adds one hit to a cell. Returns false when the touched list is full (the hit is then not recorded).
@@ -409,15 +503,22 @@ impl OccupancyGrid {
     /// mispredicted at every run's end.
     #[cfg(test)]
     pub(crate) fn add_hits(&mut self, cells: &[u32; 64]) {
-        self.add_hits_with_returns(cells, None);
+        self.add_hits_with_returns(cells, None, None);
     }
 
     /// [`OccupancyGrid::add_hits`], and with [`OccupancyGrid::with_returns`] each run's returns folded into its
     /// cell at once: `returns` gives each point's squared range from the sensor (as bits: non-negative floats order
-    /// as their bits) and its z.
+    /// as their bits) and its z; and with [`OccupancyGrid::with_sums`] each point's x and y from `xy` added to its
+    /// cell's sums, one at a time in point order (the reference's additions).
     #[inline(always)]
-    pub(crate) fn add_hits_with_returns(&mut self, cells: &[u32; 64], returns: Option<(&[u32; 64], &[f32; 64])>) {
+    pub(crate) fn add_hits_with_returns(
+        &mut self,
+        cells: &[u32; 64],
+        returns: Option<(&[u32; 64], &[f32; 64])>,
+        xy: Option<(&[f32; 64], &[f32; 64])>,
+    ) {
         let returns = returns.filter(|_| !self.returns.is_empty());
+        let xy = xy.filter(|_| !self.sums.is_empty());
         // Bit j of `ends`: point j ends a run (the next point's cell differs, or j is the last point); of
         // `in_grid`: its cell is in the grid.
         let mut ends = 1u64 << 63;
@@ -446,6 +547,21 @@ impl OccupancyGrid {
                     });
                     self.fold_returns(c, f32::from_bits(r2), lo, hi);
                 }
+                if let Some((x, y)) = xy.filter(|_| added) {
+                    let run = start as usize..=j as usize;
+                    if let (Some(x), Some(y), Some(e)) =
+                        (x.get(run.clone()), y.get(run), self.sums.get_mut(c as usize))
+                    {
+                        let (mut sx, mut sy) = (e[0], e[1]);
+                        for (&x, &y) in x.iter().zip(y) {
+                            sx += x;
+                            sy += y;
+                        }
+                        // The count is a whole number below 2^24 (`max_points`): adding the run's length at once
+                        // is adding 1.0 that many times.
+                        *e = [sx, sy, e[2] + (j + 1 - start) as f32];
+                    }
+                }
             }
         }
     }
@@ -454,13 +570,57 @@ impl OccupancyGrid {
     /// this grid's points and then `other`'s would give (counts saturate at the same maximum; cells new to this
     /// grid join its touched list in `other`'s order). Flags are not copied. For the rasterize stage on two
     /// threads (`crate::split`); `other` must have the same geometry.
-    pub(crate) fn absorb(&mut self, other: &OccupancyGrid) {
-        for &c in other.touched() {
+    ///
+    /// Tall bits are or-ed. Sums: a cell new to this grid takes `other`'s (one pass adds the same returns from
+    /// zero in the same order); a cell this grid had too cannot take them (a sum of sums is not the one pass's sum
+    /// of returns in turn): its entry in `other` gets the count -1, and the caller adds `other`'s returns of those
+    /// cells in point order ([`OccupancyGrid::shared_sum`], [`OccupancyGrid::add_return_sum`]). Returns true when
+    /// there are such cells.
+    pub(crate) fn absorb(&mut self, other: &mut OccupancyGrid) -> bool {
+        let mut shared = false;
+        for k in 0..other.touched_len {
+            let Some(&c) = other.touched.get(k) else { break };
+            let new = self.hits(c) == 0;
             if self.add_run(c, u32::from(other.hits(c))) {
                 if let Some(&[r2, lo, hi]) = other.returns.get(c as usize) {
                     self.fold_returns(c, r2, lo, hi);
                 }
+                if let (Some(mine), Some(theirs)) = (self.sums.get_mut(c as usize), other.sums.get_mut(c as usize)) {
+                    if new {
+                        *mine = *theirs;
+                    } else {
+                        theirs[2] = -1.0;
+                        shared = true;
+                    }
+                }
             }
+        }
+        let (lo, hi) = other.tall_words;
+        for word in lo..hi {
+            let bits = other.tall_bits.get(word).copied().unwrap_or(0);
+            if bits != 0 {
+                if let Some(w) = self.tall_bits.get_mut(word) {
+                    *w |= bits;
+                    let (a, b) = self.tall_words;
+                    self.tall_words = (a.min(word), b.max(word + 1));
+                }
+            }
+        }
+        shared
+    }
+
+    /// After [`OccupancyGrid::absorb`] of this grid into another: true for a cell whose returns the other grid
+    /// must add one at a time.
+    #[inline]
+    pub(crate) fn shared_sum(&self, index: u32) -> bool {
+        self.hits(index) > 0 && self.sums.get(index as usize).is_some_and(|e| e[2] < 0.0)
+    }
+
+    /// Adds one obstacle return's x and y to a cell with hits (the fold of the rasterize stage on two threads).
+    #[inline]
+    pub(crate) fn add_return_sum(&mut self, index: u32, x: f32, y: f32) {
+        if self.hits(index) > 0 {
+            self.add_sum(index, x, y);
         }
     }
 
@@ -475,6 +635,9 @@ impl OccupancyGrid {
             self.touched_len += 1;
             if let Some(v) = self.returns.get_mut(index as usize) {
                 *v = NO_RETURNS;
+            }
+            if let Some(e) = self.sums.get_mut(index as usize) {
+                *e = [0.0; 3];
             }
             if let Some(w) = self.hit_bits.get_mut(index as usize / 64) {
                 *w |= 1 << (index % 64);
