@@ -320,15 +320,14 @@ pub struct OccupancyGrid {
     sums: Vec<[f32; 3]>,
     /// Empty unless [`OccupancyGrid::with_tall`]: one bit per cell, set when a return of the frame in the cell
     /// stands higher than `tall_above_m` (any return of the sweep, in the band or not, ego footprint or not; the
-    /// grazing rule's `ground_z_m + roi_graze_height_m`). Only words `tall_words.0..tall_words.1` may hold set bits
-    /// ([`NO_TALL_WORDS`]: none); the reset clears those only.
+    /// grazing rule's `ground_z_m + roi_graze_height_m`). The reset clears the words when `tall_any` (a bit was set
+    /// since the last reset): one word per 64 cells (625 for the default 200 x 200 cells), not a pass per cell.
     tall_bits: Vec<u64>,
     tall_above_m: f32,
-    tall_words: (usize, usize),
+    tall_any: bool,
+    /// Whether the rasterizer sets the tall bits this frame ([`OccupancyGrid::set_tall_this_frame`]).
+    tall_on: bool,
 }
-
-/// No word of the tall bits set (an empty range: `OccupancyGrid::tall_words`).
-const NO_TALL_WORDS: (usize, usize) = (usize::MAX, 0);
 
 /// A cell's returns before any: nothing is nearer, lower or higher.
 const NO_RETURNS: [f32; 3] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY];
@@ -355,7 +354,8 @@ impl OccupancyGrid {
             sums: Vec::new(),
             tall_bits: Vec::new(),
             tall_above_m: f32::INFINITY,
-            tall_words: NO_TALL_WORDS,
+            tall_any: false,
+            tall_on: true,
         }
     }
 
@@ -395,11 +395,18 @@ impl OccupancyGrid {
         !self.sums.is_empty()
     }
 
-    /// With [`OccupancyGrid::with_tall`]: the height above which a return marks its cell tall.
+    /// With [`OccupancyGrid::with_tall`], unless switched off for the frame: the height above which a return marks
+    /// its cell tall.
     #[must_use]
     #[inline]
     pub fn tall_above_m(&self) -> Option<f32> {
-        (!self.tall_bits.is_empty()).then_some(self.tall_above_m)
+        (self.tall_on && !self.tall_bits.is_empty()).then_some(self.tall_above_m)
+    }
+
+    /// Whether the next rasterize sets the tall bits (with [`OccupancyGrid::with_tall`]; on until switched off):
+    /// the monitor switches them off in frames without a region of interest, where the grazing rule reads none.
+    pub(crate) fn set_tall_this_frame(&mut self, on: bool) {
+        self.tall_on = on;
     }
 
     /// With [`OccupancyGrid::with_tall`]: some return of this frame in the cell stood higher than
@@ -413,11 +420,9 @@ impl OccupancyGrid {
     /// Marks a cell tall (nothing without [`OccupancyGrid::with_tall`], or outside the grid).
     #[inline(always)]
     pub(crate) fn add_tall(&mut self, index: u32) {
-        let word = index as usize / 64;
-        if let Some(w) = self.tall_bits.get_mut(word) {
+        if let Some(w) = self.tall_bits.get_mut(index as usize / 64) {
             *w |= 1 << (index % 64);
-            let (lo, hi) = self.tall_words;
-            self.tall_words = (lo.min(word), hi.max(word + 1));
+            self.tall_any = true;
         }
     }
 
@@ -484,9 +489,8 @@ impl OccupancyGrid {
             }
         }
         self.touched_len = 0;
-        let (lo, hi) = core::mem::replace(&mut self.tall_words, NO_TALL_WORDS);
-        for w in self.tall_bits.get_mut(lo..hi).unwrap_or(&mut []) {
-            *w = 0;
+        if core::mem::take(&mut self.tall_any) {
+            self.tall_bits.fill(0);
         }
     }
 
@@ -547,20 +551,19 @@ impl OccupancyGrid {
                     });
                     self.fold_returns(c, f32::from_bits(r2), lo, hi);
                 }
-                if let Some((x, y)) = xy.filter(|_| added) {
-                    let run = start as usize..=j as usize;
-                    if let (Some(x), Some(y), Some(e)) =
-                        (x.get(run.clone()), y.get(run), self.sums.get_mut(c as usize))
-                    {
-                        let (mut sx, mut sy) = (e[0], e[1]);
-                        for (&x, &y) in x.iter().zip(y) {
-                            sx += x;
-                            sy += y;
-                        }
-                        // The count is a whole number below 2^24 (`max_points`): adding the run's length at once
-                        // is adding 1.0 that many times.
-                        *e = [sx, sy, e[2] + (j + 1 - start) as f32];
-                    }
+            }
+        }
+        // The sums: each point in the grid in turn (in point order; the cells new this block were set to zero above,
+        // before any of their returns is added). A return whose cell could not join a full touched list is added to
+        // an entry nobody reads (`sums` needs hits) and set to zero when the cell is first touched.
+        if let Some((x, y)) = xy {
+            let mut points = in_grid;
+            while points != 0 {
+                let j = (points.trailing_zeros() & 63) as usize;
+                points &= points - 1;
+                let (Some(&c), Some(&x), Some(&y)) = (cells.get(j), x.get(j), y.get(j)) else { continue };
+                if let Some(e) = self.sums.get_mut(c as usize) {
+                    *e = [e[0] + x, e[1] + y, e[2] + 1.0];
                 }
             }
         }
@@ -595,16 +598,11 @@ impl OccupancyGrid {
                 }
             }
         }
-        let (lo, hi) = other.tall_words;
-        for word in lo..hi {
-            let bits = other.tall_bits.get(word).copied().unwrap_or(0);
-            if bits != 0 {
-                if let Some(w) = self.tall_bits.get_mut(word) {
-                    *w |= bits;
-                    let (a, b) = self.tall_words;
-                    self.tall_words = (a.min(word), b.max(word + 1));
-                }
+        if other.tall_any {
+            for (w, &o) in self.tall_bits.iter_mut().zip(&other.tall_bits) {
+                *w |= o;
             }
+            self.tall_any = true;
         }
         shared
     }

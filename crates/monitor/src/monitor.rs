@@ -585,6 +585,12 @@ impl Monitor {
         self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
         self.sensor_z = t.translation_m[2];
         let band = self.band();
+        // The tall bits only where the grazing rule may read them (frames with a region of interest).
+        let tall = !frame.roi_in_ego.is_empty();
+        self.grid.set_tall_this_frame(tall);
+        if let Some(second) = self.split.as_mut() {
+            second.grid.set_tall_this_frame(tall);
+        }
         let (grid, visibility) = (&mut self.grid, &mut self.visibility);
         // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
         let cells = &mut self.point_cells;

@@ -319,8 +319,8 @@ struct Block {
     cells: [u32; BLOCK],
     /// Each point's z in the ego frame (read for the points with a cell: obstacle returns in the grid).
     z: [f32; BLOCK],
-    /// With `EXTRA` (the grid keeps sums or tall bits): each point's x and y in the ego frame (read for the points
-    /// with a cell), and its tall cell (see [`Pass1::point`]). Not written otherwise.
+    /// With `SUMS` (the grid keeps sums): each point's x and y in the ego frame (read for the points with a cell);
+    /// with `TALL` (the grid keeps tall bits), its tall cell (see [`Pass1::point`]). Not written otherwise.
     x: [f32; BLOCK],
     y: [f32; BLOCK],
     tall: [u32; BLOCK],
@@ -338,23 +338,29 @@ impl Block {
         tall: [NO_CELL; BLOCK],
     };
 
-    /// Pass 1 over a block; returns the number of points that fall in the band and in the grid. With `EXTRA`, also
-    /// each point's x, y and tall cell.
+    /// Pass 1 over a block; returns the number of points that fall in the band and in the grid. With `SUMS`, also
+    /// each point's x and y, with `TALL` its tall cell.
     #[inline(always)]
-    fn fill<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const EXTRA: bool>(
+    fn fill<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const SUMS: bool, const TALL: bool>(
         &mut self,
         k: &Pass1,
         points: &[[f32; 3]; BLOCK],
     ) -> u32 {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
         let cells = self.cells.iter_mut().zip(self.z.iter_mut());
-        if EXTRA {
+        if SUMS || TALL {
             let extra = self.x.iter_mut().zip(self.y.iter_mut()).zip(self.tall.iter_mut());
             for (((&[x, y, z], ((bin, far), near)), (cell, height)), ((qx, qy), tall)) in
                 points.iter().zip(outputs).zip(cells).zip(extra)
             {
-                (*bin, *far, *near, *cell, *height, *qx, *qy, *tall) =
-                    k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                let (q0, q1, t);
+                (*bin, *far, *near, *cell, *height, q0, q1, t) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                if SUMS {
+                    (*qx, *qy) = (q0, q1);
+                }
+                if TALL {
+                    *tall = t;
+                }
             }
         } else {
             for ((&[x, y, z], ((bin, far), near)), (cell, height)) in points.iter().zip(outputs).zip(cells) {
@@ -366,7 +372,7 @@ impl Block {
 
     /// [`Block::fill`] over a block given as three columns.
     #[inline(always)]
-    fn fill_columns<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const EXTRA: bool>(
+    fn fill_columns<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const SUMS: bool, const TALL: bool>(
         &mut self,
         k: &Pass1,
         xs: &[f32; BLOCK],
@@ -376,13 +382,19 @@ impl Block {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
         let inputs = xs.iter().zip(ys).zip(zs);
         let cells = self.cells.iter_mut().zip(self.z.iter_mut());
-        if EXTRA {
+        if SUMS || TALL {
             let extra = self.x.iter_mut().zip(self.y.iter_mut()).zip(self.tall.iter_mut());
             for (((((&x, &y), &z), ((bin, far), near)), (cell, height)), ((qx, qy), tall)) in
                 inputs.zip(outputs).zip(cells).zip(extra)
             {
-                (*bin, *far, *near, *cell, *height, *qx, *qy, *tall) =
-                    k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                let (q0, q1, t);
+                (*bin, *far, *near, *cell, *height, q0, q1, t) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                if SUMS {
+                    (*qx, *qy) = (q0, q1);
+                }
+                if TALL {
+                    *tall = t;
+                }
             }
         } else {
             for ((((&x, &y), &z), ((bin, far), near)), (cell, height)) in inputs.zip(outputs).zip(cells) {
@@ -392,15 +404,16 @@ impl Block {
         self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
     }
 
-    /// Pass 2: the updates, in point order (with `EXTRA`, also the grid's sums and tall bits, where it keeps them).
+    /// Pass 2: the updates, in point order (with `SUMS` and `TALL`, also the grid's sums and tall bits).
     #[inline(always)]
-    fn apply<const EXTRA: bool>(&self, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
+    fn apply<const SUMS: bool, const TALL: bool>(&self, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
         visibility.add_binned(&self.bins, &self.far_r2, &self.near_bits, &self.cells);
         // A point with a cell is an obstacle return in the grid: its `near_bits` are its squared range's bits.
-        let xy = if EXTRA { Some((&self.x, &self.y)) } else { None };
+        let xy = if SUMS { Some((&self.x, &self.y)) } else { None };
         grid.add_hits_with_returns(&self.cells, Some((&self.near_bits, &self.z)), xy);
-        if EXTRA && grid.tall_above_m().is_some() {
-            // The tall points as a mask (no branch per point), then those alone.
+        // Most blocks hold no tall return (`NO_CELL` has every bit set: the `and` of the block's entries is `NO_CELL`
+        // exactly when none is a cell); in the others, the tall points as a mask, then those alone.
+        if TALL && self.tall.iter().fold(NO_CELL, |a, &c| a & c) != NO_CELL {
             let mut mask = 0u64;
             for (j, &c) in self.tall.iter().enumerate() {
                 mask |= u64::from(c != NO_CELL) << j;
@@ -465,21 +478,26 @@ fn blocks_for<S: Source, const RECORD: bool>(
     wide: bool,
     cells: &mut Vec<u32>,
 ) -> u32 {
-    let tall = grid.tall_above_m();
-    if grid.has_sums() || tall.is_some() {
-        let k = &Pass1 { tall_m: tall.unwrap_or(f32::INFINITY), ..*k };
-        return match (k.translation_only(), band.ego_m != Band::NO_EGO) {
-            (true, false) => blocks_on::<S, true, false, RECORD, true>(k, points, grid, visibility, wide, cells),
-            (false, false) => blocks_on::<S, false, false, RECORD, true>(k, points, grid, visibility, wide, cells),
-            (true, true) => blocks_on::<S, true, true, RECORD, true>(k, points, grid, visibility, wide, cells),
-            (false, true) => blocks_on::<S, false, true, RECORD, true>(k, points, grid, visibility, wide, cells),
-        };
+    macro_rules! on {
+        ($k:expr, $sums:literal, $tall:literal) => {{
+            let k = $k;
+            match (k.translation_only(), band.ego_m != Band::NO_EGO) {
+                (true, false) => blocks_on::<S, true, false, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells),
+                (false, false) => {
+                    blocks_on::<S, false, false, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
+                }
+                (true, true) => blocks_on::<S, true, true, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells),
+                (false, true) => blocks_on::<S, false, true, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells),
+            }
+        }};
     }
-    match (k.translation_only(), band.ego_m != Band::NO_EGO) {
-        (true, false) => blocks_on::<S, true, false, RECORD, false>(k, points, grid, visibility, wide, cells),
-        (false, false) => blocks_on::<S, false, false, RECORD, false>(k, points, grid, visibility, wide, cells),
-        (true, true) => blocks_on::<S, true, true, RECORD, false>(k, points, grid, visibility, wide, cells),
-        (false, true) => blocks_on::<S, false, true, RECORD, false>(k, points, grid, visibility, wide, cells),
+    let tall = grid.tall_above_m();
+    let with_tall = &Pass1 { tall_m: tall.unwrap_or(f32::INFINITY), ..*k };
+    match (grid.has_sums(), tall.is_some()) {
+        (false, false) => on!(k, false, false),
+        (true, false) => on!(k, true, false),
+        (false, true) => on!(with_tall, false, true),
+        (true, true) => on!(with_tall, true, true),
     }
 }
 
@@ -509,7 +527,7 @@ pub(crate) fn rasterize_blocked_recording<S: Source>(
 }
 
 /// [`blocks`] with the wider vector unit when `wide` and the processor has one, else on the baseline.
-fn blocks_on<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool, const EXTRA: bool>(
+fn blocks_on<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool, const SUMS: bool, const TALL: bool>(
     k: &Pass1,
     points: S,
     grid: &mut OccupancyGrid,
@@ -519,11 +537,11 @@ fn blocks_on<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, cons
 ) -> u32 {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if wide {
-        return wide::blocks::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, EXTRA>(k, points, grid, visibility, cells);
+        return wide::blocks::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, SUMS, TALL>(k, points, grid, visibility, cells);
     }
     // Without run-time detection (`wide::available` is false) the flag has nothing to choose.
     let _ = wide;
-    points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD, EXTRA>(k, grid, visibility, cells)
+    points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD, SUMS, TALL>(k, grid, visibility, cells)
 }
 
 /// The block loop compiled for a wider vector unit, chosen at run time.
@@ -549,7 +567,7 @@ mod wide {
         const TRANSLATION_ONLY: bool,
         const EGO_MASK: bool,
         const RECORD: bool,
-        const EXTRA: bool,
+        const SUMS: bool, const TALL: bool,
     >(
         k: &Pass1,
         points: S,
@@ -560,9 +578,9 @@ mod wide {
         if available() {
             // SAFETY: the processor has AVX2 (checked on the line above), the one requirement of a function
             // compiled with `target_feature(enable = "avx2")`.
-            unsafe { blocks_avx2::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, EXTRA>(k, points, grid, visibility, cells) }
+            unsafe { blocks_avx2::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, SUMS, TALL>(k, points, grid, visibility, cells) }
         } else {
-            points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD, EXTRA>(k, grid, visibility, cells)
+            points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD, SUMS, TALL>(k, grid, visibility, cells)
         }
     }
 
@@ -572,7 +590,7 @@ mod wide {
         const TRANSLATION_ONLY: bool,
         const EGO_MASK: bool,
         const RECORD: bool,
-        const EXTRA: bool,
+        const SUMS: bool, const TALL: bool,
     >(
         k: &Pass1,
         points: S,
@@ -581,7 +599,7 @@ mod wide {
         cells: &mut Vec<u32>,
     ) -> u32 {
         // AVX2 implies SSE4.1's `roundps`: the cheaper floor of `floor_of`.
-        points.blocks::<TRANSLATION_ONLY, EGO_MASK, true, RECORD, EXTRA>(k, grid, visibility, cells)
+        points.blocks::<TRANSLATION_ONLY, EGO_MASK, true, RECORD, SUMS, TALL>(k, grid, visibility, cells)
     }
 }
 
@@ -614,7 +632,7 @@ pub(crate) trait Source: Copy + Send + Sync {
         const EGO_MASK: bool,
         const ROUND: bool,
         const RECORD: bool,
-        const EXTRA: bool,
+        const SUMS: bool, const TALL: bool,
     >(
         self,
         k: &Pass1,
@@ -627,14 +645,14 @@ pub(crate) trait Source: Copy + Send + Sync {
 impl Block {
     /// Pass 2 and the recorded cells of the block's first `len` points.
     #[inline(always)]
-    fn finish<const RECORD: bool, const EXTRA: bool>(
+    fn finish<const RECORD: bool, const SUMS: bool, const TALL: bool>(
         &self,
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
         cells: &mut Vec<u32>,
         len: usize,
     ) {
-        self.apply::<EXTRA>(grid, visibility);
+        self.apply::<SUMS, TALL>(grid, visibility);
         if RECORD {
             cells.extend_from_slice(self.cells.get(..len).unwrap_or(&[]));
         }
@@ -663,7 +681,7 @@ impl Source for &[[f32; 3]] {
         const EGO_MASK: bool,
         const ROUND: bool,
         const RECORD: bool,
-        const EXTRA: bool,
+        const SUMS: bool, const TALL: bool,
     >(
         self,
         k: &Pass1,
@@ -675,8 +693,8 @@ impl Source for &[[f32; 3]] {
         let mut in_band = 0u32;
         let (chunks, rest) = self.as_chunks::<BLOCK>();
         for chunk in chunks {
-            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, EXTRA>(k, chunk);
-            block.finish::<RECORD, EXTRA>(grid, visibility, cells, BLOCK);
+            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, chunk);
+            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
         }
         if !rest.is_empty() {
             // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
@@ -684,8 +702,8 @@ impl Source for &[[f32; 3]] {
             for (d, s) in padded.iter_mut().zip(rest) {
                 *d = *s;
             }
-            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, EXTRA>(k, &padded);
-            block.finish::<RECORD, EXTRA>(grid, visibility, cells, rest.len());
+            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, &padded);
+            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, rest.len());
         }
         in_band
     }
@@ -721,7 +739,7 @@ impl Source for PointColumns<'_> {
         const EGO_MASK: bool,
         const ROUND: bool,
         const RECORD: bool,
-        const EXTRA: bool,
+        const SUMS: bool, const TALL: bool,
     >(
         self,
         k: &Pass1,
@@ -736,8 +754,8 @@ impl Source for PointColumns<'_> {
         let (ys, y_rest) = self.y().as_chunks::<BLOCK>();
         let (zs, z_rest) = self.z().as_chunks::<BLOCK>();
         for ((x, y), z) in xs.iter().zip(ys).zip(zs) {
-            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND, EXTRA>(k, x, y, z);
-            block.finish::<RECORD, EXTRA>(grid, visibility, cells, BLOCK);
+            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, x, y, z);
+            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
         }
         if !x_rest.is_empty() {
             let mut padded = [[f32::NAN; BLOCK]; 3];
@@ -747,8 +765,8 @@ impl Source for PointColumns<'_> {
                 }
             }
             let [x, y, z] = &padded;
-            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND, EXTRA>(k, x, y, z);
-            block.finish::<RECORD, EXTRA>(grid, visibility, cells, x_rest.len());
+            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, x, y, z);
+            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, x_rest.len());
         }
         in_band
     }
@@ -785,7 +803,7 @@ mod tests {
 
     /// Runs both loops on fresh grids and maps; asserts bit-identical results; returns the points in band. Twice:
     /// on grids without and with the sums and tall bits of the params keys `jump_from_returns` and
-    /// `roi_graze_fraction` (the loops' `EXTRA` instantiation), checked against their definitions.
+    /// `roi_graze_fraction` (the loops' `SUMS` and `TALL` instantiation), checked against their definitions.
     fn assert_same(points: &[[f32; 3]], t: &Isometry3, band: Band, cells: u32, cell_m: f32, bins: u32) -> u32 {
         // Tall: 0.5 m above the band (the params refuse a threshold below its top).
         let n = assert_same_with(points, t, band, cells, cell_m, bins, None);
