@@ -907,7 +907,8 @@ impl Monitor {
         }
         let tau = self.params.tau_fn;
         for &c in self.grid.touched() {
-            if self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED || self.grid.probability(c) <= tau {
+            if self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED || self.grid.probability(c) <= tau
+            {
                 continue;
             }
             let (Some(&o), Some(e)) = (self.owner.get(c as usize), self.grid.sums(c)) else { continue };

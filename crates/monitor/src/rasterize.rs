@@ -341,7 +341,13 @@ impl Block {
     /// Pass 1 over a block; returns the number of points that fall in the band and in the grid. With `SUMS`, also
     /// each point's x and y, with `TALL` its tall cell.
     #[inline(always)]
-    fn fill<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const SUMS: bool, const TALL: bool>(
+    fn fill<
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const ROUND: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         &mut self,
         k: &Pass1,
         points: &[[f32; 3]; BLOCK],
@@ -372,7 +378,13 @@ impl Block {
 
     /// [`Block::fill`] over a block given as three columns.
     #[inline(always)]
-    fn fill_columns<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const SUMS: bool, const TALL: bool>(
+    fn fill_columns<
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const ROUND: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         &mut self,
         k: &Pass1,
         xs: &[f32; BLOCK],
@@ -482,12 +494,18 @@ fn blocks_for<S: Source, const RECORD: bool>(
         ($k:expr, $sums:literal, $tall:literal) => {{
             let k = $k;
             match (k.translation_only(), band.ego_m != Band::NO_EGO) {
-                (true, false) => blocks_on::<S, true, false, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells),
+                (true, false) => {
+                    blocks_on::<S, true, false, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
+                }
                 (false, false) => {
                     blocks_on::<S, false, false, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
                 }
-                (true, true) => blocks_on::<S, true, true, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells),
-                (false, true) => blocks_on::<S, false, true, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells),
+                (true, true) => {
+                    blocks_on::<S, true, true, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
+                }
+                (false, true) => {
+                    blocks_on::<S, false, true, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
+                }
             }
         }};
     }
@@ -527,7 +545,14 @@ pub(crate) fn rasterize_blocked_recording<S: Source>(
 }
 
 /// [`blocks`] with the wider vector unit when `wide` and the processor has one, else on the baseline.
-fn blocks_on<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool, const SUMS: bool, const TALL: bool>(
+fn blocks_on<
+    S: Source,
+    const TRANSLATION_ONLY: bool,
+    const EGO_MASK: bool,
+    const RECORD: bool,
+    const SUMS: bool,
+    const TALL: bool,
+>(
     k: &Pass1,
     points: S,
     grid: &mut OccupancyGrid,
@@ -567,7 +592,8 @@ mod wide {
         const TRANSLATION_ONLY: bool,
         const EGO_MASK: bool,
         const RECORD: bool,
-        const SUMS: bool, const TALL: bool,
+        const SUMS: bool,
+        const TALL: bool,
     >(
         k: &Pass1,
         points: S,
@@ -578,7 +604,9 @@ mod wide {
         if available() {
             // SAFETY: the processor has AVX2 (checked on the line above), the one requirement of a function
             // compiled with `target_feature(enable = "avx2")`.
-            unsafe { blocks_avx2::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, SUMS, TALL>(k, points, grid, visibility, cells) }
+            unsafe {
+                blocks_avx2::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, SUMS, TALL>(k, points, grid, visibility, cells)
+            }
         } else {
             points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD, SUMS, TALL>(k, grid, visibility, cells)
         }
@@ -590,7 +618,8 @@ mod wide {
         const TRANSLATION_ONLY: bool,
         const EGO_MASK: bool,
         const RECORD: bool,
-        const SUMS: bool, const TALL: bool,
+        const SUMS: bool,
+        const TALL: bool,
     >(
         k: &Pass1,
         points: S,
@@ -632,7 +661,8 @@ pub(crate) trait Source: Copy + Send + Sync {
         const EGO_MASK: bool,
         const ROUND: bool,
         const RECORD: bool,
-        const SUMS: bool, const TALL: bool,
+        const SUMS: bool,
+        const TALL: bool,
     >(
         self,
         k: &Pass1,
@@ -681,7 +711,8 @@ impl Source for &[[f32; 3]] {
         const EGO_MASK: bool,
         const ROUND: bool,
         const RECORD: bool,
-        const SUMS: bool, const TALL: bool,
+        const SUMS: bool,
+        const TALL: bool,
     >(
         self,
         k: &Pass1,
@@ -739,7 +770,8 @@ impl Source for PointColumns<'_> {
         const EGO_MASK: bool,
         const ROUND: bool,
         const RECORD: bool,
-        const SUMS: bool, const TALL: bool,
+        const SUMS: bool,
+        const TALL: bool,
     >(
         self,
         k: &Pass1,
@@ -851,7 +883,8 @@ mod tests {
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
             let returns: Vec<[u32; 3]> =
                 touched.iter().map(|&c| grid.returns(c).map_or([0; 3], |r| r.map(f32::to_bits))).collect();
-            let sums: Vec<Option<[u32; 3]>> = touched.iter().map(|&c| grid.sums(c).map(|r| r.map(f32::to_bits))).collect();
+            let sums: Vec<Option<[u32; 3]>> =
+                touched.iter().map(|&c| grid.sums(c).map(|r| r.map(f32::to_bits))).collect();
             let tall: Vec<u32> = (0..geometry.cell_count() as u32).filter(|&c| grid.tall(c)).collect();
             // The grid comes back clear: no tall bit survives the reset.
             grid.reset();

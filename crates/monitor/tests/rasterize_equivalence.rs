@@ -38,6 +38,9 @@ use pmon_monitor::{
 };
 use proptest::prelude::*;
 
+/// A touched cell: index, hits, flags, sums (as bits) and tall bit.
+type CellRecord = (u32, u16, u8, Option<[u32; 3]>, bool);
+
 /// A `FrameReport` and the grid after it, owned.
 #[derive(Debug, PartialEq)]
 struct Outcome {
@@ -45,10 +48,10 @@ struct Outcome {
     clusters: Vec<ClusterReport>,
     grid: GridStats,
     sensor_status: Option<NotMonitoredReason>,
-    /// `(cell, hits, flags)` of every touched cell, in the order of first touch.
-    /// Each touched cell: hits, flags, the sums of its returns' x and y and their number (as bits; with
-    /// `jump_from_returns`), and whether a return above the grazing height fell in it (with `roi_graze_fraction`).
-    cells: Vec<(u32, u16, u8, Option<[u32; 3]>, bool)>,
+    /// Every touched cell, in the order of first touch: hits, flags, the sums of its returns' x and y and their
+    /// number (as bits; with `jump_from_returns`), and whether a return above the grazing height fell in it (with
+    /// `roi_graze_fraction`).
+    cells: Vec<CellRecord>,
 }
 
 /// [`Join`] on two threads (`std::thread::scope`): the rasterize stage's halves at the same time.
