@@ -21,6 +21,12 @@
 //! operations ([`floor_small`], as SSE2 has no vector form of Rust's saturating `as`), and, for an upright sensor
 //! (identity rotation, the usual extrinsic), the transform as a translation. The division of the diamond angle
 //! stays: no multiplication by a reciprocal rounds like it.
+//!
+//! With the params keys `jump_from_returns` and `roi_graze_fraction` the grid also keeps each hit cell's sums of its
+//! returns' x and y (`OccupancyGrid::with_sums`) and a bit per cell for the returns above the grazing height
+//! (`OccupancyGrid::with_tall`): separate instantiations of the blocked loop (`SUMS`, `TALL`) fill them, so that the
+//! default loop is the one without; the reference loop fills them return by return (docs/performance.md, "The two
+//! opt-in rules' per-cell data in the rasterize loop").
 
 use alloc::vec::Vec;
 
