@@ -332,6 +332,19 @@ pub struct OccupancyGrid {
     /// Empty unless [`OccupancyGrid::with_returns`]: per cell with hits, the smallest squared range of its returns
     /// from the sensor (m^2), their lowest and their highest z (m); set at the cell's first hit of the frame.
     returns: Vec<[f32; 3]>,
+    /// Empty unless [`OccupancyGrid::with_sums`]: per cell with hits, the sum of its obstacle returns' x and y (ego
+    /// frame, metres, added one return at a time in point order) and their number (the params key
+    /// `jump_from_returns`); set to zero at the cell's first hit of the frame.
+    sums: Vec<[f32; 3]>,
+    /// Empty unless [`OccupancyGrid::with_tall`]: one bit per cell, set when a return of the frame in the cell
+    /// stands higher than `tall_above_m` (any return of the sweep, in the band or not, ego footprint or not; the
+    /// grazing rule's `ground_z_m + roi_graze_height_m`). The reset clears the words when `tall_any` (a bit was set
+    /// since the last reset): one word per 64 cells (625 for the default 200 x 200 cells), not a pass per cell.
+    tall_bits: Vec<u64>,
+    tall_above_m: f32,
+    tall_any: bool,
+    /// Whether the rasterizer sets the tall bits this frame ([`OccupancyGrid::set_tall_this_frame`]).
+    tall_on: bool,
 }
 
 /// A cell's returns before any: nothing is nearer, lower or higher.
@@ -356,6 +369,87 @@ impl OccupancyGrid {
             hit_bits: vec![0; cells.div_ceil(64)],
             probability,
             returns: Vec::new(),
+            sums: Vec::new(),
+            tall_bits: Vec::new(),
+            tall_above_m: f32::INFINITY,
+            tall_any: false,
+            tall_on: true,
+        }
+    }
+
+    /// The grid also keeps, per cell with hits, the sum of its obstacle returns' x and y and their number
+    /// ([`OccupancyGrid::sums`]; the params key `jump_from_returns`). Allocates one entry per cell.
+    #[must_use]
+    pub fn with_sums(mut self) -> Self {
+        self.sums = vec![[0.0; 3]; self.hits.len()];
+        self
+    }
+
+    /// The grid also keeps a bit per cell: a return higher than `above_m` in the cell this frame
+    /// ([`OccupancyGrid::tall`]; the grazing rule). Allocates one bit per cell.
+    #[must_use]
+    pub fn with_tall(mut self, above_m: f32) -> Self {
+        self.tall_bits = vec![0; self.hits.len().div_ceil(64)];
+        self.tall_above_m = above_m;
+        self
+    }
+
+    /// With [`OccupancyGrid::with_sums`], for a cell with hits this frame: the sum of its obstacle returns' x, the
+    /// sum of their y (ego frame, metres, in point order: `((0 + x1) + x2) + ...`) and their number. `None`
+    /// otherwise.
+    #[must_use]
+    #[inline]
+    pub fn sums(&self, index: u32) -> Option<[f32; 3]> {
+        if self.hits(index) == 0 {
+            return None;
+        }
+        self.sums.get(index as usize).copied()
+    }
+
+    /// True when the grid keeps [`OccupancyGrid::sums`].
+    #[must_use]
+    #[inline]
+    pub fn has_sums(&self) -> bool {
+        !self.sums.is_empty()
+    }
+
+    /// With [`OccupancyGrid::with_tall`], unless switched off for the frame: the height above which a return marks
+    /// its cell tall.
+    #[must_use]
+    #[inline]
+    pub fn tall_above_m(&self) -> Option<f32> {
+        (self.tall_on && !self.tall_bits.is_empty()).then_some(self.tall_above_m)
+    }
+
+    /// Whether the next rasterize sets the tall bits (with [`OccupancyGrid::with_tall`]; on until switched off):
+    /// the monitor switches them off in frames without a region of interest, where the grazing rule reads none.
+    pub(crate) fn set_tall_this_frame(&mut self, on: bool) {
+        self.tall_on = on;
+    }
+
+    /// With [`OccupancyGrid::with_tall`]: some return of this frame in the cell stood higher than
+    /// [`OccupancyGrid::tall_above_m`]. False otherwise (and outside the grid).
+    #[must_use]
+    #[inline]
+    pub fn tall(&self, index: u32) -> bool {
+        self.tall_bits.get(index as usize / 64).is_some_and(|w| w & (1 << (index % 64)) != 0)
+    }
+
+    /// Marks a cell tall (nothing without [`OccupancyGrid::with_tall`], or outside the grid).
+    #[inline(always)]
+    pub(crate) fn add_tall(&mut self, index: u32) {
+        if let Some(w) = self.tall_bits.get_mut(index as usize / 64) {
+            *w |= 1 << (index % 64);
+            self.tall_any = true;
+        }
+    }
+
+    /// Adds a return's x and y to a cell's sums (nothing without [`OccupancyGrid::with_sums`], or outside the
+    /// grid).
+    #[inline(always)]
+    fn add_sum(&mut self, index: u32, x: f32, y: f32) {
+        if let Some(e) = self.sums.get_mut(index as usize) {
+            *e = [e[0] + x, e[1] + y, e[2] + 1.0];
         }
     }
 
@@ -387,13 +481,14 @@ impl OccupancyGrid {
         }
     }
 
-    /// [`OccupancyGrid::add_hit`] of an obstacle return with its squared range from the sensor and its z (the
-    /// reference loop's way of [`OccupancyGrid::add_hits_with_returns`]).
+    /// [`OccupancyGrid::add_hit`] of an obstacle return at `q` (ego frame) with its squared range from the sensor
+    /// (the reference loop's way of [`OccupancyGrid::add_hits_with_returns`]).
     #[inline]
-    pub(crate) fn add_hit_return(&mut self, index: u32, r2: f32, z: f32) -> bool {
+    pub(crate) fn add_hit_return(&mut self, index: u32, r2: f32, q: [f32; 3]) -> bool {
         let added = self.add_run(index, 1);
         if added {
-            self.fold_returns(index, r2, z, z);
+            self.fold_returns(index, r2, q[2], q[2]);
+            self.add_sum(index, q[0], q[1]);
         }
         added
     }
@@ -412,6 +507,9 @@ impl OccupancyGrid {
             }
         }
         self.touched_len = 0;
+        if core::mem::take(&mut self.tall_any) {
+            self.tall_bits.fill(0);
+        }
     }
 
     /// Adds one hit to a cell. Returns false when the touched list is full (the hit is then not recorded).
@@ -427,15 +525,22 @@ impl OccupancyGrid {
     /// mispredicted at every run's end.
     #[cfg(test)]
     pub(crate) fn add_hits(&mut self, cells: &[u32; 64]) {
-        self.add_hits_with_returns(cells, None);
+        self.add_hits_with_returns(cells, None, None);
     }
 
     /// [`OccupancyGrid::add_hits`], and with [`OccupancyGrid::with_returns`] each run's returns folded into its
     /// cell at once: `returns` gives each point's squared range from the sensor (as bits: non-negative floats order
-    /// as their bits) and its z.
+    /// as their bits) and its z; and with [`OccupancyGrid::with_sums`] each point's x and y from `xy` added to its
+    /// cell's sums, one at a time in point order (the reference's additions).
     #[inline(always)]
-    pub(crate) fn add_hits_with_returns(&mut self, cells: &[u32; 64], returns: Option<(&[u32; 64], &[f32; 64])>) {
+    pub(crate) fn add_hits_with_returns(
+        &mut self,
+        cells: &[u32; 64],
+        returns: Option<(&[u32; 64], &[f32; 64])>,
+        xy: Option<(&[f32; 64], &[f32; 64])>,
+    ) {
         let returns = returns.filter(|_| !self.returns.is_empty());
+        let xy = xy.filter(|_| !self.sums.is_empty());
         // Bit j of `ends`: point j ends a run (the next point's cell differs, or j is the last point); of
         // `in_grid`: its cell is in the grid.
         let mut ends = 1u64 << 63;
@@ -466,19 +571,72 @@ impl OccupancyGrid {
                 }
             }
         }
+        // The sums: each point in the grid in turn (in point order; the cells new this block were set to zero above,
+        // before any of their returns is added). A return whose cell could not join a full touched list is added to
+        // an entry nobody reads (`sums` needs hits) and set to zero when the cell is first touched.
+        if let Some((x, y)) = xy {
+            let mut points = in_grid;
+            while points != 0 {
+                let j = (points.trailing_zeros() & 63) as usize;
+                points &= points - 1;
+                let (Some(&c), Some(&x), Some(&y)) = (cells.get(j), x.get(j), y.get(j)) else { continue };
+                if let Some(e) = self.sums.get_mut(c as usize) {
+                    *e = [e[0] + x, e[1] + y, e[2] + 1.0];
+                }
+            }
+        }
     }
 
     /// Adds `other`'s hits to this grid, cell by cell in `other`'s order of first touch: the grid one pass over
     /// this grid's points and then `other`'s would give (counts saturate at the same maximum; cells new to this
     /// grid join its touched list in `other`'s order). Flags are not copied. For the rasterize stage on two
     /// threads (`crate::split`); `other` must have the same geometry.
-    pub(crate) fn absorb(&mut self, other: &OccupancyGrid) {
-        for &c in other.touched() {
+    ///
+    /// Tall bits are or-ed. Sums: a cell new to this grid takes `other`'s (one pass adds the same returns from
+    /// zero in the same order); a cell this grid had too cannot take them (a sum of sums is not the one pass's sum
+    /// of returns in turn): its entry in `other` gets the count -1, and the caller adds `other`'s returns of those
+    /// cells in point order ([`OccupancyGrid::shared_sum`], [`OccupancyGrid::add_return_sum`]). Returns true when
+    /// there are such cells.
+    pub(crate) fn absorb(&mut self, other: &mut OccupancyGrid) -> bool {
+        let mut shared = false;
+        for k in 0..other.touched_len {
+            let Some(&c) = other.touched.get(k) else { break };
+            let new = self.hits(c) == 0;
             if self.add_run(c, u32::from(other.hits(c))) {
                 if let Some(&[r2, lo, hi]) = other.returns.get(c as usize) {
                     self.fold_returns(c, r2, lo, hi);
                 }
+                if let (Some(mine), Some(theirs)) = (self.sums.get_mut(c as usize), other.sums.get_mut(c as usize)) {
+                    if new {
+                        *mine = *theirs;
+                    } else {
+                        theirs[2] = -1.0;
+                        shared = true;
+                    }
+                }
             }
+        }
+        if other.tall_any {
+            for (w, &o) in self.tall_bits.iter_mut().zip(&other.tall_bits) {
+                *w |= o;
+            }
+            self.tall_any = true;
+        }
+        shared
+    }
+
+    /// After [`OccupancyGrid::absorb`] of this grid into another: true for a cell whose returns the other grid
+    /// must add one at a time.
+    #[inline]
+    pub(crate) fn shared_sum(&self, index: u32) -> bool {
+        self.hits(index) > 0 && self.sums.get(index as usize).is_some_and(|e| e[2] < 0.0)
+    }
+
+    /// Adds one obstacle return's x and y to a cell with hits (the fold of the rasterize stage on two threads).
+    #[inline]
+    pub(crate) fn add_return_sum(&mut self, index: u32, x: f32, y: f32) {
+        if self.hits(index) > 0 {
+            self.add_sum(index, x, y);
         }
     }
 
@@ -493,6 +651,9 @@ impl OccupancyGrid {
             self.touched_len += 1;
             if let Some(v) = self.returns.get_mut(index as usize) {
                 *v = NO_RETURNS;
+            }
+            if let Some(e) = self.sums.get_mut(index as usize) {
+                *e = [0.0; 3];
             }
             if let Some(w) = self.hit_bits.get_mut(index as usize / 64) {
                 *w |= 1 << (index % 64);

@@ -185,30 +185,33 @@ pub struct Monitor {
     /// With the grazing rule (`roi_graze_fraction > 0`): per reported cluster, its obstacle-band returns in
     /// cells wholly inside the ROI, all its band returns, and whether the amount still decides it (`graze.rs`).
     roi_amounts: Vec<RoiAmount>,
-    /// With the grazing rule: per cell, the band returns of a `FLAG_ROI_EDGE` cell found inside the ROI, then
-    /// the returns above `roi_graze_height_m` over a `FLAG_ROI_GRAZE` cell (saturating; 0 between frames). Empty
-    /// with the rule off.
+    /// With the grazing rule: per cell, the band returns of a `FLAG_ROI_EDGE` cell found inside the ROI
+    /// (saturating; 0 between frames; the returns above `roi_graze_height_m` are the grid's tall bits). Empty with
+    /// the rule off.
     roi_cell_counts: Vec<u8>,
     /// The second half's buffers of the rasterize stage on two threads ([`Monitor::enable_split`]).
     split: Option<crate::split::SecondHalf>,
     /// The sensor origin's height in the ego frame this frame, m (for `seen_over`: the grid keeps each hit cell's
     /// returns with `OccupancyGrid::with_returns`).
     sensor_z: f32,
-    /// With the params key `jump_from_returns`, per cell with hits this frame that step 9 may look at: the sum of
-    /// its obstacle-band returns' x and y (ego frame, metres) and their number (step 9 takes evidence centres from
-    /// the returns); a negative number for the other hit cells. Empty without the key.
-    cell_returns: Vec<[f32; 3]>,
 }
 
 /// The occupancy grid the parameters ask for (touched cells bounded by `max_points`; each hit cell's returns kept
-/// with `seen_over`): the monitor's and the second half's of the rasterize stage on two threads.
+/// with `seen_over`; each hit cell's sums of its returns' x and y with `jump_from_returns`; a bit per cell for the
+/// returns above the grazing rule's height with `roi_graze_fraction > 0`): the monitor's and the second half's of
+/// the rasterize stage on two threads.
 fn grid_for(params: &MonitorParams, geometry: GridGeometry) -> OccupancyGrid {
-    let grid = OccupancyGrid::new(geometry, params.hit_probability, params.max_points as usize);
+    let mut grid = OccupancyGrid::new(geometry, params.hit_probability, params.max_points as usize);
     if params.seen_over {
-        grid.with_returns()
-    } else {
-        grid
+        grid = grid.with_returns();
     }
+    if params.jump_from_returns {
+        grid = grid.with_sums();
+    }
+    if params.roi_graze_fraction > 0.0 {
+        grid = grid.with_tall(params.ground_z_m + params.roi_graze_height_m);
+    }
+    grid
 }
 
 /// Checks an object's state: finite values, sizes in `(0, max]`, speed `>= 0`, valid uncertainties.
@@ -293,7 +296,6 @@ impl Monitor {
             roi_cell_counts: if params.roi_graze_fraction > 0.0 { alloc::vec![0; cells] } else { Vec::new() },
             split: None,
             sensor_z: 0.0,
-            cell_returns: if params.jump_from_returns { alloc::vec![[0.0; 3]; cells] } else { Vec::new() },
             params,
         })
     }
@@ -474,7 +476,7 @@ impl Monitor {
         if self.sensor_status.is_none() {
             self.cluster_conflicts(frame, cloud);
             self.attribute_clusters();
-            self.sum_cell_returns(cloud);
+            self.sum_cell_returns();
         }
         on_stage(Stage::Conflicts);
         self.tracks.check_frame(
@@ -583,11 +585,16 @@ impl Monitor {
         self.visibility.reset([t.translation_m[0], t.translation_m[1]]);
         self.sensor_z = t.translation_m[2];
         let band = self.band();
+        // The tall bits only where the grazing rule may read them (frames with a region of interest).
+        let tall = !frame.roi_in_ego.is_empty();
+        self.grid.set_tall_this_frame(tall);
+        if let Some(second) = self.split.as_mut() {
+            second.grid.set_tall_this_frame(tall);
+        }
         let (grid, visibility) = (&mut self.grid, &mut self.visibility);
-        // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them), and
-        // with `jump_from_returns` (`sum_cell_returns` reads them).
+        // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
         let cells = &mut self.point_cells;
-        let record = !frame.roi_in_ego.is_empty() || !self.cell_returns.is_empty();
+        let record = !frame.roi_in_ego.is_empty();
         // The blocked loop with the wider vector unit or on the baseline; `None`: the scalar reference.
         let wide = match self.rasterizer {
             Rasterizer::Blocked => Some(true),
@@ -890,94 +897,21 @@ impl Monitor {
         }
     }
 
-    /// With `jump_from_returns`, after the attribution: the obstacle-band returns of the cells step 9 may look at
-    /// (each object's own occupied cells, and the occupied cells of the grown region placed at the predicted centre
-    /// of an object whose box jumped beyond the returns' allowance) summed per cell (x and y) and counted, through the cells the rasterizer recorded per point (a transform only for the returns of those
-    /// cells), or by a pass over the sweep when they were not recorded; then each object's own returns summed
-    /// (`own_returns`). Nothing without the key.
-    fn sum_cell_returns(&mut self, cloud: Option<Cloud<'_>>) {
-        if self.cell_returns.is_empty() || self.sensor_status.is_some() {
+    /// With `jump_from_returns`, after the attribution: each object's own returns summed (`own_returns`: x, y and
+    /// their number over the occupied cells it owns, in the order of first touch), from the sums of each hit cell's
+    /// obstacle-band returns that the rasterizer kept (`OccupancyGrid::sums`; step 9 also reads them for the cells
+    /// of a moved region). Nothing without the key.
+    fn sum_cell_returns(&mut self) {
+        if !self.grid.has_sums() || self.sensor_status.is_some() {
             return;
         }
-        let Some(cloud) = cloud else { return };
         let tau = self.params.tau_fn;
-        // Every hit cell unwanted (a negative count), then the wanted ones at zero.
         for &c in self.grid.touched() {
-            if let Some(e) = self.cell_returns.get_mut(c as usize) {
-                *e = [0.0, 0.0, -1.0];
-            }
-        }
-        let own = |grid: &crate::grid::OccupancyGrid, idx: u32| {
-            grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED && grid.probability(idx) > tau
-        };
-        for &c in self.grid.touched() {
-            if own(&self.grid, c) {
-                if let Some(e) = self.cell_returns.get_mut(c as usize) {
-                    *e = [0.0; 3];
-                }
-            }
-        }
-        let geometry = self.grid.geometry;
-        for j in 0..self.scratch.len() {
-            let Some(s) = self.scratch.get(j) else { continue };
-            let (Some(region), Some((p, _, Some(_)))) = (s.region, s.predicted) else { continue };
-            let (_, allow) = self.jump_allowances(&region);
-            let fp = &region.footprint;
-            if !attribution::beyond_ellipse(fp, [fp.cx - p[0], fp.cy - p[1]], allow) {
+            if self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED || self.grid.probability(c) <= tau
+            {
                 continue;
             }
-            let moved = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..region.grown };
-            let Some(range) = geometry.cell_range(moved.aabb()) else { continue };
-            let (grid, sums) = (&self.grid, &mut self.cell_returns);
-            geometry.for_each_cell_overlapping(&moved, range, |idx, _, _| {
-                if grid.probability(idx) > tau && grid.flags(idx) & FLAG_STATIC == 0 {
-                    if let Some(e) = sums.get_mut(idx as usize) {
-                        e[2] = e[2].max(0.0);
-                    }
-                }
-            });
-        }
-        let t = cloud.ego_from_sensor;
-        let points = cloud.points;
-        let band = self.band();
-        let (grid, sums) = (&self.grid, &mut self.cell_returns);
-        // Adds a return to its cell's sum when the cell is wanted (a count not below zero; `NO_CELL` is outside).
-        let add = |sums: &mut Vec<[f32; 3]>, cell: u32, q: [f32; 3]| {
-            if let Some(e) = sums.get_mut(cell as usize).filter(|e| e[2] >= 0.0) {
-                *e = [e[0] + q[0], e[1] + q[1], e[2] + 1.0];
-            }
-        };
-        if self.point_cells.len() == points.len() {
-            let (r, tr) = (&t.rotation, &t.translation_m);
-            for (i, &cell) in self.point_cells.iter().enumerate() {
-                // Unwanted cells and `NO_CELL` are skipped before the transform (a cell without hits this frame is
-                // never read: its entry, whatever it holds, is not looked at).
-                let Some(e) = sums.get_mut(cell as usize).filter(|e| e[2] >= 0.0) else { continue };
-                if let Some(p) = points.get(i) {
-                    // x and y of `t.transform(p)` (the same operations, so the same values).
-                    let x = r[0][0] * p[0] + r[0][1] * p[1] + r[0][2] * p[2] + tr[0];
-                    let y = r[1][0] * p[0] + r[1][1] * p[1] + r[1][2] * p[2] + tr[1];
-                    *e = [e[0] + x, e[1] + y, e[2] + 1.0];
-                }
-            }
-        } else {
-            // Not recorded (never with the capacities of `new`): the same returns, found by a pass over the sweep.
-            for p in (0..points.len()).filter_map(|i| points.get(i)) {
-                let q = t.transform(p);
-                if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
-                    continue;
-                }
-                if let Some(cell) = geometry.point_to_cell(q[0], q[1]).filter(|&c| grid.hits(c) > 0) {
-                    add(sums, cell, q);
-                }
-            }
-        }
-        // Each object's own returns: the returns of the occupied cells it owns.
-        for &c in self.grid.touched() {
-            if !own(&self.grid, c) {
-                continue;
-            }
-            let (Some(&o), Some(e)) = (self.owner.get(c as usize), self.cell_returns.get(c as usize)) else { continue };
+            let (Some(&o), Some(e)) = (self.owner.get(c as usize), self.grid.sums(c)) else { continue };
             if let Some(s) = self.scratch.get_mut(o as usize) {
                 let r = s.own_returns;
                 s.own_returns = [r[0] + e[0], r[1] + e[1], r[2] + e[2]];
@@ -1209,7 +1143,7 @@ impl Monitor {
                         let v = f64::from(o.speed_mps);
                         // With `jump_from_returns`: from the centre to its own returns' mean, world axes.
                         let returns = scratch.own_returns;
-                        let returns_offset_world_m = (!self.cell_returns.is_empty() && returns[2] >= 1.0).then(|| {
+                        let returns_offset_world_m = (self.grid.has_sums() && returns[2] >= 1.0).then(|| {
                             let at = [returns[0] / returns[2] - centre[0], returns[1] / returns[2] - centre[1]];
                             crate::evidence_memory::rotate(at, pose.yaw_rad)
                         });

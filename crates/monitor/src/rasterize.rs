@@ -21,6 +21,12 @@
 //! operations ([`floor_small`], as SSE2 has no vector form of Rust's saturating `as`), and, for an upright sensor
 //! (identity rotation, the usual extrinsic), the transform as a translation. The division of the diamond angle
 //! stays: no multiplication by a reciprocal rounds like it.
+//!
+//! With the params keys `jump_from_returns` and `roi_graze_fraction` the grid also keeps each hit cell's sums of its
+//! returns' x and y (`OccupancyGrid::with_sums`) and a bit per cell for the returns above the grazing height
+//! (`OccupancyGrid::with_tall`): separate instantiations of the blocked loop (`SUMS`, `TALL`) fill them, so that the
+//! default loop is the one without; the reference loop fills them return by return (docs/performance.md, "The two
+//! opt-in rules' per-cell data in the rasterize loop").
 
 use alloc::vec::Vec;
 
@@ -120,9 +126,19 @@ fn scalar<S: Source>(
 ) -> u32 {
     let (lo, hi) = (band.lo_m, band.hi_m);
     let geometry = grid.geometry;
+    let tall = grid.tall_above_m();
     let mut in_band = 0u32;
     for p in points.iter() {
         let q = t.transform(p);
+        // With the grazing rule: a return higher than the threshold marks its cell (any return, in the band or
+        // not, ego footprint or not; NaN never).
+        if let Some(top) = tall {
+            if q[2] > top {
+                if let Some(cell) = geometry.point_to_cell(q[0], q[1]) {
+                    grid.add_tall(cell);
+                }
+            }
+        }
         // Above the band (overhangs) or NaN: not an obstacle, and not a return that shows free space.
         let skipped = q[2].partial_cmp(&hi).is_none_or(|o| o == core::cmp::Ordering::Greater)
             || !(q[0].is_finite() && q[1].is_finite())
@@ -141,7 +157,7 @@ fn scalar<S: Source>(
             let o = visibility.origin();
             let (dx, dy) = (q[0] - o[0], q[1] - o[1]);
             // Cannot fail: the touched list has room for max_points >= points cells.
-            let _ = grid.add_hit_return(cell, dx * dx + dy * dy, q[2]);
+            let _ = grid.add_hit_return(cell, dx * dx + dy * dy, q);
             in_band += 1;
         }
     }
@@ -163,6 +179,8 @@ pub(crate) struct Pass1 {
     cells_per_side_f: f32,
     bins: BinParams,
     last_bin_f: f32,
+    /// The height above which a return marks its cell tall ([`OccupancyGrid::tall_above_m`]; infinite: none).
+    tall_m: f32,
 }
 
 impl Pass1 {
@@ -190,6 +208,7 @@ impl Pass1 {
             cells_per_side_f: geometry.cells_per_side as f32,
             bins,
             last_bin_f: last_bin as f32,
+            tall_m: f32::INFINITY,
         })
     }
 
@@ -201,17 +220,18 @@ impl Pass1 {
         r0 == [1.0, 0.0, 0.0] && r1 == [0.0, 1.0, 0.0] && r2 == [0.0, 0.0, 1.0]
     }
 
-    /// One point: `(bin, farthest-return candidate r^2, nearest-obstacle candidate r^2 as bits, cell)`. A point
-    /// the reference skips gets `0.0` and `u32::MAX` (they never win) and `NO_CELL`; so does an obstacle whose
-    /// `r^2` is infinite (the reference's `r2 < INFINITY` fails for it). `TRANSLATION_ONLY` requires
-    /// [`Pass1::translation_only`].
+    /// One point: `(bin, farthest-return candidate r^2, nearest-obstacle candidate r^2 as bits, cell, z, x, y,
+    /// tall cell)` (`x`, `y`, `z` in the ego frame). A point the reference skips gets `0.0` and `u32::MAX` (they
+    /// never win) and `NO_CELL`; so does an obstacle whose `r^2` is infinite (the reference's `r2 < INFINITY`
+    /// fails for it). The tall cell: the grid cell of a return higher than `tall_m`, else `NO_CELL`.
+    /// `TRANSLATION_ONLY` requires [`Pass1::translation_only`].
     #[inline(always)]
     fn point<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool>(
         &self,
         x: f32,
         y: f32,
         z: f32,
-    ) -> (u32, f32, u32, u32, f32) {
+    ) -> (u32, f32, u32, u32, f32, f32, f32, u32) {
         let [t0, t1, t2] = self.translation;
         // `&` rather than `&&`: no branches. A sum of `zero_if_finite` terms is 0 exactly when all are finite.
         let (q0, q1, q2, finite) = if TRANSLATION_ONLY {
@@ -253,7 +273,10 @@ impl Pass1 {
         // `r2` is never NaN here (finite coordinates), and never `-0.0`: the bits of the non-negative floats
         // order as their values, which `VisibilityMap::add_binned` relies on.
         let near = if obstacle & (r2 < f32::INFINITY) { r2.to_bits() } else { u32::MAX };
-        (bin, far, near, cell, q2)
+        // The reference's `q2 > top` and `point_to_cell(q0, q1)`, for every return: `finite` as above (a non-finite
+        // z makes the reference's `q0` NaN, so no cell, also where this transform is a translation).
+        let tall = if finite & (q2 > self.tall_m) & inside { index } else { NO_CELL };
+        (bin, far, near, cell, q2, q0, q1, tall)
     }
 }
 
@@ -302,30 +325,72 @@ struct Block {
     cells: [u32; BLOCK],
     /// Each point's z in the ego frame (read for the points with a cell: obstacle returns in the grid).
     z: [f32; BLOCK],
+    /// With `SUMS` (the grid keeps sums): each point's x and y in the ego frame (read for the points with a cell);
+    /// with `TALL` (the grid keeps tall bits), its tall cell (see [`Pass1::point`]). Not written otherwise.
+    x: [f32; BLOCK],
+    y: [f32; BLOCK],
+    tall: [u32; BLOCK],
 }
 
 impl Block {
-    const EMPTY: Self =
-        Self { bins: [0; BLOCK], far_r2: [0.0; BLOCK], near_bits: [0; BLOCK], cells: [0; BLOCK], z: [0.0; BLOCK] };
+    const EMPTY: Self = Self {
+        bins: [0; BLOCK],
+        far_r2: [0.0; BLOCK],
+        near_bits: [0; BLOCK],
+        cells: [0; BLOCK],
+        z: [0.0; BLOCK],
+        x: [0.0; BLOCK],
+        y: [0.0; BLOCK],
+        tall: [NO_CELL; BLOCK],
+    };
 
-    /// Pass 1 over a block; returns the number of points that fall in the band and in the grid.
+    /// Pass 1 over a block; returns the number of points that fall in the band and in the grid. With `SUMS`, also
+    /// each point's x and y, with `TALL` its tall cell.
     #[inline(always)]
-    fn fill<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool>(
+    fn fill<
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const ROUND: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         &mut self,
         k: &Pass1,
         points: &[[f32; 3]; BLOCK],
     ) -> u32 {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
         let cells = self.cells.iter_mut().zip(self.z.iter_mut());
-        for ((&[x, y, z], ((bin, far), near)), (cell, height)) in points.iter().zip(outputs).zip(cells) {
-            (*bin, *far, *near, *cell, *height) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+        if SUMS || TALL {
+            let extra = self.x.iter_mut().zip(self.y.iter_mut()).zip(self.tall.iter_mut());
+            for (((&[x, y, z], ((bin, far), near)), (cell, height)), ((qx, qy), tall)) in
+                points.iter().zip(outputs).zip(cells).zip(extra)
+            {
+                let (q0, q1, t);
+                (*bin, *far, *near, *cell, *height, q0, q1, t) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                if SUMS {
+                    (*qx, *qy) = (q0, q1);
+                }
+                if TALL {
+                    *tall = t;
+                }
+            }
+        } else {
+            for ((&[x, y, z], ((bin, far), near)), (cell, height)) in points.iter().zip(outputs).zip(cells) {
+                (*bin, *far, *near, *cell, *height, _, _, _) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+            }
         }
         self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
     }
 
     /// [`Block::fill`] over a block given as three columns.
     #[inline(always)]
-    fn fill_columns<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool>(
+    fn fill_columns<
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const ROUND: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         &mut self,
         k: &Pass1,
         xs: &[f32; BLOCK],
@@ -335,18 +400,50 @@ impl Block {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
         let inputs = xs.iter().zip(ys).zip(zs);
         let cells = self.cells.iter_mut().zip(self.z.iter_mut());
-        for ((((&x, &y), &z), ((bin, far), near)), (cell, height)) in inputs.zip(outputs).zip(cells) {
-            (*bin, *far, *near, *cell, *height) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+        if SUMS || TALL {
+            let extra = self.x.iter_mut().zip(self.y.iter_mut()).zip(self.tall.iter_mut());
+            for (((((&x, &y), &z), ((bin, far), near)), (cell, height)), ((qx, qy), tall)) in
+                inputs.zip(outputs).zip(cells).zip(extra)
+            {
+                let (q0, q1, t);
+                (*bin, *far, *near, *cell, *height, q0, q1, t) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                if SUMS {
+                    (*qx, *qy) = (q0, q1);
+                }
+                if TALL {
+                    *tall = t;
+                }
+            }
+        } else {
+            for ((((&x, &y), &z), ((bin, far), near)), (cell, height)) in inputs.zip(outputs).zip(cells) {
+                (*bin, *far, *near, *cell, *height, _, _, _) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+            }
         }
         self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
     }
 
-    /// Pass 2: the updates, in point order.
+    /// Pass 2: the updates, in point order (with `SUMS` and `TALL`, also the grid's sums and tall bits).
     #[inline(always)]
-    fn apply(&self, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
+    fn apply<const SUMS: bool, const TALL: bool>(&self, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
         visibility.add_binned(&self.bins, &self.far_r2, &self.near_bits, &self.cells);
         // A point with a cell is an obstacle return in the grid: its `near_bits` are its squared range's bits.
-        grid.add_hits_with_returns(&self.cells, Some((&self.near_bits, &self.z)));
+        let xy = if SUMS { Some((&self.x, &self.y)) } else { None };
+        grid.add_hits_with_returns(&self.cells, Some((&self.near_bits, &self.z)), xy);
+        // Most blocks hold no tall return (`NO_CELL` has every bit set: the `and` of the block's entries is `NO_CELL`
+        // exactly when none is a cell); in the others, the tall points as a mask, then those alone.
+        if TALL && self.tall.iter().fold(NO_CELL, |a, &c| a & c) != NO_CELL {
+            let mut mask = 0u64;
+            for (j, &c) in self.tall.iter().enumerate() {
+                mask |= u64::from(c != NO_CELL) << j;
+            }
+            while mask != 0 {
+                let j = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if let Some(&c) = self.tall.get(j) {
+                    grid.add_tall(c);
+                }
+            }
+        }
     }
 }
 
@@ -387,7 +484,9 @@ pub(crate) fn rasterize_blocked_into<S: Source>(
     }
 }
 
-/// [`blocks_on`] instantiated for the frame: a pure translation or not, with an ego footprint or not.
+/// [`blocks_on`] instantiated for the frame: a pure translation or not, with an ego footprint or not, with the
+/// grid's sums or tall bits (the params keys `jump_from_returns`, `roi_graze_fraction`: a separate instantiation,
+/// so that the default loop is the one without them) or not.
 fn blocks_for<S: Source, const RECORD: bool>(
     k: &Pass1,
     band: Band,
@@ -397,11 +496,32 @@ fn blocks_for<S: Source, const RECORD: bool>(
     wide: bool,
     cells: &mut Vec<u32>,
 ) -> u32 {
-    match (k.translation_only(), band.ego_m != Band::NO_EGO) {
-        (true, false) => blocks_on::<S, true, false, RECORD>(k, points, grid, visibility, wide, cells),
-        (false, false) => blocks_on::<S, false, false, RECORD>(k, points, grid, visibility, wide, cells),
-        (true, true) => blocks_on::<S, true, true, RECORD>(k, points, grid, visibility, wide, cells),
-        (false, true) => blocks_on::<S, false, true, RECORD>(k, points, grid, visibility, wide, cells),
+    macro_rules! on {
+        ($k:expr, $sums:literal, $tall:literal) => {{
+            let k = $k;
+            match (k.translation_only(), band.ego_m != Band::NO_EGO) {
+                (true, false) => {
+                    blocks_on::<S, true, false, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
+                }
+                (false, false) => {
+                    blocks_on::<S, false, false, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
+                }
+                (true, true) => {
+                    blocks_on::<S, true, true, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
+                }
+                (false, true) => {
+                    blocks_on::<S, false, true, RECORD, $sums, $tall>(k, points, grid, visibility, wide, cells)
+                }
+            }
+        }};
+    }
+    let tall = grid.tall_above_m();
+    let with_tall = &Pass1 { tall_m: tall.unwrap_or(f32::INFINITY), ..*k };
+    match (grid.has_sums(), tall.is_some()) {
+        (false, false) => on!(k, false, false),
+        (true, false) => on!(k, true, false),
+        (false, true) => on!(with_tall, false, true),
+        (true, true) => on!(with_tall, true, true),
     }
 }
 
@@ -431,7 +551,14 @@ pub(crate) fn rasterize_blocked_recording<S: Source>(
 }
 
 /// [`blocks`] with the wider vector unit when `wide` and the processor has one, else on the baseline.
-fn blocks_on<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
+fn blocks_on<
+    S: Source,
+    const TRANSLATION_ONLY: bool,
+    const EGO_MASK: bool,
+    const RECORD: bool,
+    const SUMS: bool,
+    const TALL: bool,
+>(
     k: &Pass1,
     points: S,
     grid: &mut OccupancyGrid,
@@ -441,11 +568,11 @@ fn blocks_on<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, cons
 ) -> u32 {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     if wide {
-        return wide::blocks::<S, TRANSLATION_ONLY, EGO_MASK, RECORD>(k, points, grid, visibility, cells);
+        return wide::blocks::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, SUMS, TALL>(k, points, grid, visibility, cells);
     }
     // Without run-time detection (`wide::available` is false) the flag has nothing to choose.
     let _ = wide;
-    points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD>(k, grid, visibility, cells)
+    points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD, SUMS, TALL>(k, grid, visibility, cells)
 }
 
 /// The block loop compiled for a wider vector unit, chosen at run time.
@@ -466,7 +593,14 @@ mod wide {
     }
 
     /// [`super::blocks`] with AVX2, or with the baseline when the processor lacks it.
-    pub(super) fn blocks<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
+    pub(super) fn blocks<
+        S: Source,
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const RECORD: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         k: &Pass1,
         points: S,
         grid: &mut OccupancyGrid,
@@ -476,14 +610,23 @@ mod wide {
         if available() {
             // SAFETY: the processor has AVX2 (checked on the line above), the one requirement of a function
             // compiled with `target_feature(enable = "avx2")`.
-            unsafe { blocks_avx2::<S, TRANSLATION_ONLY, EGO_MASK, RECORD>(k, points, grid, visibility, cells) }
+            unsafe {
+                blocks_avx2::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, SUMS, TALL>(k, points, grid, visibility, cells)
+            }
         } else {
-            points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD>(k, grid, visibility, cells)
+            points.blocks::<TRANSLATION_ONLY, EGO_MASK, false, RECORD, SUMS, TALL>(k, grid, visibility, cells)
         }
     }
 
     #[target_feature(enable = "avx2")]
-    fn blocks_avx2<S: Source, const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const RECORD: bool>(
+    fn blocks_avx2<
+        S: Source,
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const RECORD: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         k: &Pass1,
         points: S,
         grid: &mut OccupancyGrid,
@@ -491,7 +634,7 @@ mod wide {
         cells: &mut Vec<u32>,
     ) -> u32 {
         // AVX2 implies SSE4.1's `roundps`: the cheaper floor of `floor_of`.
-        points.blocks::<TRANSLATION_ONLY, EGO_MASK, true, RECORD>(k, grid, visibility, cells)
+        points.blocks::<TRANSLATION_ONLY, EGO_MASK, true, RECORD, SUMS, TALL>(k, grid, visibility, cells)
     }
 }
 
@@ -519,7 +662,14 @@ pub(crate) trait Source: Copy + Send + Sync {
 
     /// The block loop of [`rasterize_blocked`] (inlined into each instruction set's version); with `RECORD`, each
     /// point's cell appended to `cells`, which the caller made room for.
-    fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const RECORD: bool>(
+    fn blocks<
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const ROUND: bool,
+        const RECORD: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         self,
         k: &Pass1,
         grid: &mut OccupancyGrid,
@@ -531,14 +681,14 @@ pub(crate) trait Source: Copy + Send + Sync {
 impl Block {
     /// Pass 2 and the recorded cells of the block's first `len` points.
     #[inline(always)]
-    fn finish<const RECORD: bool>(
+    fn finish<const RECORD: bool, const SUMS: bool, const TALL: bool>(
         &self,
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
         cells: &mut Vec<u32>,
         len: usize,
     ) {
-        self.apply(grid, visibility);
+        self.apply::<SUMS, TALL>(grid, visibility);
         if RECORD {
             cells.extend_from_slice(self.cells.get(..len).unwrap_or(&[]));
         }
@@ -562,7 +712,14 @@ impl Source for &[[f32; 3]] {
     }
 
     #[inline(always)]
-    fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const RECORD: bool>(
+    fn blocks<
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const ROUND: bool,
+        const RECORD: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         self,
         k: &Pass1,
         grid: &mut OccupancyGrid,
@@ -573,8 +730,8 @@ impl Source for &[[f32; 3]] {
         let mut in_band = 0u32;
         let (chunks, rest) = self.as_chunks::<BLOCK>();
         for chunk in chunks {
-            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, chunk);
-            block.finish::<RECORD>(grid, visibility, cells, BLOCK);
+            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, chunk);
+            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
         }
         if !rest.is_empty() {
             // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
@@ -582,8 +739,8 @@ impl Source for &[[f32; 3]] {
             for (d, s) in padded.iter_mut().zip(rest) {
                 *d = *s;
             }
-            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, &padded);
-            block.finish::<RECORD>(grid, visibility, cells, rest.len());
+            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, &padded);
+            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, rest.len());
         }
         in_band
     }
@@ -614,7 +771,14 @@ impl Source for PointColumns<'_> {
     }
 
     #[inline(always)]
-    fn blocks<const TRANSLATION_ONLY: bool, const EGO_MASK: bool, const ROUND: bool, const RECORD: bool>(
+    fn blocks<
+        const TRANSLATION_ONLY: bool,
+        const EGO_MASK: bool,
+        const ROUND: bool,
+        const RECORD: bool,
+        const SUMS: bool,
+        const TALL: bool,
+    >(
         self,
         k: &Pass1,
         grid: &mut OccupancyGrid,
@@ -628,8 +792,8 @@ impl Source for PointColumns<'_> {
         let (ys, y_rest) = self.y().as_chunks::<BLOCK>();
         let (zs, z_rest) = self.z().as_chunks::<BLOCK>();
         for ((x, y), z) in xs.iter().zip(ys).zip(zs) {
-            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, x, y, z);
-            block.finish::<RECORD>(grid, visibility, cells, BLOCK);
+            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, x, y, z);
+            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
         }
         if !x_rest.is_empty() {
             let mut padded = [[f32::NAN; BLOCK]; 3];
@@ -639,8 +803,8 @@ impl Source for PointColumns<'_> {
                 }
             }
             let [x, y, z] = &padded;
-            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND>(k, x, y, z);
-            block.finish::<RECORD>(grid, visibility, cells, x_rest.len());
+            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, x, y, z);
+            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, x_rest.len());
         }
         in_band
     }
@@ -675,8 +839,25 @@ mod tests {
         }
     }
 
-    /// Runs both loops on fresh grids and maps; asserts bit-identical results; returns the points in band.
+    /// Runs both loops on fresh grids and maps; asserts bit-identical results; returns the points in band. Twice:
+    /// on grids without and with the sums and tall bits of the params keys `jump_from_returns` and
+    /// `roi_graze_fraction` (the loops' `SUMS` and `TALL` instantiation), checked against their definitions.
     fn assert_same(points: &[[f32; 3]], t: &Isometry3, band: Band, cells: u32, cell_m: f32, bins: u32) -> u32 {
+        // Tall: 0.5 m above the band (the params refuse a threshold below its top).
+        let n = assert_same_with(points, t, band, cells, cell_m, bins, None);
+        assert_eq!(n, assert_same_with(points, t, band, cells, cell_m, bins, Some(band.hi_m + 0.5)));
+        n
+    }
+
+    fn assert_same_with(
+        points: &[[f32; 3]],
+        t: &Isometry3,
+        band: Band,
+        cells: u32,
+        cell_m: f32,
+        bins: u32,
+        extra: Option<f32>,
+    ) -> u32 {
         let geometry = GridGeometry::new(cells, cell_m);
         // 0: the reference, 1: the blocked loop on the baseline, 2: with the widest vector unit available.
         // Modes 3, 4, 5: the same three, recording each point's cell. Modes 6 to 11: modes 0 to 5 with the points
@@ -685,6 +866,9 @@ mod tests {
         let columns = PointColumns::new(&x, &y, &z).unwrap();
         let run = |mode: u8| {
             let mut grid = OccupancyGrid::new(geometry, 0.7, points.len()).with_returns();
+            if let Some(top) = extra {
+                grid = grid.with_sums().with_tall(top);
+            }
             let mut vis = VisibilityMap::new(bins);
             vis.reset([t.translation_m[0], t.translation_m[1]]);
             let mut cells = Vec::with_capacity(points.len());
@@ -705,7 +889,13 @@ mod tests {
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
             let returns: Vec<[u32; 3]> =
                 touched.iter().map(|&c| grid.returns(c).map_or([0; 3], |r| r.map(f32::to_bits))).collect();
-            ((n, touched, hits, bits(&near), near_cell, bits(&far), returns), cells)
+            let sums: Vec<Option<[u32; 3]>> =
+                touched.iter().map(|&c| grid.sums(c).map(|r| r.map(f32::to_bits))).collect();
+            let tall: Vec<u32> = (0..geometry.cell_count() as u32).filter(|&c| grid.tall(c)).collect();
+            // The grid comes back clear: no tall bit survives the reset.
+            grid.reset();
+            assert!((0..geometry.cell_count() as u32).all(|c| !grid.tall(c)), "tall bits after the reset");
+            ((n, touched, hits, bits(&near), near_cell, bits(&far), returns, sums, tall), cells)
         };
         let (scalar, _) = run(0);
         // Each hit cell's returns, by their definition: the smallest squared range from the sensor's ground point
@@ -722,6 +912,31 @@ mod tests {
             }
             assert_eq!(*r, want.map(f32::to_bits), "returns of cell {c}");
         }
+        // The sums and tall bits, by their definitions: each hit cell's obstacle returns' x and y added in point
+        // order from zero, and their number; the cells of the returns above the threshold, any return.
+        let mut want_tall = Vec::new();
+        for (&c, sums) in scalar.1.iter().zip(&scalar.7) {
+            let mut want = [0.0f32; 3];
+            for p in points {
+                let q = t.transform(*p);
+                let obstacle = q[2] >= band.lo_m && q[2] <= band.hi_m && !band.in_ego(q[0], q[1]);
+                if obstacle && geometry.point_to_cell(q[0], q[1]) == Some(c) {
+                    want = [want[0] + q[0], want[1] + q[1], want[2] + 1.0];
+                }
+            }
+            assert_eq!(*sums, extra.map(|_| want.map(f32::to_bits)), "sums of cell {c}");
+        }
+        if let Some(top) = extra {
+            for p in points {
+                let q = t.transform(*p);
+                if let Some(c) = geometry.point_to_cell(q[0], q[1]).filter(|_| q[2] > top) {
+                    want_tall.push(c);
+                }
+            }
+            want_tall.sort_unstable();
+            want_tall.dedup();
+        }
+        assert_eq!(scalar.8, want_tall, "tall cells");
         // The recorded cells: one per point, the reference's definition (an obstacle-band return in the grid,
         // outside the ego footprint), the same for the three loops; recording changes nothing else.
         let expected: Vec<u32> = points
@@ -746,6 +961,8 @@ mod tests {
             assert_eq!(scalar.4, blocked.4, "nearest obstacle cells");
             assert_eq!(scalar.5, blocked.5, "farthest return r2 bits");
             assert_eq!(scalar.6, blocked.6, "each hit cell's nearest r2, lowest and highest z");
+            assert_eq!(scalar.7, blocked.7, "each hit cell's sums of x and y and count");
+            assert_eq!(scalar.8, blocked.8, "tall cells");
         }
         scalar.0
     }

@@ -17,6 +17,13 @@
 //!   second half's nearest replaces the first half's only when strictly nearer (a tie keeps the first half's,
 //!   which came first). **The farthest return** is a maximum.
 //! - **The recorded cells** of each point (frames with a region of interest): the second half's after the first's.
+//! - **Tall bits** (the grazing rule): or-ed.
+//! - **Each cell's sums of its returns' x and y** (`jump_from_returns`): a cell the first half did not touch takes
+//!   the second half's sums (the same additions from zero in the same order); a cell both touched gets the second
+//!   half's returns added one at a time, in point order, to the first half's sums (a sum of the two sums would
+//!   round differently). The second half records its points' cells for this (whether the frame asks for them or
+//!   not), and those returns alone are transformed again, with `Isometry3::transform`: the same x and y as pass 1
+//!   (up to the sign of a zero, which cannot change a sum that starts at +0).
 //!
 //! Tests: `split_rasterize_equals_one_pass` (random sweeps, both halves' contents and the fold against one pass)
 //! and the whole-check test in `tests/split.rs` (every report field, sequential and on two threads).
@@ -94,10 +101,35 @@ pub(crate) fn rasterize_split<S: Source>(
     {
         let Half { grid: ga, visibility: va, cells: ca } = first;
         let Half { grid: gb, visibility: vb, cells: cb } = second;
+        // The second half's cells also for the fold of the sums.
+        let record_b = record || gb.has_sums();
         let mut a = || in_a = rasterize_blocked_into(a_points, t, band, ga, va, wide, record, ca);
-        let mut b = || in_b = rasterize_blocked_into(b_points, t, band, gb, vb, wide, record, cb);
+        let mut b = || in_b = rasterize_blocked_into(b_points, t, band, gb, vb, wide, record_b, cb);
         join.join(&mut a, &mut b);
-        ga.absorb(gb);
+        if ga.absorb(gb) {
+            // The second half's returns of the cells both halves touched, in point order.
+            if cb.len() == b_points.len() {
+                for (p, &c) in b_points.iter().zip(cb.iter()) {
+                    if gb.shared_sum(c) {
+                        let q = t.transform(p);
+                        ga.add_return_sum(c, q[0], q[1]);
+                    }
+                }
+            } else {
+                // Not recorded (never with the capacities of `Monitor::enable_split`): the same returns, by the
+                // reference's definition.
+                let geometry = gb.geometry;
+                for p in b_points.iter() {
+                    let q = t.transform(p);
+                    if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
+                        continue;
+                    }
+                    if let Some(c) = geometry.point_to_cell(q[0], q[1]).filter(|&c| gb.shared_sum(c)) {
+                        ga.add_return_sum(c, q[0], q[1]);
+                    }
+                }
+            }
+        }
         gb.reset();
         va.absorb(vb);
         if record {
@@ -108,8 +140,8 @@ pub(crate) fn rasterize_split<S: Source>(
             } else {
                 ca.clear();
             }
-            cb.clear();
         }
+        cb.clear();
     }
     in_a + in_b
 }
@@ -165,6 +197,11 @@ mod tests {
         OccupancyGrid::new(GridGeometry::new(160, 0.5), 0.7, max_touched).with_returns()
     }
 
+    /// [`grid`] with the sums and tall bits of `jump_from_returns` and the grazing rule.
+    fn grid_extra(max_touched: usize) -> OccupancyGrid {
+        grid(max_touched).with_sums().with_tall(1.2)
+    }
+
     #[test]
     fn split_rasterize_equals_one_pass() {
         let band = Band { lo_m: -0.2, hi_m: 1.0, ego_m: [-1.0, -1.0, 2.0, 1.0] };
@@ -172,7 +209,8 @@ mod tests {
         let upright = Isometry3::from_translation(0.5, 0.0, 1.8);
         for (seed, n) in [(1u64, 0usize), (2, 1), (3, 63), (4, 64), (5, 130), (6, 5_000), (7, 40_001)] {
             for t in [t, upright] {
-                for record in [false, true] {
+                for (record, extra) in [(false, false), (true, false), (false, true), (true, true)] {
+                    let grid = if extra { grid_extra } else { grid };
                     for wide in [false, true] {
                         let pts = sweep(seed, n);
                         let (mut g1, mut v1, mut c1) = (grid(n), VisibilityMap::new(720), Vec::with_capacity(n));
@@ -200,13 +238,24 @@ mod tests {
                             } else {
                                 rasterize_split(columns, &t, band, first, second, wide, record, &Sequential)
                             };
-                            let what = alloc::format!("seed {seed}, n {n}, record {record}, wide {wide}, pass {pass}");
+                            let what = alloc::format!(
+                                "seed {seed}, n {n}, record {record}, extra {extra}, wide {wide}, pass {pass}"
+                            );
                             assert_eq!(in1, in2, "{what}");
                             assert_eq!(g1.touched(), g2.touched(), "{what}");
                             for &c in g1.touched() {
                                 assert_eq!(g1.hits(c), g2.hits(c), "{what}, cell {c}");
                                 let bits = |r: Option<[f32; 3]>| r.map(|r| r.map(f32::to_bits));
                                 assert_eq!(bits(g1.returns(c)), bits(g2.returns(c)), "{what}, returns of cell {c}");
+                                assert_eq!(bits(g1.sums(c)), bits(g2.sums(c)), "{what}, sums of cell {c}");
+                                assert_eq!(g1.sums(c).is_some(), extra, "{what}");
+                            }
+                            for c in 0..160 * 160 {
+                                assert_eq!(g1.tall(c), g2.tall(c), "{what}, tall cell {c}");
+                                assert!(!gb.tall(c), "{what}: the second grid's tall bits are left clear");
+                            }
+                            if extra && n > 1000 {
+                                assert!((0..160 * 160).any(|c| g1.tall(c)), "{what}: tall returns");
                             }
                             assert_eq!(v1.arrays(), v2.arrays(), "{what}");
                             assert_eq!(c1, c2, "{what}");

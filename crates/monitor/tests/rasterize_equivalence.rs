@@ -38,6 +38,9 @@ use pmon_monitor::{
 };
 use proptest::prelude::*;
 
+/// A touched cell: index, hits, flags, sums (as bits) and tall bit.
+type CellRecord = (u32, u16, u8, Option<[u32; 3]>, bool);
+
 /// A `FrameReport` and the grid after it, owned.
 #[derive(Debug, PartialEq)]
 struct Outcome {
@@ -45,8 +48,10 @@ struct Outcome {
     clusters: Vec<ClusterReport>,
     grid: GridStats,
     sensor_status: Option<NotMonitoredReason>,
-    /// `(cell, hits, flags)` of every touched cell, in the order of first touch.
-    cells: Vec<(u32, u16, u8)>,
+    /// Every touched cell, in the order of first touch: hits, flags, the sums of its returns' x and y and their
+    /// number (as bits; with `jump_from_returns`), and whether a return above the grazing height fell in it (with
+    /// `roi_graze_fraction`).
+    cells: Vec<CellRecord>,
 }
 
 /// [`Join`] on two threads (`std::thread::scope`): the rasterize stage's halves at the same time.
@@ -110,7 +115,11 @@ fn owned(report: Result<pmon_monitor::FrameReport<'_>, pmon_monitor::FrameError>
 /// `outcome` with the monitor's touched cells after the check.
 fn with_grid(monitor: &Monitor, outcome: Outcome) -> Outcome {
     let g = monitor.grid();
-    let cells = g.touched().iter().map(|&c| (c, g.hits(c), g.flags(c))).collect();
+    let cells = g
+        .touched()
+        .iter()
+        .map(|&c| (c, g.hits(c), g.flags(c), g.sums(c).map(|s| s.map(f32::to_bits)), g.tall(c)))
+        .collect();
     Outcome { cells, ..outcome }
 }
 
@@ -217,6 +226,11 @@ fn synthetic_sequences_give_identical_reports() {
         let in_band = run_sequence(&seq64, params, &[upright]);
         assert!(in_band > 100_000, "the 64-beam frames have obstacle points: {in_band}");
     }
+    // With the params keys whose per-cell data the rasterizer keeps (`jump_from_returns`: each hit cell's sums;
+    // the grazing rule: the tall bits; frames without a region of interest keep none, see the test below).
+    let params = MonitorParams { jump_from_returns: true, roi_graze_fraction: 0.5, ..MonitorParams::PAPER };
+    run_sequence(&seq32, params, &[upright, yawed]);
+    run_sequence(&seq64, params, &[upright]);
 }
 
 #[test]
@@ -383,7 +397,21 @@ fn frames_with_a_region_of_interest_split_identically() {
     let road: [[f32; 2]; 4] = [[-40.0, -7.0], [40.0, -7.0], [40.0, 7.0], [-40.0, 7.0]];
     let walk: [[f32; 2]; 4] = [[-10.0, 7.0], [25.0, 9.0], [24.0, 12.5], [-11.0, 10.5]];
     let roi: [&[[f32; 2]]; 2] = [&road, &walk];
-    let params = MonitorParams { cell_size_m: 0.5, ..MonitorParams::PAPER };
+    let off = MonitorParams { cell_size_m: 0.5, ..MonitorParams::PAPER };
+    // Also with the keys whose per-cell data the rasterizer keeps: each hit cell's sums (`jump_from_returns`) and
+    // the tall bits (`roi_graze_fraction`), folded across the halves (`split.rs`), compared cell by cell.
+    let on = MonitorParams { jump_from_returns: true, roi_graze_fraction: 0.5, ..off };
+    let mut tall_cells = 0usize;
+    for params in [off, on] {
+        tall_cells += roi_frames_split_identically(&seq, &roi, params);
+    }
+    assert!(tall_cells > 100, "the 64-beam frames have returns above the grazing height in hit cells: {tall_cells}");
+}
+
+/// [`frames_with_a_region_of_interest_split_identically`] with one set of parameters; returns the number of hit
+/// cells marked tall over all frames.
+fn roi_frames_split_identically(seq: &Sequence, roi: &[&[[f32; 2]]], params: MonitorParams) -> usize {
+    let mut tall_cells = 0;
     let mut one = Monitor::new(params).unwrap();
     let mut two = Monitor::new(params).unwrap();
     two.enable_split();
@@ -393,7 +421,13 @@ fn frames_with_a_region_of_interest_split_identically() {
     let mut split_frames = 0;
     for i in 0..2 * seq.frames.len() {
         let f = seq.frame(i, Sequence::timestamp_s(i)).unwrap();
-        let f = Frame { roi_in_ego: &roi, ..f };
+        // Every 50th return again 7 m higher: returns above the grazing height (4.5 m) over hit cells (the
+        // synthetic scene has nothing taller than 3 m).
+        let mut points = f.cloud.map(|c| c.points_in_sensor.to_vec()).unwrap_or_default();
+        let tall: Vec<[f32; 3]> = points.iter().step_by(50).map(|p| [p[0], p[1], p[2] + 7.0]).collect();
+        points.extend(tall);
+        let cloud = f.cloud.map(|c| PointCloud { points_in_sensor: &points, ..c });
+        let f = Frame { roi_in_ego: roi, cloud, ..f };
         split_frames += usize::from(f.cloud.is_some_and(|c| c.points_in_sensor.len() >= SPLIT_MIN_POINTS));
         let a = outcome_of(&mut one, &f, false).unwrap();
         let b = outcome_of(&mut two, &f, true).unwrap();
@@ -403,8 +437,11 @@ fn frames_with_a_region_of_interest_split_identically() {
         let d = outcome_of_columns(&mut columns_split, &f, true).unwrap();
         assert_eq!(format!("{c:?}"), format!("{a:?}"), "frame {i}: columns differ from records in some bit");
         assert_eq!(format!("{d:?}"), format!("{a:?}"), "frame {i}: columns, split, differ in some bit");
+        assert_eq!(a.cells.iter().any(|c| c.3.is_some()), params.jump_from_returns, "frame {i}: sums kept");
+        tall_cells += a.cells.iter().filter(|c| c.4).count();
     }
     assert_eq!(split_frames, 2 * seq.frames.len(), "every 64-beam sweep is large enough to be split");
+    tall_cells
 }
 
 /// Columns of different lengths are refused when the view is made, with the three lengths in the error.

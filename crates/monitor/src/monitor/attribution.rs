@@ -818,7 +818,7 @@ impl Monitor {
         let s = self.scratch.get(j)?;
         let (p, before, returns_offset) = s.predicted?;
         let Some((EvidenceKind::Own, cell_offset)) = s.recalled else { return None };
-        let returns_offset = returns_offset.filter(|_| !self.cell_returns.is_empty());
+        let returns_offset = returns_offset.filter(|_| self.grid.has_sums());
         let fp = &region.footprint;
         let geometry = self.grid.geometry;
         let (cells_allow, returns_allow) = self.jump_allowances(region);
@@ -850,7 +850,7 @@ impl Monitor {
                 }
             }
             sum = [sum[0] + x, sum[1] + y, sum[2] + 1.0];
-            if let (Some(e), true) = (self.cell_returns.get(idx as usize), returns_offset.is_some()) {
+            if let (Some(e), true) = (self.grid.sums(idx), returns_offset.is_some()) {
                 if e[2] > 0.0 {
                     ret = [ret[0] + e[0], ret[1] + e[1], ret[2] + e[2]];
                 }

@@ -18,8 +18,9 @@
 //! The amount: the band returns of the cluster's cells wholly inside the ROI ([`RoiSide::Inside`]: all of them,
 //! the cell's hit count), plus those of its edge cells found inside one by one (through the cells the rasterizer
 //! recorded per point, as `roi_by_returns` finds them), against all its band returns (hit counts, each capped at
-//! `MAX_HITS` like the occupancy). The height: one pass over the sweep, only in frames with a cluster left
-//! undecided by the amount, that transforms each return's height and, above the threshold, its cell.
+//! `MAX_HITS` like the occupancy). The height: a bit per cell the rasterizer sets for each return above the
+//! threshold as it transforms the sweep (`OccupancyGrid::with_tall`: a separate instantiation of its loop, only
+//! with the rule on), read over the cells of the clusters the amount left undecided.
 
 use super::*;
 
@@ -125,39 +126,16 @@ impl Monitor {
         if !grazing {
             return;
         }
-        // The height: returns above the threshold over a grazing cluster's cells (the height first, the cell only
-        // for the tall ones; the same arithmetic as `Isometry3::transform`).
-        let top = self.params.ground_z_m + self.params.roi_graze_height_m;
-        let geometry = self.grid.geometry;
-        let (r, tr) = (t.rotation, t.translation_m);
-        for p in (0..points.len()).filter_map(|i| points.get(i)) {
-            let z = r[2][0] * p[0] + r[2][1] * p[1] + r[2][2] * p[2] + tr[2];
-            if z.is_nan() || z <= top {
-                continue;
-            }
-            let q = t.transform(p);
-            let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
-            if self.grid.flags(cell) & FLAG_ROI_GRAZE != 0 {
-                if let Some(n) = self.roi_cell_counts.get_mut(cell as usize) {
-                    *n = n.saturating_add(1);
-                }
-            }
-        }
         for (k, &(start, end)) in self.cluster_spans.iter().enumerate() {
             let Some(amount) = self.roi_amounts.get_mut(k) else { break };
             if !amount.wait {
                 continue;
             }
             amount.wait = false;
+            // The height: a return above the threshold over one of its cells (the bits the rasterizer kept,
+            // `OccupancyGrid::tall`).
             let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
-            let mut tall = false;
-            for &cell in cells {
-                if let Some(n) = self.roi_cell_counts.get_mut(cell as usize) {
-                    tall |= *n > 0;
-                    *n = 0;
-                }
-            }
-            if tall {
+            if cells.iter().any(|&cell| self.grid.tall(cell)) {
                 continue;
             }
             if let Some(c) = self.clusters.get_mut(k) {
