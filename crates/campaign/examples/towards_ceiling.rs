@@ -13,7 +13,7 @@
 //! `delta_safe` (0.1 m) beyond it. A rule that knows only the sweep and the stated uncertainty cannot prove more,
 //! so the share of provable errors bounds the recall any such rule can reach; the clean confirmed boxes of the
 //! same frames are counted the same way as a check of the bound's soundness (a clean box must not be provable).
-//! `MIN_RAYS=k` asks k rays per shift instead of one. `SVG=path` also draws the curves (recall today, the share
+//! `MIN_RAYS=k` asks k rays per shift instead of one. `SVG=path` also draws the curves (PNG when `path` ends in `.png`) (recall today, the share
 //! provable by the rays, the ceiling, the goal) as an SVG figure, with its data beside it as CSV (`path.csv`).
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
 use pmon_campaign::{run_one, Injector, Scene};
@@ -398,7 +398,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .with_color(SeriesColor::Palette(3)),
         );
         let path = std::path::PathBuf::from(path);
-        chart.render_svg(&path)?;
+        if path.extension().is_some_and(|e| e == "png") {
+            chart.render_png(&path, 1000, 600)?;
+        } else {
+            chart.render_svg(&path)?;
+        }
         let mut csv = path.clone().into_os_string();
         csv.push(".csv");
         chart.write_csv(csv)?;
