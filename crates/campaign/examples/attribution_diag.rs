@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
 use pmon_campaign::{run_one, Injector, Scene};
-use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
+use pmon_monitor::{Monitor, MonitorParams, SensorVerdict};
 use pmon_scenario::Simulator;
 use rayon::prelude::*;
 
@@ -401,7 +401,7 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
             .map_err(|e| e.to_string())?
             .objects
             .iter()
-            .map(|r| !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_)) && r.sensor.eta_own >= tau)
+            .map(|r| pmon_campaign::confirmed_by_own_evidence(r, tau))
             .collect();
         view.objects = &objects;
         let (objects_out, clusters_out) = {
@@ -409,10 +409,7 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
             (report.objects.to_vec(), report.clusters.to_vec())
         };
         for (i, r) in objects_out.iter().enumerate() {
-            if matches!(
-                r.sensor.verdict,
-                SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid | NotMonitoredReason::InvalidState)
-            ) {
+            if !pmon_campaign::in_scope(r.sensor.verdict) {
                 continue;
             }
             let injected = injections.iter().any(|x| x.index as usize == i);

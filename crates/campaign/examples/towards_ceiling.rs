@@ -17,7 +17,7 @@
 //! provable by the rays, the ceiling, the goal) as an SVG figure, with its data beside it as CSV (`path.csv`).
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
 use pmon_campaign::{run_one, Injector, Scene};
-use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, ObjectState, SensorVerdict};
+use pmon_monitor::{Monitor, MonitorParams, ObjectState, SensorVerdict};
 use pmon_scenario::Simulator;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -260,7 +260,7 @@ fn count(hs: &HeightScene, run: &PlannedRun, min_rays: u32, knobs: Knobs) -> Res
             .map_err(|e| e.to_string())?
             .objects
             .iter()
-            .map(|r| !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_)) && r.sensor.eta_own >= p.tau_tp)
+            .map(|r| pmon_campaign::confirmed_by_own_evidence(r, p.tau_tp))
             .collect();
         view.objects = &objects;
         let verdicts: Vec<SensorVerdict> =
@@ -269,11 +269,7 @@ fn count(hs: &HeightScene, run: &PlannedRun, min_rays: u32, knobs: Knobs) -> Res
         let Some(rays) = Rays::of(clean, band) else { continue };
         let heights = hs.heights.get(k);
         for (i, v) in verdicts.iter().enumerate() {
-            if matches!(
-                v,
-                SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid | NotMonitoredReason::InvalidState)
-            ) || !confirmed.get(i).copied().unwrap_or(false)
-            {
+            if !pmon_campaign::in_scope(*v) || !confirmed.get(i).copied().unwrap_or(false) {
                 continue;
             }
             let Some(o) = objects.get(i) else { continue };

@@ -26,7 +26,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
 use pmon_campaign::{sim_tasks, Injector, Scene};
-use pmon_monitor::{Monitor, MotionVerdict, NotMonitoredReason, PlausibilityMode, SensorVerdict};
+use pmon_monitor::{Monitor, MotionVerdict, NotMonitoredReason, PlausibilityMode};
 use rayon::prelude::*;
 
 /// One object state of a run, as the diagnosis needs it.
@@ -100,10 +100,7 @@ fn diagnose(scene: &Scene, run: &PlannedRun) -> Result<Tally, String> {
             let m = r.motion;
             let o = objects.get(i).copied();
             let st = State {
-                in_scope: !matches!(
-                    r.sensor.verdict,
-                    SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid | NotMonitoredReason::InvalidState)
-                ),
+                in_scope: pmon_campaign::in_scope(r.sensor.verdict),
                 injected: injections.iter().any(|j| j.index as usize == i),
                 judged: !matches!(m.verdict, MotionVerdict::NotMonitored(_)),
                 alarm: matches!(m.verdict, MotionVerdict::Implausible(_)),

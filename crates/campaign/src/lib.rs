@@ -17,4 +17,6 @@ pub mod tracker_eval;
 
 pub use inject::{Direction, Fault, Injection, InjectionConfig, Injector};
 pub use metrics::{score, Metrics, Outcome, Rate, Score};
-pub use run::{replay_to, run_all, run_one, Example, Replay, RunResult, RunSpec, Scene};
+pub use run::{
+    confirmed_by_own_evidence, in_scope, replay_to, run_all, run_one, Example, Replay, RunResult, RunSpec, Scene,
+};

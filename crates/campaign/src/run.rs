@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
+use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, ObjectReport, SensorVerdict};
 use pmon_recording::RecordedFrame;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -60,6 +60,20 @@ pub struct RunResult {
     pub check_median_us: f64,
 }
 
+/// In the scoring's scope (docs/evaluation.md, "Scoring"): every sensor verdict but *not monitored* because the
+/// footprint lies outside the grid or the state is invalid.
+#[must_use]
+pub fn in_scope(verdict: SensorVerdict) -> bool {
+    !matches!(verdict, SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid | NotMonitoredReason::InvalidState))
+}
+
+/// Confirmed by evidence of its own (`eta_own >= tau_tp`) and monitored: on the clean frame, what makes an injected
+/// error *verifiable* by the LiDAR (docs/evaluation.md, "Scoring").
+#[must_use]
+pub fn confirmed_by_own_evidence(report: &ObjectReport, tau_tp: f32) -> bool {
+    !matches!(report.sensor.verdict, SensorVerdict::NotMonitored(_)) && report.sensor.eta_own >= tau_tp
+}
+
 /// Runs one spec on a scene.
 ///
 /// # Errors
@@ -91,9 +105,7 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
         {
             let clean_report = clean_monitor.check(&view).map_err(|e| format!("{}: frame {k}: {e}", scene.name))?;
             confirmed.clear();
-            confirmed.extend(clean_report.objects.iter().map(|r| {
-                !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_)) && r.sensor.eta_own >= spec.params.tau_tp
-            }));
+            confirmed.extend(clean_report.objects.iter().map(|r| confirmed_by_own_evidence(r, spec.params.tau_tp)));
         }
         view.objects = &objects;
         let t0 = Instant::now();
@@ -101,10 +113,7 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
         times.push(t0.elapsed().as_secs_f64() * 1e6);
         missed += report.missed_objects() as u64;
         for (i, r) in report.objects.iter().enumerate() {
-            let in_scope = !matches!(
-                r.sensor.verdict,
-                SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid | NotMonitoredReason::InvalidState)
-            );
+            let in_scope = in_scope(r.sensor.verdict);
             let sensor_alarm = matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
             let inj = injected.get(i).copied().unwrap_or(false);
             let o = Outcome {

@@ -21,8 +21,7 @@ use pmon_datasets::ground::GroundMode;
 use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{open_with, Dataset, DatasetFrame, ReadOptions};
 use pmon_monitor::{
-    ClusterReport, Monitor, MonitorParams, MotionVerdict, NotMonitoredReason, ObjectClass, ObjectReport, ObjectState,
-    SensorVerdict,
+    ClusterReport, Monitor, MonitorParams, MotionVerdict, ObjectClass, ObjectReport, ObjectState, SensorVerdict,
 };
 use serde::{Deserialize, Serialize};
 
@@ -338,10 +337,7 @@ impl RunState {
         let mut step = FrameStep { missed: report.missed_objects() as u64, ..FrameStep::default() };
         step.outcomes.reserve(report.objects.len());
         for (i, r) in report.objects.iter().enumerate() {
-            let in_scope = !matches!(
-                r.sensor.verdict,
-                SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid | NotMonitoredReason::InvalidState)
-            );
+            let in_scope = crate::run::in_scope(r.sensor.verdict);
             let monitor_judged = !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_));
             let no_points = df.extras.get(i).and_then(|e| e.num_points) == Some(0);
             let inj = injected.get(i).copied().unwrap_or(false);
