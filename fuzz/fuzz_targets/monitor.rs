@@ -1,11 +1,12 @@
 //! `Monitor::check` on arbitrary frames: the bytes become timestamps, poses, objects (any f32 bit pattern:
 //! NaN, infinities, subnormals) and points, over three frames so that the plausibility checks run. Asserts the
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
-//! and without the params keys `seen_over`, `face_in_front` and `roi_graze_fraction` (with a region of interest).
+//! and without the params keys `seen_over`, `face_in_front`, `roi_graze_fraction` (with a region of interest) and
+//! `jump_from_returns`, and with or without uncertainties on the objects and a turned sensor.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
-    Frame, Isometry3, Monitor, MonitorParams, MotionVerdict, ObjectClass, ObjectState, PointCloud, Pose2,
+    Frame, Isometry3, Monitor, MonitorParams, MotionVerdict, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty,
 };
 
 struct Bytes<'a>(&'a [u8]);
@@ -24,6 +25,21 @@ impl Bytes<'_> {
         match self.u8() % 8 {
             0 => self.f32(),
             k => f32::from(k) * scale + f32::from(self.u8()) * scale / 64.0,
+        }
+    }
+    /// A sensor mount as a bag's `/tf` gives it: a unit quaternion (any orientation, pitched and rolled too; NaN
+    /// when the input's is zero) and a translation anywhere, near the grid's centre or far outside it.
+    fn mount(&mut self) -> Isometry3 {
+        let q = [self.value(0.25) - 1.0, self.value(0.25) - 1.0, self.value(0.25) - 1.0, self.value(0.25) - 1.0];
+        let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+        let [w, x, y, z] = q.map(|v| v / n);
+        Isometry3 {
+            rotation: [
+                [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+                [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+                [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+            ],
+            translation_m: [self.value(4.0) - 16.0, self.value(4.0) - 16.0, self.value(0.5)],
         }
     }
     fn f64(&mut self) -> f64 {
@@ -53,6 +69,9 @@ fuzz_target!(|data: &[u8]| {
     let graze = data.first().is_some_and(|b| b & 0x20 != 0);
     // And its next bit step 9 from the returns (`jump_from_returns`).
     let jump_from_returns = data.first().is_some_and(|b| b & 0x10 != 0);
+    // And its next bit: every object carries an uncertainty read from the input (any f32: huge, zero, negative,
+    // NaN), as a bag's covariances or an object list's sigmas give it, and the sensor is mounted turned.
+    let with_uncertainty = data.first().is_some_and(|b| b & 0x08 != 0);
     let half_plane: &[[f32; 2]] = &[[-20.0, -20.0], [0.0, -20.0], [0.0, 20.0], [-20.0, 20.0]];
     let polygons = [half_plane];
     let roi: &[&[[f32; 2]]] = if graze { &polygons } else { &[] };
@@ -82,7 +101,14 @@ fuzz_target!(|data: &[u8]| {
                 speed_mps: b.value(1.0),
                 length_m: b.value(0.5),
                 width_m: b.value(0.5),
-                uncertainty: None,
+                uncertainty: with_uncertainty.then(|| Uncertainty {
+                    x_m: b.value(0.25),
+                    y_m: b.value(0.25),
+                    heading_rad: b.value(0.05),
+                    speed_mps: b.value(0.25),
+                    length_m: b.value(0.1),
+                    width_m: b.value(0.1),
+                }),
             })
             .collect();
         let points: Vec<[f32; 3]> = (0..usize::from(b.u8()) * 4)
@@ -91,7 +117,7 @@ fuzz_target!(|data: &[u8]| {
         let with_cloud = b.u8() % 4 != 0;
         let cloud = with_cloud.then(|| PointCloud {
             points_in_sensor: &points,
-            ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
+            ego_from_sensor: if with_uncertainty { b.mount() } else { Isometry3::from_translation(0.0, 0.0, 1.8) },
         });
         let pose = Pose2 { x_m: f64::from(b.value(1.0)), y_m: 0.0, yaw_rad: f64::from(b.value(0.1)) };
         let frame = Frame {

@@ -11,6 +11,8 @@
 //! - every length prefix inside a record (strings, string and integer maps, arrays, schema, message, chunk and
 //!   attachment data) against the bytes left in that record;
 //! - every record's length against the bytes left in the file, or in its chunk's declared uncompressed size;
+//! - the records of an uncompressed chunk against the chunk's records length (the crate subtracts each record's
+//!   size from it unchecked);
 //! - the chunks' declared uncompressed sizes, summed over the file, against [`MAX_INFLATION`] times the file's
 //!   size (real rosbag2 chunks compress 2 to 10 times; a zip bomb is refused before it is decompressed).
 //!
@@ -59,7 +61,9 @@ pub fn check_lengths(bytes: &[u8]) -> Result<(), Invalid> {
         let at = |message: String| Invalid { offset, message };
         if opcode == op::CHUNK {
             let chunk = chunk_header(body).map_err(at)?;
-            if !chunk.compression.is_empty() {
+            if chunk.compression.is_empty() {
+                uncompressed_records(chunk.records).map_err(at)?;
+            } else {
                 inflated = inflated.saturating_add(chunk.uncompressed_size);
                 if inflated > budget {
                     return Err(at(format!(
@@ -239,19 +243,52 @@ impl<'a> Body<'a> {
     }
 }
 
-struct ChunkFields {
+struct ChunkFields<'a> {
     uncompressed_size: u64,
     compression: Vec<u8>,
+    records: &'a [u8],
 }
 
-fn chunk_header(body: &[u8]) -> Result<ChunkFields, String> {
+fn chunk_header(body: &[u8]) -> Result<ChunkFields<'_>, String> {
     let mut b = Body { rest: body };
     b.fixed(16, "message start and end times")?;
     let uncompressed_size = b.u64("uncompressed size")?;
     b.fixed(4, "uncompressed CRC")?;
     let compression = b.prefixed("compression", 4)?.to_vec();
-    b.prefixed("records", 8)?;
-    Ok(ChunkFields { uncompressed_size, compression })
+    let records = b.prefixed("records", 8)?;
+    Ok(ChunkFields { uncompressed_size, compression, records })
+}
+
+/// The framing of an uncompressed chunk's records: each record's opcode, length and body must lie within the
+/// chunk's records. The `mcap` crate reads them from the file itself and subtracts each record's size from what
+/// the chunk declared without a check (0.26, `linear_reader.rs`): a record running past the chunk's end panics
+/// in a debug build ("attempt to subtract with overflow") and, in a release build, wraps around and reads the
+/// file's next records as the chunk's.
+fn uncompressed_records(records: &[u8]) -> Result<(), String> {
+    let mut at = 0u64;
+    let mut rest = records;
+    while !rest.is_empty() {
+        let left = rest.len() as u64;
+        let Some((head, body)) = rest.split_first_chunk::<9>() else {
+            return Err(format!(
+                "the chunk's records end with {left} bytes at byte {at}, too few for a record's opcode and length"
+            ));
+        };
+        let mut len = [0u8; 8];
+        len.copy_from_slice(&head[1..]);
+        let len = u64::from_le_bytes(len);
+        let room = body.len() as u64;
+        if len > room {
+            return Err(format!(
+                "{} record at byte {at} of the chunk's records says {len} bytes, only {room} are left in the chunk",
+                name(head[0])
+            ));
+        }
+        // `len <= room <= usize::MAX`: the cast is exact.
+        rest = &body[len as usize..];
+        at += RECORD_PREFIX + len;
+    }
+    Ok(())
 }
 
 /// Checks the lengths inside one record's body, field by field as the `mcap` crate parses it.

@@ -200,3 +200,40 @@ fn mcap_bags_with_correct_lengths_pass_the_check() {
         assert_eq!(summary.frames, 3, "{compression:?}");
     }
 }
+
+/// The second fuzz finding (`fuzz/known/`): a mutated bag whose uncompressed chunk (at byte 39) declares 8 bytes
+/// of records, too few for one record's opcode and length. The mcap crate (0.26) reads a record's 9-byte head
+/// anyway and subtracts its size from the chunk's remaining bytes unchecked: "attempt to subtract with
+/// overflow" in a debug build, a wrap-around in a release one.
+#[test]
+fn mcap_record_past_its_uncompressed_chunk_from_the_fuzz_finding_is_an_error() {
+    let bytes = include_bytes!("../../../fuzz/known/mcap_bag-overflow-uncompressed-chunk-record.mcap");
+    let e = err(bytes);
+    assert!(
+        e.contains("record at byte 39: the chunk's records end with 8 bytes at byte 0, too few for a record's"),
+        "{e}"
+    );
+}
+
+#[test]
+fn mcap_record_longer_than_its_uncompressed_chunk_is_an_error() {
+    // A Header record (opcode 0x01) inside the chunk whose length runs 10 bytes past the chunk's records, with
+    // the file's own records after the chunk for the crate to read on into.
+    let mut inner = record(0x01, &[string(b"ros2"), string(b"x")].concat());
+    let n = inner.len();
+    let announced = (n - 9 + 10) as u64;
+    inner[1..9].copy_from_slice(&announced.to_le_bytes());
+    let e = err(&file(&[chunk(b"", n as u64, &inner)]));
+    assert!(
+        e.contains("record at byte 33: Header record at byte 0 of the chunk's records says 23 bytes, only 13 are"),
+        "{e}"
+    );
+    // Fewer than 9 bytes left at the chunk's end: no room for a record's opcode and length.
+    let good = record(0x0F, &0u32.to_le_bytes());
+    let mut short = good.clone();
+    short.extend_from_slice(&[0x05, 1, 0]);
+    let e = err(&file(&[chunk(b"", short.len() as u64, &short)]));
+    assert!(e.contains("the chunk's records end with 3 bytes at byte 13, too few for a record's opcode"), "{e}");
+    // The same chunk with whole records reads.
+    assert_eq!(check_lengths(&file(&[chunk(b"", good.len() as u64, &good)])), Ok(()));
+}
