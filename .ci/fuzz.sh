@@ -20,7 +20,15 @@ for t in $(cargo fuzz list); do
     continue
   fi
   out=$(cargo fuzz run --sanitizer address "$t" "corpus/$t" -- -max_total_time="$secs" -max_len=65536 \
-    -rss_limit_mb=2048 -malloc_limit_mb=1024 -print_final_stats=1 2>&1) || { echo "$out" | tail -40; echo "fuzz: $t FAILED"; exit 1; }
+    -rss_limit_mb=2048 -malloc_limit_mb=1024 -print_final_stats=1 2>&1) || {
+    # The panic or sanitizer report (above the tail), then the input itself: CI keeps no artifacts, so the
+    # failing input is printed as base64 (`base64 -d > fuzz/known/TARGET-what.ext` reproduces it).
+    echo "$out" | grep -m1 -B2 -A12 -E "panicked at|ERROR: (AddressSanitizer|libFuzzer)" || true
+    echo "$out" | tail -40
+    for a in artifacts/"$t"/*; do
+      [ -f "$a" ] && [ "$(stat -c %s "$a")" -le 65536 ] && { echo "fuzz: input $a as base64:"; base64 -w 0 "$a"; echo; }
+    done
+    echo "fuzz: $t FAILED"; exit 1; }
   echo "fuzz: $t: $(echo "$out" | grep -o 'stat::number_of_executed_units: [0-9]*' | grep -o '[0-9]*$') executions in $secs s"
 done
 echo "fuzz: done in $(( $(date +%s) - start )) s"
