@@ -155,14 +155,30 @@ impl OrientedRect {
         ((du.abs() - self.half_length).max(0.0), (dv.abs() - self.half_width).max(0.0))
     }
 
-    /// The point of the rectangle nearest to `(x, y)`.
+    /// The point of the rectangle nearest to `(x, y)`. (The clamps written out: `f32::clamp`'s values, without its
+    /// check that the bounds are ordered, which a called function paid for at every cell of the ghost test.)
     #[must_use]
+    #[inline]
     pub fn nearest_point(&self, x: f32, y: f32) -> (f32, f32) {
         let (du, dv) = self.local(x, y);
-        let u = du.clamp(-self.half_length, self.half_length);
-        let v = dv.clamp(-self.half_width, self.half_width);
+        let u = clamp_unchecked(du, -self.half_length, self.half_length);
+        let v = clamp_unchecked(dv, -self.half_width, self.half_width);
         (self.cx + u * self.cos - v * self.sin, self.cy + u * self.sin + v * self.cos)
     }
+}
+
+/// `v.clamp(lo, hi)` for `lo <= hi`: the same value (NaN stays NaN), without `f32::clamp`'s panic on unordered bounds
+/// (for which it gives `hi` when `v > hi`, else `lo` when `v < lo`).
+#[inline(always)]
+fn clamp_unchecked(v: f32, lo: f32, hi: f32) -> f32 {
+    let mut v = v;
+    if v < lo {
+        v = lo;
+    }
+    if v > hi {
+        v = hi;
+    }
+    v
 }
 
 /// The even-odd rule's step: whether the edge from `prev` to `p` crosses the ray from `(x, y)` towards +x.

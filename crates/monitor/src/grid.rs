@@ -228,10 +228,11 @@ impl GridGeometry {
         });
     }
 
-    /// The rows of [`GridGeometry::for_each_cell_overlapping_every`]: for every `step`-th row of the range that
-    /// overlaps `rect`, `f(iy, first, last, cy)` with the row's first sampled column `first` (possibly beyond
-    /// `last`: no sampled cell in the row), the run's last column `last` and the row centre `cy`; the row's cells
-    /// are the columns `first, first + step, ...` up to `last`. In the walk's order. `step` at least 1.
+    /// The rows of [`GridGeometry::for_each_cell_overlapping_every`]: for every `step`-th row of the range with a
+    /// sampled cell that overlaps `rect`, `f(iy, first, last, cy)` with the row's first and last sampled
+    /// overlapping columns and the row centre `cy`; the row's cells are the columns `first, first + step, ...,
+    /// last`. In the walk's order. `step` at least 1. (Rows whose run holds no sampled column are left out: they
+    /// hold no cell of the walk.)
     #[inline(always)]
     pub fn for_each_sampled_run(
         self,
@@ -244,9 +245,8 @@ impl GridGeometry {
         let step = step.max(1);
         let mut iy = iy0;
         while iy <= iy1 {
-            if let Some((a, b, cy)) = self.row_run(rect, ix0, ix1, iy) {
-                // The first sampled column at or after the run's start (`a >= ix0`).
-                f(iy, ix0 + (a - ix0).div_ceil(step) * step, b, cy);
+            if let Some((first, last, cy)) = self.sampled_row_run(rect, ix0, ix1, iy, step) {
+                f(iy, first, last, cy);
             }
             let Some(next) = iy.checked_add(step) else { break };
             iy = next;
@@ -282,6 +282,50 @@ impl GridGeometry {
             b -= 1;
         }
         Some((a, b, cy))
+    }
+
+    /// The first and last sampled columns (`ix0 + k step`) of row `iy`'s run within `ix0..=ix1` and the row centre;
+    /// `None` when no sampled column of the row overlaps. The columns [`GridGeometry::row_run`] would give,
+    /// filtered to the sampled ones, but found by testing only sampled columns: the search starts from the same
+    /// widened bounds as `row_run`'s (which contain the run; the whole range when it is narrow) and steps by `step` inwards from both ends; the
+    /// overlapping columns within the bounds form one run (see [`GridGeometry::for_each_cell_overlapping`]), so
+    /// the first sampled column that overlaps from the left and the last from the right bound its sampled
+    /// columns, all of which overlap. With `step` 1, `row_run` itself.
+    #[inline(always)]
+    fn sampled_row_run(self, rect: &OrientedRect, ix0: u32, ix1: u32, iy: u32, step: u32) -> Option<(u32, u32, f32)> {
+        let half = 0.5 * self.cell_size_m;
+        let cy = self.cell_center_axis(iy);
+        if ix0 > ix1 || !rect.row_may_overlap(cy, half) {
+            return None;
+        }
+        let (mut a, mut b) = (ix0, ix1);
+        // As in `row_run`, for ranges of more than 5 columns: on narrower ones (the ghost test's pedestrians), bounds
+        // widened by two cells on each side seldom leave out a column, and cost two divisions.
+        if ix1 - ix0 >= 5 {
+            if let Some((lo, hi)) = rect.row_bounds(cy, half) {
+                let column = |x: f32| (x - self.origin_m) * self.inv_cell - 0.5;
+                a = a.max((column(lo) - 2.0).max(0.0) as u32);
+                b = b.min((column(hi) + 2.0).max(0.0) as u32);
+            }
+        }
+        if a > b {
+            return None;
+        }
+        let step = step.max(1);
+        // The sampled columns at or after `a` and at or before `b` (`a, b >= ix0`).
+        let mut first = ix0 + (a - ix0).div_ceil(step) * step;
+        let mut last = ix0 + (b - ix0) / step * step;
+        let overlaps = |ix: u32| rect.overlaps_square(self.cell_center_axis(ix), cy, half);
+        while first <= last && !overlaps(first) {
+            first = first.saturating_add(step);
+        }
+        if first > last {
+            return None;
+        }
+        while last > first && !overlaps(last) {
+            last -= step;
+        }
+        Some((first, last, cy))
     }
 
     /// [`GridGeometry::for_each_cell_overlapping`] by testing every cell of the range: the reference the tests
