@@ -14,6 +14,7 @@
 //! HISTORY=1`, only frames that follow another sweep are used, and the previous sweep, clean, is checked right before
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
 //! `FACE=1` checks with the params key `face_in_front`, `JUMP=1` with `jump_from_returns` (step 9 from the returns).
+//! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
 //! `SPILL=occupied` checks with `SpillOverFit::Occupied` (spill-over fitted over occupied cells only, the default
 //! before issue #10's clean-box round; the default now is every return).
 use std::collections::BTreeMap;
