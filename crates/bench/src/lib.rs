@@ -147,8 +147,11 @@ pub struct BenchOptions {
     pub jump_from_returns: bool,
     /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
     /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
-    /// "The grazing rule"). Off: the default parameters.
+    /// "The grazing rule"). Since the rule is the default (issue #10), the default parameters have it on already.
     pub roi_graze: bool,
+    /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10's measurement:
+    /// docs/datasets.md, "Made the default"). Wins over `roi_graze`.
+    pub no_roi_graze: bool,
 }
 
 impl Default for BenchOptions {
@@ -169,6 +172,7 @@ impl Default for BenchOptions {
             face_in_front: false,
             jump_from_returns: false,
             roi_graze: false,
+            no_roi_graze: false,
         }
     }
 }
@@ -679,6 +683,9 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     p.jump_from_returns = opts.jump_from_returns;
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
+    }
+    if opts.no_roi_graze {
+        p.roi_graze_fraction = 0.0;
     }
     if def.calibrated {
         p.plausibility_mode = pmon_monitor::PlausibilityMode::Calibrated;

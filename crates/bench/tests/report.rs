@@ -19,6 +19,7 @@ fn quick() -> BenchOptions {
         face_in_front: false,
         jump_from_returns: false,
         roi_graze: false,
+        no_roi_graze: false,
     }
 }
 

@@ -236,16 +236,23 @@ fn rasterizers_agree_on_real_sweeps() {
 /// The real sweeps handed over as columns (`Monitor::check_columns`) give the reports (by their `Debug` text) and
 /// grids (hits and flags of every touched cell) of the same sweeps as `[x, y, z]` records, frame after frame, with
 /// each rasterizer; the Argoverse 2 frames carry their map's region of interest, and returns in it are found
-/// through the columns.
+/// through the columns: with the grazing rule (the default: its count of the edge cells' returns) and without it
+/// (`roi_graze_fraction = 0`: the scan that marks `FLAG_RETURN_IN_ROI`, which the rule's count takes the place of).
 #[test]
 #[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
 fn columns_agree_with_records_on_real_sweeps() {
     let mut returns_in_roi = 0usize;
+    let off = MonitorParams { roi_graze_fraction: 0.0, ..params(0.5) };
     for (seq, _) in real_sequences() {
         let columns = seq.sweep_columns();
-        for rasterizer in [Rasterizer::Blocked, Rasterizer::Scalar] {
-            let mut records = Monitor::new(params(0.5)).unwrap();
-            let mut by_columns = Monitor::new(params(0.5)).unwrap();
+        for (rasterizer, p) in [
+            (Rasterizer::Blocked, params(0.5)),
+            (Rasterizer::Scalar, params(0.5)),
+            (Rasterizer::Blocked, off),
+            (Rasterizer::Scalar, off),
+        ] {
+            let mut records = Monitor::new(p).unwrap();
+            let mut by_columns = Monitor::new(p).unwrap();
             records.set_rasterizer(rasterizer);
             by_columns.set_rasterizer(rasterizer);
             for i in 0..seq.frames.len() + 2 {
@@ -262,7 +269,7 @@ fn columns_agree_with_records_on_real_sweeps() {
                     "{:?}",
                     Outcome::from(by_columns.check_columns(&Frame { cloud: None, ..frame }, &cloud).unwrap())
                 );
-                let at = format!("{}: frame {i}, {rasterizer:?}", seq.name);
+                let at = format!("{}: frame {i}, {rasterizer:?}, graze {}", seq.name, p.roi_graze_fraction);
                 assert!(a == b, "{at}: reports from columns differ from those from records");
                 let (g, h) = (records.grid(), by_columns.grid());
                 assert_eq!(g.touched(), h.touched(), "{at}: touched cells");

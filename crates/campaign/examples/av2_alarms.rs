@@ -5,7 +5,8 @@
 //! For each missed-object cluster of each frame with a sweep (the dataset's ROI, the ground levelled as `pmon
 //! check` does): its cells, how deep its deepest cell centre lies inside the region of interest (distance to the
 //! nearest ROI edge), the returns over its cells in the obstacle band and above it (height over the levelled
-//! ground), and the nearest labelled box. `GRAZE=0.5` checks with the grazing rule at that fraction.
+//! ground), and the nearest labelled box. `GRAZE=f` checks with the grazing rule at that fraction (`GRAZE=0`: off;
+//! unset: the default, 0.5).
 use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{open_with, ReadOptions};
 use pmon_monitor::{Monitor, MonitorParams};
@@ -20,8 +21,9 @@ fn seg_dist(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let spec = args.get(1).ok_or("usage: av2_alarms SPEC")?;
-    // `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (docs/datasets.md, "The grazing rule").
-    let graze = std::env::var("GRAZE").map_or(Ok(0.0), |v| v.parse::<f32>())?;
+    // `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (docs/datasets.md, "The grazing rule"),
+    // `GRAZE=0` without it; unset, the default (0.5).
+    let graze = std::env::var("GRAZE").map_or(Ok(MonitorParams::default().roi_graze_fraction), |v| v.parse::<f32>())?;
     let base = MonitorParams { roi_graze_fraction: graze, ..MonitorParams::default() };
     let roi = RoiOptions { grid_half_extent_m: 0.5 * f64::from(base.grid_size_m), ..RoiOptions::default() };
     let ground = pmon_datasets::ground::GroundMode::parse(&std::env::var("GROUND").unwrap_or_else(|_| "auto".into()))?;

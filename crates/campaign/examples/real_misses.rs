@@ -14,6 +14,7 @@
 //! HISTORY=1`, only frames that follow another sweep are used, and the previous sweep, clean, is checked right before
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
 //! `FACE=1` checks with the params key `face_in_front`, `JUMP=1` with `jump_from_returns` (step 9 from the returns).
+//! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
 //! `SPILL=occupied` checks with `SpillOverFit::Occupied` (spill-over fitted over occupied cells only, the default
 //! before issue #10's clean-box round; the default now is every return).
 use std::collections::BTreeMap;
@@ -28,7 +29,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let spec = args.get(1).ok_or("usage: real_misses SPEC MAGNITUDE_M [OUT_DIR]")?;
     let magnitude_m: f32 = args.get(2).map_or(Ok(1.0), |s| s.parse())?;
-    let base = MonitorParams::default();
+    // `GRAZE=f`: the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
+    let graze = std::env::var("GRAZE").map_or(Ok(MonitorParams::default().roi_graze_fraction), |v| v.parse::<f32>())?;
+    let base = MonitorParams { roi_graze_fraction: graze, ..MonitorParams::default() };
     let mode = std::env::var("ROI").unwrap_or_else(|_| "auto".into()).parse()?;
     let roi = RoiOptions { mode, grid_half_extent_m: 0.5 * f64::from(base.grid_size_m), ..RoiOptions::default() };
     let ground = pmon_datasets::ground::GroundMode::parse(&std::env::var("GROUND").unwrap_or_else(|_| "auto".into()))?;

@@ -341,7 +341,8 @@ mod tests {
     /// identity at its default, and the seeds of the paper's default plan stay those of before (pinned: the
     /// first run of the smoke plan at campaign seed 7, the same bytes `pmon reproduce` wrote before the key).
     /// The key's default moved from `occupied` to `every_return` (issue #10): still left out at the default, so
-    /// the seeds did not move with it; the other value is in the identity.
+    /// the seeds did not move with it; the other value is in the identity. The same for `roi_graze_fraction`, whose
+    /// default moved from 0 to 0.5 (issue #10).
     #[test]
     fn a_params_key_added_at_its_default_keeps_the_identities() {
         let params = MonitorParams::default();
@@ -358,6 +359,13 @@ mod tests {
         let b = plan(Scale::Smoke, IDS, &occupied, 7);
         assert!(run_identity("pedestrians", &b[0].spec).contains("\"spill_over_fit\":\"occupied\""));
         assert_ne!(a[0].spec.injection.seed, b[0].spec.injection.seed);
+        // The grazing rule's default moved from 0 (off) to 0.5 (issue #10): the default (0.5) is left out, so the
+        // default plan's seeds (pinned above) did not move with it; the rule off (0) is now in the identity.
+        assert!((params.roi_graze_fraction - 0.5).abs() < f32::EPSILON);
+        let off = MonitorParams { roi_graze_fraction: 0.0, ..params };
+        let d = plan(Scale::Smoke, IDS, &off, 7);
+        assert!(run_identity("pedestrians", &d[0].spec).contains("\"roi_graze_fraction\":0.0"));
+        assert_ne!(a[0].spec.injection.seed, d[0].spec.injection.seed);
     }
 
     #[test]

@@ -111,9 +111,12 @@ enum Command {
         jump_from_returns: bool,
         /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
         /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
-        /// outside it (docs/datasets.md, "The grazing rule").
+        /// outside it (docs/datasets.md, "The grazing rule"). The default since issue #10.
         #[arg(long)]
         roi_graze: bool,
+        /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10).
+        #[arg(long, conflicts_with = "roi_graze")]
+        no_roi_graze: bool,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -219,6 +222,7 @@ fn main() -> ExitCode {
             face_in_front,
             jump_from_returns,
             roi_graze,
+            no_roi_graze,
         } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
@@ -238,6 +242,7 @@ fn main() -> ExitCode {
                 face_in_front,
                 jump_from_returns,
                 roi_graze,
+                no_roi_graze,
             };
             if let Some(dir) = export_peers {
                 return match pmon_bench::peers::export_peers(&dir, &opts) {

@@ -35,9 +35,6 @@ pub const FLAG_ATTRIBUTED: u8 = 16;
 pub const FLAG_ROI_EDGE: u8 = 32;
 /// Cell flag: a [`FLAG_ROI_EDGE`] cell holding an obstacle-band return inside the region of interest.
 pub const FLAG_RETURN_IN_ROI: u8 = 64;
-/// Cell flag: a cell of a conflict cluster with band returns inside the region of interest, but fewer than
-/// `roi_graze_fraction` of them, looked at for returns above `roi_graze_height_m` (the grazing rule).
-pub const FLAG_ROI_GRAZE: u8 = 128;
 
 /// The state of one cell, for display and inspection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -6,7 +6,7 @@ use crate::evidence_memory::{EvidenceKind, EvidenceMemory, Motion};
 use crate::frame::{ColumnCloud, Frame, Isometry3, ObjectState, PointCloud, PointColumns, Uncertainty};
 use crate::grid::{
     GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_RETURN_IN_ROI, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE,
-    FLAG_ROI_GRAZE, FLAG_STATIC, FLAG_VISITED,
+    FLAG_STATIC, FLAG_VISITED,
 };
 use crate::params::{MonitorParams, ParamError, SpillOverFit};
 use crate::plausibility::TrackTable;

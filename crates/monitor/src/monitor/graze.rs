@@ -118,9 +118,6 @@ impl Monitor {
                 }
             } else {
                 grazing = true;
-                for &cell in cells {
-                    self.grid.set_flags(cell, FLAG_ROI_GRAZE);
-                }
             }
         }
         if !grazing {
