@@ -552,7 +552,9 @@ impl MonitorParams {
             return Err(ParamError {
                 field: "roi_graze_height_m",
                 reason:
-                    "must be >= max_obstacle_height_m while roi_graze_fraction > 0 (a band return would count as tall)",
+                    "must be >= max_obstacle_height_m while roi_graze_fraction > 0 (the grazing rule, on by default; \
+                         a band return would count as tall): raise roi_graze_height_m with max_obstacle_height_m, or \
+                         set roi_graze_fraction = 0 to turn the rule off",
             });
         }
         if !(8..=65_536).contains(&self.visibility_bins) {
@@ -717,6 +719,20 @@ mod tests {
         let mut p = MonitorParams::default();
         p.per_class_limits.pedestrian = Some(MotionLimits { turn_rate_max_radps: 0.0, ..MotionLimits::default() });
         assert_eq!(p.validate().map_err(|e| e.field), Err("per_class_limits.pedestrian"));
+    }
+
+    /// With the grazing rule on by default, a params file that only raises `max_obstacle_height_m` above the
+    /// rule's 4.5 m is refused, and the message says both ways out.
+    #[test]
+    fn a_band_above_the_grazing_height_is_refused_with_both_ways_out() {
+        let p = MonitorParams { max_obstacle_height_m: 5.0, ..MonitorParams::default() };
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "roi_graze_height_m");
+        assert!(e.reason.contains("raise roi_graze_height_m") && e.reason.contains("roi_graze_fraction = 0"), "{e:?}");
+        let raised = MonitorParams { roi_graze_height_m: 5.0, ..p };
+        assert_eq!(raised.validate(), Ok(()));
+        let off = MonitorParams { roi_graze_fraction: 0.0, ..p };
+        assert_eq!(off.validate(), Ok(()));
     }
 
     #[test]
