@@ -344,8 +344,9 @@ impl Block {
         tall: [NO_CELL; BLOCK],
     };
 
-    /// Pass 1 over a block; returns the number of points that fall in the band and in the grid. With `SUMS`, also
-    /// each point's x and y, with `TALL` its tall cell.
+    /// Pass 1 over a block of [`BLOCK`] points, read as [`Lanes`] gives them (records or columns: one body, the
+    /// same instructions per lane); returns the number of points that fall in the band and in the grid. With
+    /// `SUMS`, also each point's x and y, with `TALL` its tall cell.
     #[inline(always)]
     fn fill<
         const TRANSLATION_ONLY: bool,
@@ -356,14 +357,14 @@ impl Block {
     >(
         &mut self,
         k: &Pass1,
-        points: &[[f32; 3]; BLOCK],
+        points: impl Lanes,
     ) -> u32 {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
         let cells = self.cells.iter_mut().zip(self.z.iter_mut());
         if SUMS || TALL {
             let extra = self.x.iter_mut().zip(self.y.iter_mut()).zip(self.tall.iter_mut());
-            for (((&[x, y, z], ((bin, far), near)), (cell, height)), ((qx, qy), tall)) in
-                points.iter().zip(outputs).zip(cells).zip(extra)
+            for ((([x, y, z], ((bin, far), near)), (cell, height)), ((qx, qy), tall)) in
+                points.points().zip(outputs).zip(cells).zip(extra)
             {
                 let (q0, q1, t);
                 (*bin, *far, *near, *cell, *height, q0, q1, t) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
@@ -375,47 +376,7 @@ impl Block {
                 }
             }
         } else {
-            for ((&[x, y, z], ((bin, far), near)), (cell, height)) in points.iter().zip(outputs).zip(cells) {
-                (*bin, *far, *near, *cell, *height, _, _, _) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
-            }
-        }
-        self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
-    }
-
-    /// [`Block::fill`] over a block given as three columns.
-    #[inline(always)]
-    fn fill_columns<
-        const TRANSLATION_ONLY: bool,
-        const EGO_MASK: bool,
-        const ROUND: bool,
-        const SUMS: bool,
-        const TALL: bool,
-    >(
-        &mut self,
-        k: &Pass1,
-        xs: &[f32; BLOCK],
-        ys: &[f32; BLOCK],
-        zs: &[f32; BLOCK],
-    ) -> u32 {
-        let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
-        let inputs = xs.iter().zip(ys).zip(zs);
-        let cells = self.cells.iter_mut().zip(self.z.iter_mut());
-        if SUMS || TALL {
-            let extra = self.x.iter_mut().zip(self.y.iter_mut()).zip(self.tall.iter_mut());
-            for (((((&x, &y), &z), ((bin, far), near)), (cell, height)), ((qx, qy), tall)) in
-                inputs.zip(outputs).zip(cells).zip(extra)
-            {
-                let (q0, q1, t);
-                (*bin, *far, *near, *cell, *height, q0, q1, t) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
-                if SUMS {
-                    (*qx, *qy) = (q0, q1);
-                }
-                if TALL {
-                    *tall = t;
-                }
-            }
-        } else {
-            for ((((&x, &y), &z), ((bin, far), near)), (cell, height)) in inputs.zip(outputs).zip(cells) {
+            for (([x, y, z], ((bin, far), near)), (cell, height)) in points.points().zip(outputs).zip(cells) {
                 (*bin, *far, *near, *cell, *height, _, _, _) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
             }
         }
@@ -678,6 +639,31 @@ pub(crate) trait Source: Copy + Send + Sync {
     ) -> u32;
 }
 
+/// One block's points as pass 1 reads them: `[x, y, z]` records or three columns. [`Block::fill`] is the one body
+/// for both; the accessor is inlined, so each layout's instantiation reads its points the way a loop written for it
+/// would (the records' loop and the columns' loop vectorise as before: docs/performance.md, "The rasterize loop").
+trait Lanes {
+    /// The block's [`BLOCK`] points in order.
+    fn points(self) -> impl Iterator<Item = [f32; 3]>;
+}
+
+impl Lanes for &[[f32; 3]; BLOCK] {
+    #[inline(always)]
+    fn points(self) -> impl Iterator<Item = [f32; 3]> {
+        // Each coordinate read on its own (`copied()`, a 12-byte copy per point, keeps the loop from vectorising:
+        // 3x the instructions).
+        self.iter().map(|&[x, y, z]| [x, y, z])
+    }
+}
+
+impl Lanes for [&[f32; BLOCK]; 3] {
+    #[inline(always)]
+    fn points(self) -> impl Iterator<Item = [f32; 3]> {
+        let [xs, ys, zs] = self;
+        xs.iter().zip(ys).zip(zs).map(|((&x, &y), &z)| [x, y, z])
+    }
+}
+
 impl Block {
     /// Pass 2 and the recorded cells of the block's first `len` points.
     #[inline(always)]
@@ -792,7 +778,7 @@ impl Source for PointColumns<'_> {
         let (ys, y_rest) = self.y().as_chunks::<BLOCK>();
         let (zs, z_rest) = self.z().as_chunks::<BLOCK>();
         for ((x, y), z) in xs.iter().zip(ys).zip(zs) {
-            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, x, y, z);
+            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, [x, y, z]);
             block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
         }
         if !x_rest.is_empty() {
@@ -803,7 +789,7 @@ impl Source for PointColumns<'_> {
                 }
             }
             let [x, y, z] = &padded;
-            in_band += block.fill_columns::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, x, y, z);
+            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, [x, y, z]);
             block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, x_rest.len());
         }
         in_band
