@@ -8,6 +8,8 @@ use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
     Frame, Isometry3, Monitor, MonitorParams, MotionVerdict, ObjectClass, ObjectState, PointCloud, Pose2, Uncertainty,
 };
+use pmon_ros::convert::isometry;
+use pmon_ros::msg::{Quaternion, Transform, Vector3};
 
 struct Bytes<'a>(&'a [u8]);
 
@@ -27,20 +29,14 @@ impl Bytes<'_> {
             k => f32::from(k) * scale + f32::from(self.u8()) * scale / 64.0,
         }
     }
-    /// A sensor mount as a bag's `/tf` gives it: a unit quaternion (any orientation, pitched and rolled too; NaN
-    /// when the input's is zero) and a translation anywhere, near the grid's centre or far outside it.
+    /// A sensor mount as a bag's `/tf` gives it, turned into the extrinsic by the bag reader's own conversion
+    /// (`pmon_ros::convert::isometry`: the quaternion normalised, NaN when it is zero): any orientation, pitched
+    /// and rolled too, and a translation anywhere, near the grid's centre or far outside it.
     fn mount(&mut self) -> Isometry3 {
-        let q = [self.value(0.25) - 1.0, self.value(0.25) - 1.0, self.value(0.25) - 1.0, self.value(0.25) - 1.0];
-        let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
-        let [w, x, y, z] = q.map(|v| v / n);
-        Isometry3 {
-            rotation: [
-                [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-                [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-                [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
-            ],
-            translation_m: [self.value(4.0) - 16.0, self.value(4.0) - 16.0, self.value(0.5)],
-        }
+        let mut v = |scale: f32, offset: f32| f64::from(self.value(scale) - offset);
+        let rotation = Quaternion { x: v(0.25, 1.0), y: v(0.25, 1.0), z: v(0.25, 1.0), w: v(0.25, 1.0) };
+        let translation = Vector3 { x: v(4.0, 16.0), y: v(4.0, 16.0), z: v(0.5, 0.0) };
+        isometry(&Transform { translation, rotation })
     }
     fn f64(&mut self) -> f64 {
         let bits = u64::from_le_bytes([
