@@ -109,6 +109,9 @@ pub(crate) fn finish(ds: &mut Dataset, opts: &RoiOptions) {
             if ds.info.notes.iter().any(|n| n.starts_with(ROI_NOTE_PREFIX)) {
                 return; // the reader used the dataset's map and said so
             }
+            if ds.frames.iter().all(|f| f.frame.cloud.is_none()) {
+                return; // object lists only (CommonRoad, KITTI tracking labels): no sensor check, nothing to scope
+            }
             "none: this dataset has no map, so the whole grid is the ROI and every building, wall and tree in it is \
              a missed-object alarm; use --roi corridor:<width_m> (e.g. corridor:20) to keep to the ego's path"
                 .to_string()

@@ -435,6 +435,18 @@ fn commonroad_xml() {
     }
 }
 
+/// Object lists without LiDAR (CommonRoad) run no sensor check, so `pmon check` must not warn that every
+/// building is a missed object: no region-of-interest note (it used to print the no-map warning).
+#[test]
+fn an_object_list_without_clouds_gets_no_region_of_interest_note() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("s.xml");
+    fs::write(&p, MINI_XML).unwrap();
+    let ds = open(&format!("commonroad:{}", p.display())).unwrap();
+    assert!(!ds.frames.is_empty() && ds.frames.iter().all(|f| f.frame.cloud.is_none()));
+    assert_eq!(ds.roi_note(), None, "{:?}", ds.info.notes);
+}
+
 #[test]
 fn nuscenes_json() {
     let tmp = tempfile::tempdir().unwrap();
