@@ -17,7 +17,7 @@
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
-use pmon_campaign::{run_one, Injector, Scene};
+use pmon_campaign::{run_one, Scene};
 use pmon_monitor::{Monitor, MonitorParams, SensorVerdict};
 use pmon_scenario::Simulator;
 use rayon::prelude::*;
@@ -386,28 +386,11 @@ fn seen_over_trace(
 fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
     let run_label = label(run);
     let spec = &run.spec;
-    let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
-    let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
-    let mut injector = Injector::new(spec.injection);
     let mut out = BTreeMap::new();
     let tau = spec.params.tau_tp;
-    for (k, clean) in scene.frames.iter().enumerate() {
-        let mut objects = clean.objects.clone();
-        let injections = injector.apply_at(k as u64, clean.timestamp_s, &mut objects);
-        let mut roi = Vec::new();
-        let mut view = clean.as_frame(&mut roi);
-        let confirmed: Vec<bool> = clean_monitor
-            .check(&view)
-            .map_err(|e| e.to_string())?
-            .objects
-            .iter()
-            .map(|r| pmon_campaign::confirmed_by_own_evidence(r, tau))
-            .collect();
-        view.objects = &objects;
-        let (objects_out, clusters_out) = {
-            let report = monitor.check(&view).map_err(|e| e.to_string())?;
-            (report.objects.to_vec(), report.clusters.to_vec())
-        };
+    pmon_campaign::paired_frames(scene, spec, |f| {
+        let (k, clean, objects, injections, confirmed) = (f.k, f.clean, f.objects, f.injections, f.confirmed);
+        let (objects_out, clusters_out, monitor, clean_monitor) = (f.reports, f.clusters, f.monitor, f.clean_monitor);
         for (i, r) in objects_out.iter().enumerate() {
             if !pmon_campaign::in_scope(r.sensor.verdict) {
                 continue;
@@ -487,9 +470,9 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                         o.width_m
                     );
                     if let Some(g) = region {
-                        text += &explain_false_alarm(&monitor, truth, o, &g, &run_label);
+                        text += &explain_false_alarm(monitor, truth, o, &g, &run_label);
                         if spec.params.seen_over {
-                            text += &seen_over_trace(&monitor, &clean_monitor, clean, &objects, i, &g);
+                            text += &seen_over_trace(monitor, clean_monitor, clean, objects, i, &g);
                         }
                     }
                     eprint!("{text}");
@@ -585,14 +568,15 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                     // `TRACE=1` (with `SEEN_OVER=1`): the seen-over walk of the missed box too.
                     if spec.params.seen_over && std::env::var_os("TRACE").is_some() {
                         if let Some(g) = region {
-                            text += &seen_over_trace(&monitor, &clean_monitor, clean, &objects, i, &g);
+                            text += &seen_over_trace(monitor, clean_monitor, clean, objects, i, &g);
                         }
                     }
                     eprint!("{text}");
                 }
             }
         }
-    }
+        Ok(())
+    })?;
     Ok(out)
 }
 

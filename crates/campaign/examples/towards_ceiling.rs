@@ -16,8 +16,8 @@
 //! `MIN_RAYS=k` asks k rays per shift instead of one. `SVG=path` also draws the curves (PNG when `path` ends in `.png`) (recall today, the share
 //! provable by the rays, the ceiling, the goal) as an SVG figure, with its data beside it as CSV (`path.csv`).
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
-use pmon_campaign::{run_one, Injector, Scene};
-use pmon_monitor::{Monitor, MonitorParams, ObjectState, SensorVerdict};
+use pmon_campaign::{run_one, Scene};
+use pmon_monitor::{MonitorParams, ObjectState, SensorVerdict};
 use pmon_scenario::Simulator;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -244,29 +244,14 @@ struct Count {
 }
 
 fn count(hs: &HeightScene, run: &PlannedRun, min_rays: u32, knobs: Knobs) -> Result<Count, String> {
-    let spec = &run.spec;
-    let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
-    let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
-    let mut injector = Injector::new(spec.injection);
-    let p = spec.params;
+    let p = run.spec.params;
     let mut out = Count::default();
-    for (k, clean) in hs.scene.frames.iter().enumerate() {
-        let mut objects = clean.objects.clone();
-        let injections = injector.apply_at(k as u64, clean.timestamp_s, &mut objects);
-        let mut roi = Vec::new();
-        let mut view = clean.as_frame(&mut roi);
-        let confirmed: Vec<bool> = clean_monitor
-            .check(&view)
-            .map_err(|e| e.to_string())?
-            .objects
-            .iter()
-            .map(|r| pmon_campaign::confirmed_by_own_evidence(r, p.tau_tp))
-            .collect();
-        view.objects = &objects;
-        let verdicts: Vec<SensorVerdict> =
-            monitor.check(&view).map_err(|e| e.to_string())?.objects.iter().map(|r| r.sensor.verdict).collect();
+    pmon_campaign::paired_frames(&hs.scene, &run.spec, |f| {
+        let (k, clean, objects, injections, confirmed) = (f.k, f.clean, f.objects, f.injections, f.confirmed);
+        let clean_monitor = f.clean_monitor;
+        let verdicts: Vec<SensorVerdict> = f.reports.iter().map(|r| r.sensor.verdict).collect();
         let band = (p.ground_z_m + p.min_obstacle_height_m, p.ground_z_m + p.max_obstacle_height_m);
-        let Some(rays) = Rays::of(clean, band) else { continue };
+        let Some(rays) = Rays::of(clean, band) else { return Ok(()) };
         let heights = hs.heights.get(k);
         for (i, v) in verdicts.iter().enumerate() {
             if !pmon_campaign::in_scope(*v) || !confirmed.get(i).copied().unwrap_or(false) {
@@ -301,7 +286,8 @@ fn count(hs: &HeightScene, run: &PlannedRun, min_rays: u32, knobs: Knobs) -> Res
                 out.clean_provable += u64::from(provable);
             }
         }
-    }
+        Ok(())
+    })?;
     Ok(out)
 }
 

@@ -18,5 +18,6 @@ pub mod tracker_eval;
 pub use inject::{Direction, Fault, Injection, InjectionConfig, Injector};
 pub use metrics::{score, Metrics, Outcome, Rate, Score};
 pub use run::{
-    confirmed_by_own_evidence, in_scope, replay_to, run_all, run_one, Example, Replay, RunResult, RunSpec, Scene,
+    confirmed_by_own_evidence, in_scope, paired_frames, replay_to, run_all, run_one, Example, PairedFrame, Replay,
+    RunResult, RunSpec, Scene,
 };

@@ -2,12 +2,14 @@
 
 use std::time::Instant;
 
-use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, ObjectReport, SensorVerdict};
+use pmon_monitor::{
+    ClusterReport, Monitor, MonitorParams, NotMonitoredReason, ObjectReport, ObjectState, SensorVerdict,
+};
 use pmon_recording::RecordedFrame;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::inject::{InjectionConfig, Injector};
+use crate::inject::{Injection, InjectionConfig, Injector};
 use crate::metrics::{score, Metrics, Outcome};
 
 /// Frames to evaluate on: clean object lists (ground truth with their nominal uncertainty), clouds and ROI.
@@ -74,32 +76,51 @@ pub fn confirmed_by_own_evidence(report: &ObjectReport, tau_tp: f32) -> bool {
     !matches!(report.sensor.verdict, SensorVerdict::NotMonitored(_)) && report.sensor.eta_own >= tau_tp
 }
 
-/// Runs one spec on a scene.
+/// One frame of a paired run ([`paired_frames`]): the clean object list and the faulted one, checked side by side.
+pub struct PairedFrame<'a> {
+    /// Frame index.
+    pub k: usize,
+    /// The clean frame: ground-truth object list, cloud, ROI.
+    pub clean: &'a RecordedFrame,
+    /// The object list with the errors injected (what the faulted monitor checked).
+    pub objects: &'a [ObjectState],
+    /// What was injected in this frame.
+    pub injections: &'a [Injection],
+    /// Per object: confirmed by its own evidence in the clean frame ([`confirmed_by_own_evidence`]): an error
+    /// on it is *verifiable*.
+    pub confirmed: &'a [bool],
+    /// The faulted monitor's reports, one per object.
+    pub reports: &'a [ObjectReport],
+    /// The faulted monitor's conflict clusters.
+    pub clusters: &'a [ClusterReport],
+    /// The faulted monitor after the frame (its grid holds this frame).
+    pub monitor: &'a Monitor,
+    /// The monitor of the clean frames after the frame (for `region_of`).
+    pub clean_monitor: &'a Monitor,
+    /// Time of the faulted check alone, microseconds.
+    pub check_us: f64,
+}
+
+/// The loop of a paired run, shared by [`run_one`] and the diagnostics: per frame, the errors of `spec` are
+/// injected into a copy of the object list; a monitor on the clean frames says which objects their own evidence
+/// confirms; a second monitor checks the faulted frame; `f` sees both.
 ///
 /// # Errors
-/// Invalid parameters, or a frame the monitor refuses.
-pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
+/// Invalid parameters, a frame the monitor refuses (named by scene and frame), or `f`'s error.
+pub fn paired_frames(
+    scene: &Scene,
+    spec: &RunSpec,
+    mut f: impl FnMut(&PairedFrame<'_>) -> Result<(), String>,
+) -> Result<(), String> {
     let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
     // The same monitor on the clean frames tells which objects the sensor can verify at all.
     let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
     let mut injector = Injector::new(spec.injection);
-    let mut outcomes = Vec::new();
-    let mut confirmed = Vec::new();
-    let mut missed = 0u64;
-    let mut times = Vec::with_capacity(scene.frames.len());
-    let (mut detected_example, mut missed_example, mut false_alarm_example, mut occluded_example) =
-        (None, None, None, None);
-    let mut objects = Vec::new();
+    let (mut objects, mut confirmed, mut reports, mut clusters) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (k, clean) in scene.frames.iter().enumerate() {
         // Only the object list changes: copy it, lend the clean cloud.
         objects.clone_from(&clean.objects);
         let injections = injector.apply_at(k as u64, clean.timestamp_s, &mut objects);
-        let mut injected = vec![false; objects.len()];
-        for i in &injections {
-            if let Some(x) = injected.get_mut(i.index as usize) {
-                *x = true;
-            }
-        }
         let mut roi = Vec::new();
         let mut view = clean.as_frame(&mut roi);
         {
@@ -110,9 +131,50 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
         view.objects = &objects;
         let t0 = Instant::now();
         let report = monitor.check(&view).map_err(|e| format!("{}: frame {k}: {e}", scene.name))?;
-        times.push(t0.elapsed().as_secs_f64() * 1e6);
-        missed += report.missed_objects() as u64;
-        for (i, r) in report.objects.iter().enumerate() {
+        let check_us = t0.elapsed().as_secs_f64() * 1e6;
+        reports.clear();
+        reports.extend_from_slice(report.objects);
+        clusters.clear();
+        clusters.extend_from_slice(report.clusters);
+        f(&PairedFrame {
+            k,
+            clean,
+            objects: &objects,
+            injections: &injections,
+            confirmed: &confirmed,
+            reports: &reports,
+            clusters: &clusters,
+            monitor: &monitor,
+            clean_monitor: &clean_monitor,
+            check_us,
+        })?;
+    }
+    Ok(())
+}
+
+/// Runs one spec on a scene.
+///
+/// # Errors
+/// Invalid parameters, or a frame the monitor refuses.
+pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
+    let mut outcomes = Vec::new();
+    let mut missed = 0u64;
+    let mut times = Vec::with_capacity(scene.frames.len());
+    let (mut detected_example, mut missed_example, mut false_alarm_example, mut occluded_example) =
+        (None, None, None, None);
+    let mut injected = Vec::new();
+    paired_frames(scene, spec, |p| {
+        let k = p.k;
+        injected.clear();
+        injected.resize(p.objects.len(), false);
+        for i in p.injections {
+            if let Some(x) = injected.get_mut(i.index as usize) {
+                *x = true;
+            }
+        }
+        times.push(p.check_us);
+        missed += p.clusters.iter().filter(|c| c.is_missed_object()).count() as u64;
+        for (i, r) in p.reports.iter().enumerate() {
             let in_scope = in_scope(r.sensor.verdict);
             let sensor_alarm = matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
             let inj = injected.get(i).copied().unwrap_or(false);
@@ -122,7 +184,7 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
                 in_scope,
                 injected: inj,
                 sensor_alarm,
-                sensor_judged: confirmed.get(i).copied().unwrap_or(false),
+                sensor_judged: p.confirmed.get(i).copied().unwrap_or(false),
                 plausibility_alarm: matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Implausible(_)),
             };
             if in_scope {
@@ -145,7 +207,8 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
             }
             outcomes.push(o);
         }
-    }
+        Ok(())
+    })?;
     times.sort_by(f64::total_cmp);
     let check_median_us = times.get(times.len() / 2).copied().unwrap_or(f64::NAN);
     Ok(RunResult {
