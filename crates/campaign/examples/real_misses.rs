@@ -146,6 +146,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             "clean box after a clean sweep flagged: frame {k} index {i} id {} {:?} (displaced: {inj:?})",
                             r.id, r.sensor.verdict
                         );
+                        if std::env::var_os("DETAIL").is_some() {
+                            // Where the flagged box and the displaced ones stand, and what flagged it.
+                            let at = |j: usize| {
+                                f.objects.get(j).map_or(String::new(), |o| {
+                                    format!(
+                                        "id {} ({:.1}, {:.1}) {:.1}x{:.1} m heading {:.2}",
+                                        o.id, o.x_m, o.y_m, o.length_m, o.width_m, o.heading_rad
+                                    )
+                                })
+                            };
+                            let cluster = r.sensor.cluster.and_then(|c| rep_clusters.get(usize::from(c)));
+                            println!(
+                                "   flagged {} eta {:.2} own {:.2} offset ({:.2}, {:.2}) cluster {}",
+                                at(i),
+                                r.sensor.eta,
+                                r.sensor.eta_own,
+                                r.sensor.offset_m[0],
+                                r.sensor.offset_m[1],
+                                cluster.map_or("none (free space or memory)".to_string(), |c| format!(
+                                    "{} cells at ({:.1}, {:.1})",
+                                    c.cells, c.centroid_m[0], c.centroid_m[1]
+                                ))
+                            );
+                            for &j in inj {
+                                let v = rep_objects.get(j).map(|d| d.sensor.verdict);
+                                println!("   displaced {} -> {v:?}", at(j));
+                            }
+                        }
                     }
                 }
             }
