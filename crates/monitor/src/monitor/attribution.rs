@@ -330,6 +330,8 @@ impl Monitor {
                     }
                     if matches!(s.recalled, Some((EvidenceKind::Displaced, _))) {
                         bits |= CANDIDATE_DISPLACED;
+                    } else if stayed_evidence(s, &r).is_some() {
+                        bits |= CANDIDATE_STAYED;
                     }
                     (r.grown.aabb(), bits)
                 }
@@ -348,6 +350,12 @@ impl Monitor {
                         self.displaced.push((index, [region.footprint.cx + r[0], region.footprint.cy + r[1]]));
                     }
                 }
+                // Step 3c: its own evidence of the last frame, where the track's motion puts it, left its region.
+                if entry.1 & CANDIDATE_STAYED != 0 && self.displaced.len() < self.displaced.capacity() {
+                    if let Some(expected) = s.region.and_then(|r| stayed_evidence(s, &r)) {
+                        self.displaced.push((index, expected));
+                    }
+                }
             }
         }
         self.by_x.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -360,6 +368,9 @@ impl Monitor {
             let Some(cb) = self.clusters.get(k).map(|c| c.bounds_m) else { continue };
             // A track whose evidence stood apart from it last frame: its evidence is expected where the offset puts
             // it now (the cost is how far the cluster is from there).
+            // Step 3c: a cluster where a track's own evidence of the last frame should stand is that track's; no
+            // neighbour claims it by geometry.
+            let mut stayed_here = false;
             for m in 0..self.displaced.len() {
                 let Some((j, expected)) = self.displaced.get(m).map(|&(j, e)| (j as usize, e)) else { continue };
                 // Most clusters are far from where a track's evidence is expected: the bounds test of
@@ -378,8 +389,12 @@ impl Monitor {
                     }
                     if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
                         self.pairs.push((d, k as u32, j as u32, 0));
+                        stayed_here |= self.candidates.get(j).is_some_and(|c| c.1 & CANDIDATE_STAYED != 0);
                     }
                 }
+            }
+            if stayed_here {
+                continue;
             }
             // Objects without evidence of their own (a followed track's pair above stands for it).
             let (lo, hi) = self.x_window(cb, gate);
@@ -391,7 +406,7 @@ impl Monitor {
                 }
                 let Some(s) = self.scratch.get(j) else { continue };
                 let Some(region) = s.region else { continue };
-                if bits & CANDIDATE_DISPLACED != 0 && s.followed == k as u32 {
+                if bits & (CANDIDATE_DISPLACED | CANDIDATE_STAYED) != 0 && s.followed == k as u32 {
                     continue;
                 }
                 let Some(d) = self.cluster_distance(k, &region.grown, gate) else { continue };
@@ -1182,6 +1197,30 @@ pub(super) const CANDIDATE_REGION: u8 = 1;
 pub(super) const CANDIDATE_CONFIRMED: u8 = 2;
 /// Candidate bit: the track's evidence stood apart from it in the previous frame.
 pub(super) const CANDIDATE_DISPLACED: u8 = 4;
+/// Candidate bit: the track was confirmed by its own evidence in the previous frame, is not now, and where that
+/// evidence should stand now (its predicted centre plus the evidence's offset then) lies outside its region
+/// ([`stayed_evidence`], step 3c).
+pub(super) const CANDIDATE_STAYED: u8 = 8;
+
+/// Step 3c: for a track confirmed by its own evidence in the previous frame whose box jumped (it stands farther
+/// from where its reported motion puts it than the region's margins allow, along or across it), where that
+/// evidence should stand now if the object moved as the object list said (the predicted centre plus the
+/// evidence's offset from the centre then), when that place lies outside the track's grown region this frame: the
+/// box left its own evidence behind. `None` otherwise (no memory of it, its evidence was displaced then, no jump,
+/// or the place is inside the region: the box is where its evidence is).
+pub(super) fn stayed_evidence(s: &super::ObjectScratch, region: &Region) -> Option<[f32; 2]> {
+    let (Some((EvidenceKind::Own, off)), Some((centre, _, _))) = (s.recalled, s.predicted) else { return None };
+    let fp = &region.footprint;
+    // The box jumped: it stands farther from its prediction than its stated uncertainty allows (the region's
+    // margins), along or across it. A box that drifts with its error, or jitters within its uncertainty, is left
+    // to the other steps.
+    let jump = [fp.cx - centre[0], fp.cy - centre[1]];
+    if !beyond_allowance(fp, jump, [region.margin_length_m, region.margin_width_m]) {
+        return None;
+    }
+    let expected = [centre[0] + off[0], centre[1] + off[1]];
+    (expected.iter().all(|v| v.is_finite()) && !region.grown.contains(expected[0], expected[1])).then_some(expected)
+}
 
 /// Average number of candidate objects per conflict cluster the evidence assignment keeps room for.
 pub(super) const ASSOCIATION_CANDIDATES: usize = 8;
