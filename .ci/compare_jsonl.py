@@ -7,8 +7,8 @@ import sys
 
 
 def load(path):
-    # `pmon check` ends with a totals record (`"record": "totals"`); the per-object and missed-object records
-    # are what both sides must agree on.
+    # `pmon check` ends with a totals record (`"record": "totals"`); the per-object, missed-object and outside_roi
+    # records are what both sides must agree on.
     with open(path, encoding="utf-8") as f:
         records = [json.loads(line) for line in f if line.strip()]
     return [r for r in records if r.get("record") != "totals"]

@@ -1,5 +1,6 @@
 // Replays a pmon recording through the pmon C API and prints one JSON line per object and frame (and one per
-// missed object), with the fields of `pmon check --format jsonl`. C++17, no dependencies beyond libpmon_capi.
+// missed object and per cluster the region of interest excused), with the fields of `pmon check --format jsonl`.
+// C++17, no dependencies beyond libpmon_capi.
 //
 //   pmon_replay RECORDING_DIR [PARAMS.toml]
 //
@@ -114,6 +115,15 @@ int main(int argc, char** argv) {
       alarms = true;
       std::puts((head + ",\"verdict\":\"missed_object\",\"centroid_m\":" + arr(c.centroid_m) +
                  ",\"bounds_m\":" + arr(c.bounds_m) + ",\"cells\":" + num(c.cells) + "}")
+                    .c_str());
+    }
+    // The clusters the region of interest excused, with the reason (not alarms).
+    for (size_t i = 0; i < summary.cluster_count; ++i) {
+      const PmonCluster& c = clusters[i];
+      if (!c.is_outside_roi) continue;
+      std::puts((head + ",\"verdict\":\"outside_roi\",\"reason\":" + str(text(c.roi_name)) +
+                 ",\"centroid_m\":" + arr(c.centroid_m) + ",\"bounds_m\":" + arr(c.bounds_m) +
+                 ",\"cells\":" + num(c.cells) + "}")
                     .c_str());
     }
     if (summary.clusters_available > summary.cluster_count) {

@@ -44,8 +44,12 @@ class CheckResult:
       ``position_residual_m``, ``position_allowance_m``.
 
     ``clusters`` are the conflict clusters (evidence no object explains): ``cells``, ``is_missed_object``,
-    ``object`` (the object it is attributed to, -1 for none), ``in_roi``, ``centroid_x_m`` / ``_y_m`` and the
-    bounds ``min_x_m``, ``min_y_m``, ``max_x_m``, ``max_y_m``. :attr:`missed` keeps the missed-object alarms.
+    ``object`` (the object it is attributed to, -1 for none), ``in_roi``, ``roi`` (str: ``no_roi`` in a frame
+    without a region of interest, ``inside``, ``no_return_in_roi``, ``grazing``: why it is in the region of
+    interest or outside it), ``is_outside_roi`` (outside it and attributed to no object: excused, not an alarm),
+    ``centroid_x_m`` / ``_y_m`` and the bounds ``min_x_m``, ``min_y_m``, ``max_x_m``, ``max_y_m``.
+    :attr:`missed` keeps the missed-object alarms, :attr:`outside_roi` the clusters the region of interest
+    excused.
 
     The field names follow ``pmon check --format jsonl`` (:meth:`records` gives exactly its records).
     """
@@ -80,6 +84,13 @@ class CheckResult:
         keep = self.clusters["is_missed_object"]
         return {k: v[keep] for k, v in self.clusters.items()}
 
+    @property
+    def outside_roi(self) -> dict:
+        """The clusters the region of interest excused (not alarms): outside it, attributed to no object; ``roi``
+        says why (``no_return_in_roi`` or ``grazing``)."""
+        keep = self.clusters["is_outside_roi"]
+        return {k: v[keep] for k, v in self.clusters.items()}
+
     def to_pandas(self):
         """The per-object columns as a ``pandas.DataFrame`` (needs pandas)."""
         import pandas as pd
@@ -93,9 +104,10 @@ class CheckResult:
         return pd.DataFrame(self.clusters)
 
     def records(self) -> list:
-        """The records ``pmon check --format jsonl`` writes for this frame (objects, then missed objects), as the
-        dicts ``json.loads`` gives for its lines: same keys, same values (floats in their shortest round-trip
-        form at the monitor's precision, non-finite ones as ``None``)."""
+        """The records ``pmon check --format jsonl`` writes for this frame (objects, then missed objects, then the
+        clusters outside the region of interest with their reason), as the dicts ``json.loads`` gives for its
+        lines: same keys, same values (floats in their shortest round-trip form at the monitor's precision,
+        non-finite ones as ``None``)."""
         o = self.objects
         out = []
         frame = self.frame if self.frame is not None else 0
@@ -137,6 +149,18 @@ class CheckResult:
                 "centroid_m": [m["centroid_x_m"][i], m["centroid_y_m"][i]],
                 "bounds_m": [m["min_x_m"][i], m["min_y_m"][i], m["max_x_m"][i], m["max_y_m"][i]],
                 "cells": int(m["cells"][i]),
+            })
+            out[-1] = {k: _json_value(v) for k, v in out[-1].items()}
+        e = self.outside_roi
+        for i in range(len(e["cells"])):
+            out.append({
+                "frame": frame,
+                "timestamp_s": self.timestamp_s,
+                "verdict": "outside_roi",
+                "reason": e["roi"][i],
+                "centroid_m": [e["centroid_x_m"][i], e["centroid_y_m"][i]],
+                "bounds_m": [e["min_x_m"][i], e["min_y_m"][i], e["max_x_m"][i], e["max_y_m"][i]],
+                "cells": int(e["cells"][i]),
             })
             out[-1] = {k: _json_value(v) for k, v in out[-1].items()}
         return out

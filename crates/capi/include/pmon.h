@@ -55,6 +55,20 @@
 // A verdict this header does not know yet: read `verdict_name`.
 #define PMON_VERDICT_OTHER 255
 
+// `PmonCluster::roi_status`: the frame has no region of interest (the whole grid is in it).
+#define PMON_ROI_NONE 0
+
+// In the region of interest: one of its obstacle-band returns lies inside it (and the grazing rule kept it).
+#define PMON_ROI_INSIDE 1
+
+// Outside the region of interest: none of its obstacle-band returns lies inside it (`roi_name`
+// `no_return_in_roi`).
+#define PMON_ROI_OUTSIDE 2
+
+// Outside by the grazing rule: fewer than `roi_graze_fraction` of its band returns inside, and a return over its
+// cells higher than `roi_graze_height_m` (`roi_name` `grazing`).
+#define PMON_ROI_GRAZING 3
+
 // Bits of `PmonObjectResult::conditions` (eqs. condition_w, condition_a, condition_xy).
 #define PMON_CONDITION_TURN_RATE 1
 
@@ -247,6 +261,15 @@ typedef struct PmonCluster {
   float centroid_m[2];
   // `min_x, min_y, max_x, max_y`, ego frame, metres.
   float bounds_m[4];
+  // Why it is in the region of interest or outside it: `PMON_ROI_NONE`, `PMON_ROI_INSIDE`,
+  // `PMON_ROI_OUTSIDE`, `PMON_ROI_GRAZING`.
+  uint32_t roi_status;
+  // 1 when the region of interest excused it: outside it and attributed to no object (not an alarm; the
+  // `outside_roi` records of `pmon check --format jsonl`).
+  uint32_t is_outside_roi;
+  // The status's name, NUL-terminated: `no_roi`, `inside`, `no_return_in_roi`, `grazing` (the `reason` of an
+  // `outside_roi` record).
+  uint8_t roi_name[24];
 } PmonCluster;
 
 // Frame-level results.

@@ -52,6 +52,17 @@ pub const PMON_VERDICT_NOT_MONITORED: u32 = 4;
 /// A verdict this header does not know yet: read `verdict_name`.
 pub const PMON_VERDICT_OTHER: u32 = 255;
 
+/// `PmonCluster::roi_status`: the frame has no region of interest (the whole grid is in it).
+pub const PMON_ROI_NONE: u32 = 0;
+/// In the region of interest: one of its obstacle-band returns lies inside it (and the grazing rule kept it).
+pub const PMON_ROI_INSIDE: u32 = 1;
+/// Outside the region of interest: none of its obstacle-band returns lies inside it (`roi_name`
+/// `no_return_in_roi`).
+pub const PMON_ROI_OUTSIDE: u32 = 2;
+/// Outside by the grazing rule: fewer than `roi_graze_fraction` of its band returns inside, and a return over its
+/// cells higher than `roi_graze_height_m` (`roi_name` `grazing`).
+pub const PMON_ROI_GRAZING: u32 = 3;
+
 /// Bits of `PmonObjectResult::conditions` (eqs. condition_w, condition_a, condition_xy).
 pub const PMON_CONDITION_TURN_RATE: u32 = 1;
 /// Acceleration or braking beyond the limits.
@@ -242,6 +253,15 @@ pub struct PmonCluster {
     pub centroid_m: [f32; 2],
     /// `min_x, min_y, max_x, max_y`, ego frame, metres.
     pub bounds_m: [f32; 4],
+    /// Why it is in the region of interest or outside it: `PMON_ROI_NONE`, `PMON_ROI_INSIDE`,
+    /// `PMON_ROI_OUTSIDE`, `PMON_ROI_GRAZING`.
+    pub roi_status: u32,
+    /// 1 when the region of interest excused it: outside it and attributed to no object (not an alarm; the
+    /// `outside_roi` records of `pmon check --format jsonl`).
+    pub is_outside_roi: u32,
+    /// The status's name, NUL-terminated: `no_roi`, `inside`, `no_return_in_roi`, `grazing` (the `reason` of an
+    /// `outside_roi` record).
+    pub roi_name: [u8; 24],
 }
 
 /// Frame-level results.
@@ -541,6 +561,13 @@ fn cluster_result(c: &ClusterReport) -> PmonCluster {
         in_roi: u32::from(c.in_roi),
         centroid_m: c.centroid_m,
         bounds_m: c.bounds_m,
+        roi_status: c.roi.code(),
+        is_outside_roi: u32::from(c.is_outside_roi()),
+        roi_name: {
+            let mut name = [0u8; 24];
+            write_display(&mut name, &c.roi);
+            name
+        },
     }
 }
 

@@ -11,8 +11,8 @@ use clap::{Args, ValueEnum};
 use pmon_datasets::roi::{RoiMode, RoiOptions};
 use pmon_datasets::ReadOptions;
 use pmon_monitor::{
-    FrameReport, Monitor, MonitorParams, MotionOutcome, MotionVerdict, NotMonitoredReason, ObjectReport, ObjectState,
-    SensorVerdict, Verdict,
+    ClusterReport, FrameReport, Monitor, MonitorParams, MotionOutcome, MotionVerdict, NotMonitoredReason, ObjectReport,
+    ObjectState, RoiStatus, SensorVerdict, Verdict,
 };
 use pmon_recording::{RecordedFrame, RecordingReader};
 use serde::Serialize;
@@ -25,7 +25,8 @@ use crate::output::OutputFile;
 pub enum Format {
     /// A readable per-frame alarm summary and totals.
     Text,
-    /// One JSON record per object and frame (and one per missed object).
+    /// One JSON record per object and frame, one per missed object, and one per cluster the region of interest
+    /// excused (`outside_roi`, with its reason).
     Jsonl,
 }
 
@@ -175,14 +176,31 @@ struct TotalsRecord<'a> {
     written_by: &'static str,
 }
 
+/// A cluster record: a missed object (`verdict: "missed_object"`, no `reason`) or a cluster the region of
+/// interest excused (`verdict: "outside_roi"`, `reason`: `no_return_in_roi` or `grazing`; not an alarm).
 #[derive(Serialize)]
-struct MissedRecord {
+struct ClusterRecord {
     frame: u64,
     timestamp_s: f64,
     verdict: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    reason: Option<&'static str>,
     centroid_m: [f32; 2],
     bounds_m: [f32; 4],
     cells: u32,
+}
+
+fn cluster_record(f: &RecordedFrame, c: &ClusterReport) -> ClusterRecord {
+    let missed = c.is_missed_object();
+    ClusterRecord {
+        frame: f.index,
+        timestamp_s: f.timestamp_s,
+        verdict: if missed { "missed_object" } else { "outside_roi" },
+        reason: (!missed).then(|| c.roi.name()),
+        centroid_m: c.centroid_m,
+        bounds_m: c.bounds_m,
+        cells: c.cells,
+    }
 }
 
 fn object_record<'a>(f: &RecordedFrame, o: &'a ObjectState, r: &ObjectReport) -> ObjectRecord<'a> {
@@ -232,6 +250,10 @@ struct Totals {
     /// Implausible motion by kind: (alarms, of those safety-critical).
     kinds: BTreeMap<&'static str, (u64, u64)>,
     missed_objects: u64,
+    /// Clusters the region of interest excused (outside it, attributed to no object): no return in it, grazing.
+    outside_roi: [u64; 2],
+    /// Frames whose sensor checks ran with a region of interest.
+    roi_frames: u64,
     frames_with_alarms: u64,
     /// Frames whose sensor checks ran (with a cloud).
     sensor_frames: u64,
@@ -449,6 +471,12 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             totals.sensor_frames += 1;
         }
         totals.objects += rep.objects.len() as u64;
+        if rep.sensor_status.is_none() && !frame.roi_in_ego.is_empty() {
+            totals.roi_frames += 1;
+        }
+        for c in rep.clusters.iter().filter(|c| c.is_outside_roi()) {
+            totals.outside_roi[usize::from(c.roi == RoiStatus::Grazing)] += 1;
+        }
         let missed = rep.missed_objects() as u64;
         totals.missed_objects += missed;
         if rep.object_alarms() > 0 || missed > 0 {
@@ -469,16 +497,10 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
                     serde_json::to_writer(&mut *out, &object_record(&frame, o, r))?;
                     writeln!(out)?;
                 }
-                for c in rep.clusters.iter().filter(|c| c.is_missed_object()) {
-                    let rec = MissedRecord {
-                        frame: frame.index,
-                        timestamp_s: frame.timestamp_s,
-                        verdict: "missed_object",
-                        centroid_m: c.centroid_m,
-                        bounds_m: c.bounds_m,
-                        cells: c.cells,
-                    };
-                    serde_json::to_writer(&mut *out, &rec)?;
+                // The missed objects, then the clusters the region of interest excused, each with its reason.
+                let missed = rep.clusters.iter().filter(|c| c.is_missed_object());
+                for c in missed.chain(rep.clusters.iter().filter(|c| c.is_outside_roi())) {
+                    serde_json::to_writer(&mut *out, &cluster_record(&frame, c))?;
                     writeln!(out)?;
                 }
             }
@@ -488,11 +510,20 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
         anyhow::bail!("{}: no frames: an empty input cannot be checked", args.recording.display());
     }
     if args.format == Format::Text {
-        writeln!(
+        write!(
             out,
             "\n{name}: {} frames, {} object states, {} frames with alarms, {} missed-object alarms",
             totals.frames, totals.objects, totals.frames_with_alarms, totals.missed_objects
         )?;
+        if totals.roi_frames > 0 {
+            let [none, grazing] = totals.outside_roi;
+            write!(
+                out,
+                "; {} clusters outside the region of interest (not alarms): {none} without a return in it, {grazing} grazing",
+                none + grazing
+            )?;
+        }
+        writeln!(out)?;
         if let Some(note) = &frames_roi_note {
             writeln!(out, "  region of interest: {note}")?;
         }

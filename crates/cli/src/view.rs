@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use pmon_campaign::Injection;
-use pmon_monitor::{CellState, ClusterReport, Monitor, MonitorParams, ObjectReport, ObjectState, Verdict};
+use pmon_monitor::{CellState, ClusterReport, Monitor, MonitorParams, ObjectReport, ObjectState, RoiStatus, Verdict};
 use pmon_recording::RecordedFrame;
 use pmon_report::{BoxKind, TopView, ViewBox, ViewCell, ViewCluster};
 
@@ -173,6 +173,7 @@ pub fn top_view(title: &str, monitor: &Monitor, checked: &Checked<'_>, centre: (
         let label = match c.object {
             Some(j) => format!("evidence of {}", frame.objects.get(j as usize).map_or(0, |o: &ObjectState| o.id)),
             None if c.in_roi => "missed object".to_string(),
+            None if c.roi == RoiStatus::Grazing => "unexplained (outside ROI: grazing)".to_string(),
             None => "unexplained (outside ROI)".to_string(),
         };
         let h = 0.5 * grid.geometry.cell_size_m;

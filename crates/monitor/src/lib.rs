@@ -41,7 +41,7 @@ pub use params::{
 };
 pub use verdict::{
     ClusterReport, Conditions, FrameError, FrameReport, GridStats, ImplausibilityKind, MotionOutcome, MotionVerdict,
-    NotMonitoredReason, ObjectReport, SensorOutcome, SensorVerdict, Verdict,
+    NotMonitoredReason, ObjectReport, RoiStatus, SensorOutcome, SensorVerdict, Verdict,
 };
 
 pub mod calibrated;

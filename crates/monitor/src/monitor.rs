@@ -12,8 +12,8 @@ use crate::params::{MonitorParams, ParamError, SpillOverFit};
 use crate::plausibility::TrackTable;
 use crate::region::Region;
 use crate::verdict::{
-    ClusterReport, FrameError, FrameReport, GridStats, MotionOutcome, NotMonitoredReason, ObjectReport, SensorOutcome,
-    SensorVerdict, Verdict,
+    ClusterReport, FrameError, FrameReport, GridStats, MotionOutcome, NotMonitoredReason, ObjectReport, RoiStatus,
+    SensorOutcome, SensorVerdict, Verdict,
 };
 use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
@@ -871,11 +871,19 @@ impl Monitor {
                 }
             }
             let inv = 1.0 / cells as f32;
+            // The reason beside the outcome: a cluster still waiting is `Outside` until `roi_by_amount` decides
+            // it (in, out with no return inside, or out by the grazing rule).
+            let roi = match (frame.roi_in_ego.is_empty(), in_roi) {
+                (true, _) => RoiStatus::NoRoi,
+                (false, true) => RoiStatus::Inside,
+                (false, false) => RoiStatus::Outside,
+            };
             self.clusters.push(ClusterReport {
                 cells,
                 centroid_m: [sx * inv, sy * inv],
                 bounds_m: b,
                 in_roi,
+                roi,
                 object: None,
             });
             self.cluster_spans.push((start as u32, end as u32));
@@ -985,6 +993,7 @@ impl Monitor {
             let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
             if cells.iter().any(|&cell| self.grid.flags(cell) & FLAG_RETURN_IN_ROI != 0) {
                 c.in_roi = true;
+                c.roi = RoiStatus::Inside;
                 for &cell in cells {
                     self.grid.set_flags(cell, FLAG_ROI_CONFLICT);
                 }

@@ -403,8 +403,11 @@ pub struct ClusterReport {
     pub bounds_m: [f32; 4],
     /// True when the frame has no region of interest, or when one of the cluster's obstacle-band returns lies
     /// inside it (with `roi_graze_fraction > 0`: and at least that fraction of them does, or no return over its
-    /// cells is higher than `roi_graze_height_m` over the ground).
+    /// cells is higher than `roi_graze_height_m` over the ground). Always `roi.in_roi()`.
     pub in_roi: bool,
+    /// Why the cluster is in the region of interest or outside it: the reason a cluster no object explains is
+    /// excused (not a missed object) is kept, not only the outcome.
+    pub roi: RoiStatus,
     /// Index into [`FrameReport::objects`] of the object it is attributed to (a position error), if any.
     pub object: Option<u32>,
 }
@@ -414,6 +417,68 @@ impl ClusterReport {
     #[must_use]
     pub const fn is_missed_object(&self) -> bool {
         self.in_roi && self.object.is_none()
+    }
+
+    /// True when the map excused it: outside the region of interest ([`RoiStatus::Outside`] or
+    /// [`RoiStatus::Grazing`]) and attributed to no object. Not an alarm; its reason is `roi`.
+    #[must_use]
+    pub const fn is_outside_roi(&self) -> bool {
+        !self.in_roi && self.object.is_none()
+    }
+}
+
+/// Where a conflict cluster lies with respect to the frame's region of interest, and why
+/// ([`ClusterReport::roi`]; docs/datasets.md, "The grazing rule").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum RoiStatus {
+    /// The frame has no region of interest: the whole grid is (in the ROI).
+    NoRoi,
+    /// In the region of interest: one of its obstacle-band returns lies inside it (with the grazing rule: and
+    /// at least `roi_graze_fraction` of them do, or nothing over its cells is taller than `roi_graze_height_m`).
+    Inside,
+    /// Outside: none of its obstacle-band returns lies inside the region of interest.
+    Outside,
+    /// Outside by the grazing rule: some of its band returns lie inside, fewer than `roi_graze_fraction` of
+    /// them, and a return over its cells stands higher than `roi_graze_height_m` over the ground (a tree canopy
+    /// over the kerb).
+    Grazing,
+}
+
+impl RoiStatus {
+    /// True for [`RoiStatus::NoRoi`] and [`RoiStatus::Inside`] (the value of [`ClusterReport::in_roi`]).
+    #[must_use]
+    pub const fn in_roi(self) -> bool {
+        matches!(self, Self::NoRoi | Self::Inside)
+    }
+
+    /// Snake-case name: `no_roi`, `inside`, `no_return_in_roi`, `grazing` (the `reason` of
+    /// `pmon check --format jsonl`'s `outside_roi` records for the last two).
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::NoRoi => "no_roi",
+            Self::Inside => "inside",
+            Self::Outside => "no_return_in_roi",
+            Self::Grazing => "grazing",
+        }
+    }
+
+    /// Code for the C API and Python: 0 no ROI, 1 inside, 2 outside (no return in it), 3 grazing.
+    #[must_use]
+    pub const fn code(self) -> u32 {
+        match self {
+            Self::NoRoi => 0,
+            Self::Inside => 1,
+            Self::Outside => 2,
+            Self::Grazing => 3,
+        }
+    }
+}
+
+impl core::fmt::Display for RoiStatus {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
     }
 }
 

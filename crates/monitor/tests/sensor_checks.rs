@@ -217,6 +217,8 @@ fn kerb_side_scenery_that_grazes_the_roi_is_no_missed_object_a_road_user_in_the_
             // Reported, not deleted: the clusters are the same with and without the rule, only the ROI verdict
             // differs (a grazing one is unexplained evidence outside the ROI).
             assert!(!rep.clusters.is_empty() && rep.clusters.iter().all(|c| c.object.is_none()), "{what}");
+            // The reason agrees with the outcome on every cluster.
+            assert!(rep.clusters.iter().all(|c| c.in_roi == c.roi.in_roi()), "{what}: {:?}", rep.clusters);
         }
     }
     // The height decides with the fraction: a lower threshold than the canopy (4 m) or a fraction of 0.3 turns
@@ -230,6 +232,84 @@ fn kerb_side_scenery_that_grazes_the_roi_is_no_missed_object_a_road_user_in_the_
             MonitorParams { roi_graze_fraction: fraction, roi_graze_height_m: height, ..MonitorParams::default() };
         let mut m = Monitor::new(params).unwrap();
         assert_eq!(m.check(&frame).unwrap().missed_objects(), want, "fraction {fraction}, height {height} m");
+    }
+}
+
+/// The reason a cluster is in the region of interest or outside it (`ClusterReport::roi`): `NoRoi` in a frame
+/// without one, `Inside`, `Outside` (no band return in it), `Grazing` (the grazing rule), in one frame holding a
+/// tree grazing the road, a post behind the kerb and a pedestrian in the road; and each decided by the cells alone,
+/// by the returns of edge cells (rule off: `roi_by_returns`; rule on: `roi_by_amount`), or by the height.
+#[test]
+fn a_cluster_carries_why_it_is_in_the_roi_or_outside() {
+    use pmon_monitor::RoiStatus;
+    let band = [0.5, 1.0, 1.5, 2.0];
+    // The tree of the grazing test: trunk behind the kerb line y = 5, low branches over the road, a canopy.
+    let mut scene = block(15.0, 15.4, 5.1, 6.0, &band);
+    scene.extend(block(15.0, 15.5, 4.8, 4.9, &[2.0, 2.4]));
+    scene.extend(block(14.0, 16.5, 4.0, 7.0, &[5.0, 6.0, 7.0]));
+    // A post 3 m behind the kerb, and a pedestrian 2 m into the road.
+    scene.extend(block(25.0, 25.4, 8.0, 8.4, &band));
+    scene.extend(block(10.0, 10.5, 2.5, 3.0, &band));
+    let mut pts = ground_points(45.0);
+    pts.extend(scene);
+    let pts = to_sensor(&pts);
+    let road: [[f32; 2]; 4] = [[0.0, -20.0], [40.0, -20.0], [40.0, 5.0], [0.0, 5.0]];
+    let polys: [&[[f32; 2]]; 1] = [&road];
+    let status_at = |rep: &pmon_monitor::FrameReport<'_>, x: f32, y: f32| -> RoiStatus {
+        let c = rep
+            .clusters
+            .iter()
+            .find(|c| {
+                c.bounds_m[0] - 0.5 <= x
+                    && x <= c.bounds_m[2] + 0.5
+                    && c.bounds_m[1] - 0.5 <= y
+                    && y <= c.bounds_m[3] + 0.5
+            })
+            .unwrap_or_else(|| panic!("no cluster at ({x}, {y}): {:?}", rep.clusters));
+        assert_eq!(c.in_roi, c.roi.in_roi(), "{c:?}");
+        assert_eq!(c.is_outside_roi(), !c.in_roi && c.object.is_none(), "{c:?}");
+        c.roi
+    };
+    let (tree, post, pedestrian) = ((15.2, 5.5), (25.2, 8.2), (10.25, 2.75));
+    // (fraction, with the ROI, tree, post, pedestrian)
+    let cases = [
+        (0.5, true, RoiStatus::Grazing, RoiStatus::Outside, RoiStatus::Inside),
+        (0.0, true, RoiStatus::Inside, RoiStatus::Outside, RoiStatus::Inside),
+        (0.5, false, RoiStatus::NoRoi, RoiStatus::NoRoi, RoiStatus::NoRoi),
+    ];
+    for (fraction, with_roi, want_tree, want_post, want_pedestrian) in cases {
+        let roi: &[&[[f32; 2]]] = if with_roi { &polys } else { &[] };
+        let frame = frame_at_origin(&[], &pts, roi, &[]);
+        let mut m = Monitor::new(MonitorParams { roi_graze_fraction: fraction, ..MonitorParams::default() }).unwrap();
+        let rep = m.check(&frame).unwrap();
+        let got = [tree, post, pedestrian].map(|(x, y)| status_at(&rep, x, y));
+        assert_eq!(got, [want_tree, want_post, want_pedestrian], "fraction {fraction}, ROI {with_roi}");
+        let excused = rep.clusters.iter().filter(|c| c.is_outside_roi()).count();
+        assert_eq!(excused + rep.missed_objects(), rep.clusters.len());
+    }
+    assert_eq!(
+        [RoiStatus::NoRoi, RoiStatus::Inside, RoiStatus::Outside, RoiStatus::Grazing].map(RoiStatus::name),
+        ["no_roi", "inside", "no_return_in_roi", "grazing"]
+    );
+    // A cluster straddling the kerb line with every return behind it is `Outside` (decided by its returns, with the
+    // rule and without it): the pole of `a_cluster_is_in_the_roi_when_one_of_its_returns_is`.
+    let params = MonitorParams::default();
+    let g = pmon_monitor::GridGeometry::new(params.grid_cells_per_side(), params.cell_size_m);
+    let (_, yc) = g.cell_center(g.point_to_cell(10.2, 7.7).unwrap());
+    let mut pole = ground_points(45.0);
+    for i in 0..=18 {
+        for z in [0.5, 1.0, 1.5] {
+            pole.push([10.05 + 0.05 * i as f32, yc + 0.18, z]);
+            pole.push([10.05 + 0.05 * i as f32, yc + 0.22, z]);
+        }
+    }
+    let pole = to_sensor(&pole);
+    let kerb: [[f32; 2]; 4] = [[0.0, 0.0], [20.0, 0.0], [20.0, yc + 0.15], [0.0, yc + 0.15]];
+    let kerb_polys: [&[[f32; 2]]; 1] = [&kerb];
+    for fraction in [0.5, 0.0] {
+        let mut m = Monitor::new(MonitorParams { roi_graze_fraction: fraction, ..params }).unwrap();
+        let rep = m.check(&frame_at_origin(&[], &pole, &kerb_polys, &[])).unwrap();
+        assert_eq!(status_at(&rep, 10.5, yc + 0.2), RoiStatus::Outside, "fraction {fraction}: {:?}", rep.clusters);
     }
 }
 
@@ -258,6 +338,9 @@ fn displaced_box_off_the_road_takes_its_evidence_outside_the_roi() {
     assert_eq!(o.sensor.verdict, SensorVerdict::PositionError, "{:?} {:?}", o.sensor, rep.clusters);
     let k = o.sensor.cluster.expect("its returns attributed") as usize;
     assert!(!rep.clusters[k].in_roi && rep.clusters[k].object == Some(0), "{:?}", rep.clusters[k]);
+    // Outside, but attributed: not excused by the map (it is the object's position error).
+    assert_eq!(rep.clusters[k].roi, pmon_monitor::RoiStatus::Outside);
+    assert!(!rep.clusters[k].is_outside_roi());
     assert_eq!(rep.missed_objects(), 0);
 }
 

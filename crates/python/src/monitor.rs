@@ -249,6 +249,9 @@ struct ReportColumns {
     c_missed: Vec<bool>,
     c_object: Vec<i32>,
     c_in_roi: Vec<bool>,
+    c_outside_roi: Vec<bool>,
+    /// `RoiStatus::name` per cluster: no_roi, inside, no_return_in_roi, grazing.
+    c_roi: Vec<&'static str>,
     c_f32s: Vec<(&'static str, Vec<f32>)>,
     // summary
     sensor_status: Option<String>,
@@ -347,6 +350,8 @@ fn report_columns(rep: &FrameReport<'_>) -> ReportColumns {
         c.c_missed.push(cl.is_missed_object());
         c.c_object.push(cl.object.and_then(|o| i32::try_from(o).ok()).unwrap_or(-1));
         c.c_in_roi.push(cl.in_roi);
+        c.c_outside_roi.push(cl.is_outside_roi());
+        c.c_roi.push(cl.roi.name());
         let vals = [cl.centroid_m[0], cl.centroid_m[1], cl.bounds_m[0], cl.bounds_m[1], cl.bounds_m[2], cl.bounds_m[3]];
         for ((_, col), v) in c.c_f32s.iter_mut().zip(vals) {
             col.push(v);
@@ -390,6 +395,10 @@ impl ReportColumns {
         clusters.set_item("is_missed_object", self.c_missed.into_pyarray(py))?;
         clusters.set_item("object", self.c_object.into_pyarray(py))?;
         clusters.set_item("in_roi", self.c_in_roi.into_pyarray(py))?;
+        clusters.set_item("is_outside_roi", self.c_outside_roi.into_pyarray(py))?;
+        // An object array of str, one str object per status.
+        let names: Vec<Py<PyAny>> = self.c_roi.iter().map(|t| PyString::new(py, t).into_any().unbind()).collect();
+        clusters.set_item("roi", PyArray1::from_vec(py, names))?;
         for (name, col) in self.c_f32s {
             clusters.set_item(name, col.into_pyarray(py))?;
         }

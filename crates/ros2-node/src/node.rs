@@ -375,8 +375,10 @@ pub fn run(
             }
             let checker = FrameChecker { cfg: t, params, tf: &tf_buf, odometry: &odo };
             let mut verdicts = None;
+            let mut outside_roi = [0, 0];
             let mut sink = |f: &pmon_ros::bag::CheckedFrame<'_>| {
                 verdicts = Some(f.verdicts.clone());
+                outside_roi = pmon_ros::verdicts::outside_roi_counts(f.report);
                 Ok(())
             };
             checker
@@ -386,7 +388,9 @@ pub fn run(
             last_frame_s = secs(started);
             let Some(v) = verdicts else { continue };
             let mut diag = pmon_ros::verdicts::diagnostics(&v);
-            diag.status.extend(pmon_ros::verdicts::check_statuses(&v));
+            let mut statuses = pmon_ros::verdicts::check_statuses(&v);
+            pmon_ros::verdicts::add_outside_roi(&mut statuses, outside_roi);
+            diag.status.extend(statuses);
             let latency_s = secs(started) - arrived_s;
             st.counters.record_latency(v.processing_time_s, latency_s);
             diag.status.push(node_status(&mut st.counters, None));

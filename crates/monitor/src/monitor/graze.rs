@@ -13,7 +13,7 @@
 //! over them) and a road user under a canopy with at least `f` of its returns in the road both stay missed
 //! objects. A road user sharing a cluster with a tree behind the kerb, with less than `f` of the cluster's band
 //! returns inside, does not: that is what the rule gives up. It is reported as before, as unexplained evidence
-//! outside the ROI (`ClusterReport::in_roi` false), not dropped.
+//! outside the ROI (`ClusterReport::in_roi` false, `ClusterReport::roi` = `RoiStatus::Grazing`), not dropped.
 //!
 //! The amount: the band returns of the cluster's cells wholly inside the ROI ([`RoiSide::Inside`]: all of them,
 //! the cell's hit count), plus those of its edge cells found inside one by one (through the cells the rasterizer
@@ -112,6 +112,7 @@ impl Monitor {
                 amount.wait = false;
                 if let Some(c) = self.clusters.get_mut(k) {
                     c.in_roi = true;
+                    c.roi = RoiStatus::Inside;
                 }
                 for &cell in cells {
                     self.grid.set_flags(cell, FLAG_ROI_CONFLICT);
@@ -133,10 +134,15 @@ impl Monitor {
             // `OccupancyGrid::tall`).
             let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
             if cells.iter().any(|&cell| self.grid.tall(cell)) {
+                // Outside by the grazing rule: the reason is kept for the report.
+                if let Some(c) = self.clusters.get_mut(k) {
+                    c.roi = RoiStatus::Grazing;
+                }
                 continue;
             }
             if let Some(c) = self.clusters.get_mut(k) {
                 c.in_roi = true;
+                c.roi = RoiStatus::Inside;
             }
             for &cell in cells {
                 self.grid.set_flags(cell, FLAG_ROI_CONFLICT);
