@@ -2,7 +2,8 @@
 //! NaN, infinities, subnormals) and points, over three frames so that the plausibility checks run. Asserts the
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
 //! and without the params keys `seen_over`, `face_in_front`, `roi_graze_fraction` (with a region of interest) and
-//! `jump_from_returns`, and with or without uncertainties on the objects and a turned sensor.
+//! `jump_from_returns`, with or without uncertainties on the objects and a turned sensor, and with or without
+//! `seen_body`.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -68,6 +69,8 @@ fuzz_target!(|data: &[u8]| {
     // And its next bit: every object carries an uncertainty read from the input (any f32: huge, zero, negative,
     // NaN), as a bag's covariances or an object list's sigmas give it, and the sensor is mounted turned.
     let with_uncertainty = data.first().is_some_and(|b| b & 0x08 != 0);
+    // And its next bit the free-space test's rays on the body only (`seen_body`).
+    let seen_body = data.first().is_some_and(|b| b & 0x04 != 0);
     let half_plane: &[[f32; 2]] = &[[-20.0, -20.0], [0.0, -20.0], [0.0, 20.0], [-20.0, 20.0]];
     let polygons = [half_plane];
     let roi: &[&[[f32; 2]]] = if graze { &polygons } else { &[] };
@@ -78,6 +81,7 @@ fuzz_target!(|data: &[u8]| {
         seen_over,
         face_in_front,
         jump_from_returns,
+        seen_body,
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,
         ..MonitorParams::default()

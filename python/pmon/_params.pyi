@@ -23,6 +23,7 @@ class Params:
     seen_over: bool
     face_in_front: bool
     jump_from_returns: bool
+    seen_body: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

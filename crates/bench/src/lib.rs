@@ -145,6 +145,10 @@ pub struct BenchOptions {
     /// Check with the params key `jump_from_returns` on (step 9 takes evidence centres from the returns: a pass
     /// over the recorded cells per frame; docs/attribution.md). Off: the default parameters.
     pub jump_from_returns: bool,
+    /// Check with the params key `seen_body` on (the free-space test counts only rays that end on the object's
+    /// body: a look at the visibility map's bins across the region of a box the test would flag;
+    /// docs/attribution.md). Off: the default parameters.
+    pub seen_body: bool,
     /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
     /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
     /// "The grazing rule"). Since the rule is the default (issue #10), the default parameters have it on already.
@@ -171,6 +175,7 @@ impl Default for BenchOptions {
             seen_over: false,
             face_in_front: false,
             jump_from_returns: false,
+            seen_body: false,
             roi_graze: false,
             no_roi_graze: false,
         }
@@ -681,6 +686,7 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     p.seen_over = opts.seen_over;
     p.face_in_front = opts.face_in_front;
     p.jump_from_returns = opts.jump_from_returns;
+    p.seen_body = opts.seen_body;
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
     }

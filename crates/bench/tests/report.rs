@@ -18,6 +18,7 @@ fn quick() -> BenchOptions {
         seen_over: false,
         face_in_front: false,
         jump_from_returns: false,
+        seen_body: false,
         roi_graze: false,
         no_roi_graze: false,
     }

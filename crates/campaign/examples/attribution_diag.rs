@@ -7,7 +7,7 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`). With `FULL=1` the runs are those of the full plan
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
@@ -132,6 +132,13 @@ fn explain_false_alarm(
     let vis = monitor.visibility();
     let fp = &g.footprint;
     let margin = g.margin_length_m.max(g.margin_width_m);
+    let mut front = f32::INFINITY;
+    vis.nearest_obstacles_across(&g.grown.corners(), |r, cell, _| {
+        let (cx, cy) = geo.cell_center(cell);
+        if g.grown.contains(cx, cy) {
+            front = front.min(r);
+        }
+    });
     let mut pts = Vec::new();
     for u in [-0.6f32, 0.0, 0.6] {
         for v in [-0.6f32, 0.0, 0.6] {
@@ -141,8 +148,16 @@ fn explain_false_alarm(
                 None => format!("{:?}", vis.sight(x, y)).chars().take(8).collect(),
                 Some((cl, cell)) => {
                     let (cx, cy) = geo.cell_center(cell);
+                    // With `seen_body`: how far the ray ends beyond the body's reach (the box's depth along the
+                    // ray past the nearest return in the grown region's directions whose cell lies in the region).
+                    let (dx, dy) = (x - vis.origin()[0], y - vis.origin()[1]);
+                    let rr = dx.hypot(dy);
+                    let depth = 2.0
+                        * (fp.half_length * ((dx * fp.cos + dy * fp.sin) / rr).abs()
+                            + fp.half_width * ((dy * fp.cos - dx * fp.sin) / rr).abs());
+                    let beyond = rr + cl - depth - front;
                     format!(
-                        "cl {cl:.2}{} obst@truth {:.2} in-grown {} hits {}",
+                        "cl {cl:.2}{} beyond-body {beyond:+.2} obst@truth {:.2} in-grown {} hits {}",
                         if cl > margin { "*" } else { "" },
                         rect_distance(truth, [cx, cy]),
                         u8::from(g.grown.contains(cx, cy)),
@@ -565,6 +580,12 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                         o.width_m,
                         detail.join(" ")
                     );
+                    // `POINTS=1`: the free-space test's points of the missed box too.
+                    if std::env::var_os("POINTS").is_some() {
+                        if let Some(g) = region {
+                            text += &explain_false_alarm(&monitor, truth, o, &g, &run_label);
+                        }
+                    }
                     // `TRACE=1` (with `SEEN_OVER=1`): the seen-over walk of the missed box too.
                     if spec.params.seen_over && std::env::var_os("TRACE").is_some() {
                         if let Some(g) = region {
@@ -604,6 +625,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.face_in_front |= std::env::var_os("FACE").is_some();
             // `JUMP=1`: step 9 from the returns (the params key `jump_from_returns`).
             r.spec.params.jump_from_returns |= std::env::var_os("JUMP").is_some();
+            // `BODY=1`: the free-space test counts only rays that end on the body (the params key `seen_body`).
+            r.spec.params.seen_body |= std::env::var_os("BODY").is_some();
             r
         })
         .collect();

@@ -13,7 +13,8 @@
 //! labels; every check starts with a fresh track memory), as the experiment's one-box curve. With `ONE_BOX=1
 //! HISTORY=1`, only frames that follow another sweep are used, and the previous sweep, clean, is checked right before
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
-//! `FACE=1` checks with the params key `face_in_front`, `JUMP=1` with `jump_from_returns` (step 9 from the returns).
+//! `FACE=1` checks with the params key `face_in_front`, `JUMP=1` with `jump_from_returns` (step 9 from the returns),
+//! `BODY=1` with `seen_body` (the free-space test counts only rays that end on the body).
 //! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
 //! `SPILL=occupied` checks with `SpillOverFit::Occupied` (spill-over fitted over occupied cells only, the default
 //! before issue #10's clean-box round; the default now is every return).
@@ -41,6 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ego_footprint_m: ds.info.format.ego_footprint_m(),
         face_in_front: std::env::var_os("FACE").is_some(),
         jump_from_returns: std::env::var_os("JUMP").is_some(),
+        seen_body: std::env::var_os("BODY").is_some(),
         ..base
     };
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();

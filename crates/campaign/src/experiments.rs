@@ -183,8 +183,15 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 6] =
-    ["spill_over_fit", "seen_over", "face_in_front", "roi_graze_fraction", "roi_graze_height_m", "jump_from_returns"];
+const LATE_PARAMS_KEYS: [&str; 7] = [
+    "spill_over_fit",
+    "seen_over",
+    "face_in_front",
+    "roi_graze_fraction",
+    "roi_graze_height_m",
+    "jump_from_returns",
+    "seen_body",
+];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].
 #[must_use]

@@ -337,7 +337,7 @@ mod tests {
     }
 
     /// Adding a params key must not redraw every run: a key added later (`spill_over_fit`, `seen_over`, `face_in_front`, `roi_graze_fraction`,
-    /// `roi_graze_height_m`) stays out of the
+    /// `roi_graze_height_m`, `seen_body`) stays out of the
     /// identity at its default, and the seeds of the paper's default plan stay those of before (pinned: the
     /// first run of the smoke plan at campaign seed 7, the same bytes `pmon reproduce` wrote before the key).
     /// The key's default moved from `occupied` to `every_return` (issue #10): still left out at the default, so
@@ -349,8 +349,11 @@ mod tests {
         let a = plan(Scale::Smoke, IDS, &params, 7);
         let id = run_identity("pedestrians", &a[0].spec);
         assert!(!id.contains("spill_over_fit") && !id.contains("seen_over") && !id.contains("face_in_front"), "{id}");
-        assert!(!id.contains("roi_graze"), "{id}");
+        assert!(!id.contains("roi_graze") && !id.contains("seen_body"), "{id}");
         assert_eq!(a[0].spec.injection.seed, 5_901_858_983_376_117_566, "{id}");
+        let body = MonitorParams { seen_body: true, ..params };
+        let d = plan(Scale::Smoke, IDS, &body, 7);
+        assert!(run_identity("pedestrians", &d[0].spec).contains("\"seen_body\":true"));
         let over = MonitorParams { seen_over: true, ..params };
         let c = plan(Scale::Smoke, IDS, &over, 7);
         assert!(run_identity("pedestrians", &c[0].spec).contains("\"seen_over\":true"));

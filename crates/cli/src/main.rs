@@ -109,6 +109,10 @@ enum Command {
         /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md).
         #[arg(long)]
         jump_from_returns: bool,
+        /// Check with the params key `seen_body` on: the free-space test towards the sensor counts only rays that
+        /// end on the object's body, not on other returns its grown region owns (docs/attribution.md).
+        #[arg(long)]
+        seen_body: bool,
         /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
         /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
         /// outside it (docs/datasets.md, "The grazing rule"). The default since issue #10.
@@ -221,6 +225,7 @@ fn main() -> ExitCode {
             seen_over,
             face_in_front,
             jump_from_returns,
+            seen_body,
             roi_graze,
             no_roi_graze,
         } => {
@@ -241,6 +246,7 @@ fn main() -> ExitCode {
                 seen_over,
                 face_in_front,
                 jump_from_returns,
+                seen_body,
                 roi_graze,
                 no_roi_graze,
             };

@@ -52,6 +52,20 @@ impl OrientedRect {
         Self { cx, cy, cos, sin, half_length, half_width }
     }
 
+    /// The four corners, in turn round the rectangle.
+    #[must_use]
+    pub fn corners(&self) -> [[f32; 2]; 4] {
+        let (lx, ly) = (self.half_length * self.cos, self.half_length * self.sin);
+        let (wx, wy) = (-self.half_width * self.sin, self.half_width * self.cos);
+        let (cx, cy) = (self.cx, self.cy);
+        [
+            [cx + lx + wx, cy + ly + wy],
+            [cx - lx + wx, cy - ly + wy],
+            [cx - lx - wx, cy - ly - wy],
+            [cx + lx - wx, cy + ly - wy],
+        ]
+    }
+
     /// Axis-aligned bounds `[min_x, min_y, max_x, max_y]`.
     #[must_use]
     pub fn aabb(&self) -> [f32; 4] {

@@ -277,6 +277,15 @@ pub struct MonitorParams {
     /// the default: +17-51 % of the checks' instructions, and up to 0.9 points less combined precision on the
     /// simulated transient errors (Argoverse 2 at 1 m: 10 -> 31 of 38).
     pub jump_from_returns: bool,
+    /// Off by default. The free-space test towards the sensor (a confirmed box whose rays pass through most of
+    /// its footprint and end on its own evidence behind it) counts a ray only when it ends on the object's
+    /// *body*: within the box's depth along the ray (plus `safety_margin_m`) of the nearest return of the
+    /// object's own evidence within the directions its grown region spans. Returns a neighbour's edge or a post
+    /// left in the grown region behind the body (0.6-1.1 m behind a pedestrian) no longer prove that a box
+    /// moved sideways within its stated uncertainty stands in empty space (docs/attribution.md, "Rays that end
+    /// on the body"). Costs a look at the visibility map's bins across the region, only for a box the test
+    /// would flag.
+    pub seen_body: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -366,6 +375,7 @@ impl MonitorParams {
         seen_over: false,
         face_in_front: false,
         jump_from_returns: false,
+        seen_body: false,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {

@@ -54,6 +54,21 @@ impl Bin {
         Self { nearest_obstacle_r2: f32::INFINITY, nearest_obstacle_cell: NO_CELL, farthest_return_r2: 0.0 };
 }
 
+/// The unit direction of a diamond angle (the inverse of [`diamond_angle`], normalised), for `a` in `[0, 4)`.
+fn diamond_direction(a: f32) -> [f32; 2] {
+    let (dx, dy) = if a < 1.0 {
+        (1.0 - a, a)
+    } else if a < 2.0 {
+        (1.0 - a, 2.0 - a)
+    } else if a < 3.0 {
+        (a - 3.0, 2.0 - a)
+    } else {
+        (a - 3.0, a - 4.0)
+    };
+    let norm = libm::sqrtf(dx * dx + dy * dy);
+    [dx / norm, dy / norm]
+}
+
 /// Nearest-obstacle and farthest-return ranges per azimuth bin.
 #[derive(Clone, Debug)]
 pub struct VisibilityMap {
@@ -237,6 +252,43 @@ impl VisibilityMap {
             .then(|| (libm::sqrtf(bin.nearest_obstacle_r2), bin.nearest_obstacle_cell))
     }
 
+    /// Visits the nearest obstacle return (its range, metres, its grid cell, and where it lies, ego frame, taken
+    /// along the middle direction of its bin: within half a bin's angle of the return) of every bin whose
+    /// directions the corners of a convex polygon span (ego frame), bins without an obstacle inside the grid
+    /// left out. Returns
+    /// false, visiting nothing, when the corners span half a turn or more (the polygon holds the sensor or
+    /// reaches round it). Bounded: at most half the bins, plus one.
+    pub fn nearest_obstacles_across(&self, corners: &[[f32; 2]], mut visit: impl FnMut(f32, u32, [f32; 2])) -> bool {
+        let angle = |p: &[f32; 2]| diamond_angle(p[0] - self.origin[0], p[1] - self.origin[1]);
+        let span = |shift: bool| {
+            corners
+                .iter()
+                .map(angle)
+                .map(|a| if shift && a < 2.0 { a + 4.0 } else { a })
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), a| (lo.min(a), hi.max(a)))
+        };
+        let (mut lo, mut hi) = span(false);
+        if hi - lo >= 2.0 {
+            (lo, hi) = span(true);
+        }
+        // No corners leave `lo > hi`. (A corner without a finite direction has the angle 0.)
+        if !(lo <= hi && hi - lo < 2.0) {
+            return false;
+        }
+        let n = self.bins.len();
+        let (first, last) = ((lo * self.bins_per_unit) as usize, (hi * self.bins_per_unit) as usize);
+        for b in first..=last.min(first.saturating_add(n / 2)) {
+            if let Some(bin) = self.bins.get(b % n) {
+                if bin.nearest_obstacle_cell != NO_CELL {
+                    let r = libm::sqrtf(bin.nearest_obstacle_r2);
+                    let d = diamond_direction(((b % n) as f32 + 0.5) / self.bins_per_unit);
+                    visit(r, bin.nearest_obstacle_cell, [self.origin[0] + r * d[0], self.origin[1] + r * d[1]]);
+                }
+            }
+        }
+        true
+    }
+
     /// True when the ego-frame position is visible: before the nearest obstacle and the farthest return of
     /// its bin.
     #[must_use]
@@ -279,6 +331,42 @@ mod tests {
                 assert_eq!(clearance.map(f32::to_bits), want, "round {round}, ({x}, {y})");
             }
         }
+    }
+
+    /// `nearest_obstacles_across` visits exactly the bins whose directions a polygon spans, across the wrap of the
+    /// angle at +x too, each with its return's range and a position within half a bin's angle of the return; and
+    /// visits nothing for a polygon round the sensor.
+    #[test]
+    fn nearest_obstacles_across_visits_the_bins_a_polygon_spans() {
+        let mut v = VisibilityMap::new(720);
+        v.reset([1.0, -2.0]);
+        // One obstacle every degree, 20 m out, cell = degree.
+        for deg in 0..360u32 {
+            let a = (deg as f32 + 0.25).to_radians();
+            v.add_return(1.0 + 20.0 * a.cos(), -2.0 + 20.0 * a.sin(), true, deg);
+        }
+        let square =
+            |cx: f32, cy: f32, h: f32| [[cx - h, cy - h], [cx + h, cy - h], [cx + h, cy + h], [cx - h, cy + h]];
+        for (centre, wrap) in [([11.0f32, 8.0f32], false), ([11.0, -2.0], true), ([-9.0, -2.0], false)] {
+            let mut seen = Vec::new();
+            assert!(v.nearest_obstacles_across(&square(centre[0], centre[1], 1.0), |r, cell, p| {
+                assert!((r - 20.0).abs() < 1e-3, "{r}");
+                let a = (cell as f32 + 0.25).to_radians();
+                let d = ((p[0] - 1.0 - 20.0 * a.cos()).powi(2) + (p[1] + 2.0 - 20.0 * a.sin()).powi(2)).sqrt();
+                assert!(d < 20.0 * 0.5f32.to_radians(), "cell {cell}: {p:?} is {d} m from its return");
+                seen.push(cell);
+            }));
+            // The square 10 m out, 2 m wide, spans about 11.4 degrees: the degrees whose returns fall in its span.
+            let bearing = (centre[1] + 2.0).atan2(centre[0] - 1.0).to_degrees();
+            assert!((10..=13).contains(&seen.len()), "{centre:?}: {seen:?}");
+            for cell in &seen {
+                let off = (*cell as f32 + 0.25 - bearing + 540.0).rem_euclid(360.0) - 180.0;
+                assert!(off.abs() < 7.0, "{centre:?}: cell {cell} is {off} degrees off the bearing {bearing}");
+            }
+            assert_eq!(seen.iter().any(|&c| c > 300) && seen.iter().any(|&c| c < 60), wrap, "{seen:?}");
+        }
+        assert!(!v.nearest_obstacles_across(&square(1.0, -2.0, 1.0), |_, _, _| panic!("round the sensor")));
+        assert!(!v.nearest_obstacles_across(&[], |_, _, _| panic!("no corners")));
     }
 
     #[test]

@@ -619,22 +619,32 @@ impl Monitor {
     /// evidence the object owns (rays that pass beside a box's body, or end on something else, prove
     /// nothing). Points, not cells: the visibility map keeps the ranges of the returns themselves. With the
     /// params key `seen_over`, a point shadowed by another obstacle may count too ([`Monitor::seen_over`]).
+    /// With the params key `seen_body`, a ray that ends on own evidence counts only when it ends on the object's
+    /// *body*: no farther than the box's depth along the ray (plus the safety margin) beyond the nearest return,
+    /// inside the grown region, of the object's own evidence (the visibility map's bins across the region). The
+    /// grown region also owns returns behind the body (a neighbour's edge, a post); a box moved sideways within its
+    /// stated uncertainty lets the rays pass beside the body and end there (docs/attribution.md, "Rays that end
+    /// on the body"). Looked at only for a box the test would flag: one walk over the region's bins.
     pub(super) fn seen_through(&self, j: usize, region: &Region) -> bool {
         let fp = &region.footprint;
         let margin = region.margin_length_m.max(region.margin_width_m);
         let tau = self.params.tau_fn;
+        let own = |c: u32| {
+            self.grid.probability(c) > tau
+                && self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
+        };
+        // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
+        let near_own = |c: u32| own(c) || self.grid.geometry.neighbours4(c).any(own);
+        let o = self.visibility.origin();
         let mut free = 0u32;
+        // With `seen_body`: for each free point whose ray ends on the own evidence, the range where it ends less
+        // the box's depth along the ray (points freed by `seen_over` are not kept: `NEG_INFINITY`).
+        let mut ends = [f32::NEG_INFINITY; 9];
         for u in [-0.6f32, 0.0, 0.6] {
             for v in [-0.6f32, 0.0, 0.6] {
                 let (lu, lv) = (u * fp.half_length, v * fp.half_width);
                 let (x, y) = (fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos);
-                let own = |c: u32| {
-                    self.grid.probability(c) > tau
-                        && self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                        && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
-                };
-                // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
-                let near_own = |c: u32| own(c) || self.grid.geometry.neighbours4(c).any(own);
                 let Some((clearance, cell)) = self.visibility.clearance(x, y) else {
                     let behind_other = |c: u32| c != crate::visibility::NO_CELL && !near_own(c);
                     if self.params.seen_over {
@@ -647,11 +657,44 @@ impl Monitor {
                     continue;
                 };
                 if clearance > margin && near_own(cell) {
+                    if self.params.seen_body {
+                        let (dx, dy) = (x - o[0], y - o[1]);
+                        let r = libm::sqrtf(dx * dx + dy * dy);
+                        // The box's extent along the ray: the ranges of a body inside it differ by no more.
+                        let (along, across) = if r > 0.0 {
+                            ((dx * fp.cos + dy * fp.sin) / r, (dy * fp.cos - dx * fp.sin) / r)
+                        } else {
+                            (1.0, 1.0)
+                        };
+                        let depth = 2.0 * (fp.half_length * along.abs() + fp.half_width * across.abs());
+                        if let Some(end) = ends.get_mut(free as usize) {
+                            *end = r + clearance - depth;
+                        }
+                    }
                     free += 1;
                 }
             }
         }
-        free as f32 >= self.params.ghost_visible_fraction * 9.0
+        let needed = self.params.ghost_visible_fraction * 9.0;
+        if (free as f32) < needed || !self.params.seen_body {
+            return free as f32 >= needed;
+        }
+        // `seen_body`: a ray counts only when it ends on the object's body, within the box's depth (and the
+        // safety margin) of the nearest return of the object's own evidence in the directions the grown region
+        // spans. A ray that passes beside the body and ends on a post or a neighbour's edge behind it, which the
+        // grown region also owns, proves nothing about a box moved sideways within its stated uncertainty.
+        let mut front = f32::INFINITY;
+        if !self.visibility.nearest_obstacles_across(&region.grown.corners(), |r, c, p| {
+            if r < front && own(c) && region.grown.contains(p[0], p[1]) {
+                front = r;
+            }
+        }) {
+            return true;
+        }
+        let reach = front + self.params.safety_margin_m;
+        let on_body = ends.iter().filter(|&&end| end != f32::NEG_INFINITY && end <= reach).count();
+        let freed_over = free as usize - ends.iter().filter(|&&end| end != f32::NEG_INFINITY).count();
+        (on_body + freed_over) as f32 >= needed
     }
 
     /// With `seen_over` (off by default): a sample point of a box that the 2-D visibility map calls shadowed by a
