@@ -778,8 +778,8 @@ fn a_box_is_not_seen_over_an_occluder_by_returns_that_came_beside_it() {
 
 /// Step 3c, evidence that stayed is its track's (issue #10: a displaced object's evidence blamed on its
 /// neighbour). A pedestrian 20 m ahead, confirmed by its returns in one sweep, is reported 1 m further away in the
-/// next while its returns stay where they were; a small labelled object beside those returns (two returns of its
-/// own: not confirmed by them) touches them with its grown region. By geometry alone the neighbour is nearer the
+/// next while its returns stay where they were; a small labelled object beside those returns (one return of its
+/// own: not confirmed by it) touches them with its grown region. By geometry alone the neighbour is nearer the
 /// left-behind returns than the displaced box and takes them: the clean neighbour is a position error. With the
 /// previous sweep, the returns stand where the pedestrian's own evidence should be (its reported motion: standing)
 /// and its box jumped beyond its stated uncertainty: they are the pedestrian's, the pedestrian is the position
@@ -823,6 +823,8 @@ fn evidence_left_behind_by_a_jump_follows_its_track_not_a_touching_neighbour() {
         let v: Vec<_> = r.iter().map(|r| r.sensor.verdict).collect();
         let v0: Vec<_> = r0.iter().map(|r| r.sensor.verdict).collect();
         assert_eq!(v, v0, "jump of {e} m");
+    }
+}
 
 /// Rays that end on the body (params key `seen_body`; cause (c) of the sensor false alarms up to 0.3 m noise,
 /// docs/attribution.md, "Rays that end on the body"). A pedestrian 10 m ahead (0.6 x 0.6 m, 1.75 m tall) with a
