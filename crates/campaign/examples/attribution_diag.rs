@@ -583,7 +583,7 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                     // `POINTS=1`: the free-space test's points of the missed box too.
                     if std::env::var_os("POINTS").is_some() {
                         if let Some(g) = region {
-                            text += &explain_false_alarm(&monitor, truth, o, &g, &run_label);
+                            text += &explain_false_alarm(monitor, truth, o, &g, &run_label);
                         }
                     }
                     // `TRACE=1` (with `SEEN_OVER=1`): the seen-over walk of the missed box too.
