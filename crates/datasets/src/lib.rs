@@ -59,6 +59,13 @@ pub enum DatasetFormat {
 }
 
 impl DatasetFormat {
+    /// True for the formats whose frames carry no LiDAR sweep (object lists only): the sensor checks never run on
+    /// them. A recording may or may not hold sweeps: false.
+    #[must_use]
+    pub const fn is_object_list_only(self) -> bool {
+        matches!(self, Self::KittiTracking | Self::CommonRoad)
+    }
+
     /// The recording vehicle's footprint in this format's ego frame, `[min_x, min_y, max_x, max_y]` metres, for
     /// the monitor's `ego_footprint_m` (returns inside it are the vehicle itself): KITTI's frame is centred on
     /// the roof LiDAR of a 4.8 m x 1.8 m car; nuScenes' and Argoverse 2's on the rear axle. Zeros where the

@@ -109,7 +109,7 @@ pub(crate) fn finish(ds: &mut Dataset, opts: &RoiOptions) {
             if ds.info.notes.iter().any(|n| n.starts_with(ROI_NOTE_PREFIX)) {
                 return; // the reader used the dataset's map and said so
             }
-            if ds.frames.iter().all(|f| f.frame.cloud.is_none()) {
+            if ds.info.format.is_object_list_only() {
                 return; // object lists only (CommonRoad, KITTI tracking labels): no sensor check, nothing to scope
             }
             "none: this dataset has no map, so the whole grid is the ROI and every building, wall and tree in it is \
