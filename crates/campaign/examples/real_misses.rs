@@ -15,6 +15,8 @@
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
 //! `FACE=1` checks with the params key `face_in_front`, `JUMP=1` with `jump_from_returns` (step 9 from the returns),
 //! `BODY=1` with `seen_body` (the free-space test counts only rays that end on the body).
+//! `DETAIL=1` (with `ONE_BOX=1 HISTORY=1`) prints, for each clean box flagged beside a displaced one, where both stand
+//! and the cluster that flagged it.
 //! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
 //! `SPILL=occupied` checks with `SpillOverFit::Occupied` (spill-over fitted over occupied cells only, the default
 //! before issue #10's clean-box round; the default now is every return).
