@@ -12,7 +12,7 @@ use pmon_datasets::roi::{RoiMode, RoiOptions};
 use pmon_datasets::ReadOptions;
 use pmon_monitor::{
     ClusterReport, FrameReport, Monitor, MonitorParams, MotionOutcome, MotionVerdict, NotMonitoredReason, ObjectReport,
-    ObjectState, RoiStatus, SensorVerdict, Verdict,
+    ObjectState, SensorVerdict, Verdict,
 };
 use pmon_recording::{RecordedFrame, RecordingReader};
 use serde::Serialize;
@@ -474,8 +474,8 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
         if rep.sensor_status.is_none() && !frame.roi_in_ego.is_empty() {
             totals.roi_frames += 1;
         }
-        for c in rep.clusters.iter().filter(|c| c.is_outside_roi()) {
-            totals.outside_roi[usize::from(c.roi == RoiStatus::Grazing)] += 1;
+        for (total, n) in totals.outside_roi.iter_mut().zip(rep.outside_roi_counts()) {
+            *total += n as u64;
         }
         let missed = rep.missed_objects() as u64;
         totals.missed_objects += missed;

@@ -525,6 +525,19 @@ impl FrameReport<'_> {
     pub fn missed_objects(&self) -> usize {
         self.clusters.iter().filter(|c| c.is_missed_object()).count()
     }
+
+    /// The clusters the region of interest excused (outside it, attributed to no object; not alarms), by reason:
+    /// `[no band return in the ROI, the grazing rule]` (the `outside_roi` records of `pmon check --format jsonl`).
+    #[must_use]
+    pub fn outside_roi_counts(&self) -> [usize; 2] {
+        let mut n = [0, 0];
+        for c in self.clusters.iter().filter(|c| c.is_outside_roi()) {
+            if let Some(k) = n.get_mut(usize::from(c.roi == RoiStatus::Grazing)) {
+                *k += 1;
+            }
+        }
+        n
+    }
 }
 
 /// A frame the monitor refuses as a whole.

@@ -1,6 +1,6 @@
 //! The monitor's report -> `pmon_msgs/FrameVerdicts` and `diagnostic_msgs/DiagnosticArray`.
 
-use pmon_monitor::{FrameReport, ObjectState, RoiStatus, Verdict};
+use pmon_monitor::{FrameReport, ObjectState, Verdict};
 
 use crate::msg::{
     DiagnosticArray, DiagnosticStatus, FrameVerdicts, Header, KeyValue, MissedObject, ObjectVerdict, Time, Uuid,
@@ -233,23 +233,9 @@ pub fn check_statuses(v: &FrameVerdicts) -> Vec<DiagnosticStatus> {
     ]
 }
 
-/// The clusters the region of interest excused in a frame (outside it, attributed to no object; not alarms), by
-/// reason: `[no band return in the ROI, the grazing rule]` (the `outside_roi` records of `pmon check --format
-/// jsonl`).
-#[must_use]
-pub fn outside_roi_counts(rep: &FrameReport<'_>) -> [usize; 2] {
-    let mut n = [0, 0];
-    for c in rep.clusters.iter().filter(|c| c.is_outside_roi()) {
-        if let Some(k) = n.get_mut(usize::from(c.roi == RoiStatus::Grazing)) {
-            *k += 1;
-        }
-    }
-    n
-}
-
-/// Adds the counts of [`outside_roi_counts`] to the missed-objects status of [`check_statuses`] (the live node's
-/// per-check statuses) as the key-values `outside_roi_no_return` and `outside_roi_grazing`: what the map excused
-/// is counted beside the alarms, and changes no level. (`pmon_msgs/FrameVerdicts` and the frame status of
+/// Adds the counts of [`FrameReport::outside_roi_counts`] to the missed-objects status of [`check_statuses`] (the
+/// live node's per-check statuses) as the key-values `outside_roi_no_return` and `outside_roi_grazing`: what the
+/// map excused is counted beside the alarms, and changes no level. (`pmon_msgs/FrameVerdicts` and the frame status of
 /// [`diagnostics`] are unchanged.)
 pub fn add_outside_roi(statuses: &mut [DiagnosticStatus], counts: [usize; 2]) {
     if let Some(s) = statuses.iter_mut().find(|s| s.name == check_names::MISSED) {
@@ -299,7 +285,7 @@ mod tests {
 
     #[test]
     fn clusters_outside_the_roi_are_counted_by_reason_and_change_no_level() {
-        use pmon_monitor::{ClusterReport, GridStats};
+        use pmon_monitor::{ClusterReport, GridStats, RoiStatus};
         let cluster = |roi: RoiStatus, object: Option<u32>| ClusterReport {
             cells: 3,
             centroid_m: [1.0, 2.0],
@@ -316,10 +302,10 @@ mod tests {
             cluster(RoiStatus::Inside, Some(0)),
         ];
         let rep = FrameReport { objects: &[], clusters: &clusters, grid: GridStats::default(), sensor_status: None };
-        assert_eq!(outside_roi_counts(&rep), [2, 1]);
+        assert_eq!(rep.outside_roi_counts(), [2, 1]);
         let v = FrameVerdicts { cloud_paired: true, ..Default::default() };
         let mut s = check_statuses(&v);
-        add_outside_roi(&mut s, outside_roi_counts(&rep));
+        add_outside_roi(&mut s, rep.outside_roi_counts());
         let missed = s.iter().find(|s| s.name == check_names::MISSED).unwrap();
         assert_eq!(missed.level, level::OK);
         let keys: Vec<(&str, &str)> = missed.values.iter().map(|kv| (kv.key.as_str(), kv.value.as_str())).collect();

@@ -378,7 +378,7 @@ pub fn run(
             let mut outside_roi = [0, 0];
             let mut sink = |f: &pmon_ros::bag::CheckedFrame<'_>| {
                 verdicts = Some(f.verdicts.clone());
-                outside_roi = pmon_ros::verdicts::outside_roi_counts(f.report);
+                outside_roi = f.report.outside_roi_counts();
                 Ok(())
             };
             checker
