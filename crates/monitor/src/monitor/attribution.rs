@@ -321,6 +321,9 @@ impl Monitor {
         let gate = self.params.conflict_association_m;
         let follow = 0.5 * gate;
         for s in &self.scratch {
+            // Step 3c: where its own evidence of the last frame should stand now, when that left its region (never
+            // for a track whose evidence was displaced then: `stayed_evidence` asks for its own).
+            let stayed = s.region.and_then(|r| stayed_evidence(s, &r));
             let entry = match s.region {
                 None => ([f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY], 0),
                 Some(r) => {
@@ -330,7 +333,7 @@ impl Monitor {
                     }
                     if matches!(s.recalled, Some((EvidenceKind::Displaced, _))) {
                         bits |= CANDIDATE_DISPLACED;
-                    } else if stayed_evidence(s, &r).is_some() {
+                    } else if stayed.is_some() {
                         bits |= CANDIDATE_STAYED;
                     }
                     (r.grown.aabb(), bits)
@@ -351,10 +354,8 @@ impl Monitor {
                     }
                 }
                 // Step 3c: its own evidence of the last frame, where the track's motion puts it, left its region.
-                if entry.1 & CANDIDATE_STAYED != 0 && self.displaced.len() < self.displaced.capacity() {
-                    if let Some(expected) = s.region.and_then(|r| stayed_evidence(s, &r)) {
-                        self.displaced.push((index, expected));
-                    }
+                if let Some(expected) = stayed.filter(|_| self.displaced.len() < self.displaced.capacity()) {
+                    self.displaced.push((index, expected));
                 }
             }
         }
