@@ -140,29 +140,16 @@ class CheckResult:
                 r["error_unit"] = o["error_unit"][i]
                 r["severity"] = o["severity"][i]
             out.append({k: _json_value(v) for k, v in r.items()})
-        m = self.missed
-        for i in range(len(m["cells"])):
-            out.append({
-                "frame": frame,
-                "timestamp_s": self.timestamp_s,
-                "verdict": "missed_object",
-                "centroid_m": [m["centroid_x_m"][i], m["centroid_y_m"][i]],
-                "bounds_m": [m["min_x_m"][i], m["min_y_m"][i], m["max_x_m"][i], m["max_y_m"][i]],
-                "cells": int(m["cells"][i]),
-            })
-            out[-1] = {k: _json_value(v) for k, v in out[-1].items()}
-        e = self.outside_roi
-        for i in range(len(e["cells"])):
-            out.append({
-                "frame": frame,
-                "timestamp_s": self.timestamp_s,
-                "verdict": "outside_roi",
-                "reason": e["roi"][i],
-                "centroid_m": [e["centroid_x_m"][i], e["centroid_y_m"][i]],
-                "bounds_m": [e["min_x_m"][i], e["min_y_m"][i], e["max_x_m"][i], e["max_y_m"][i]],
-                "cells": int(e["cells"][i]),
-            })
-            out[-1] = {k: _json_value(v) for k, v in out[-1].items()}
+        # The missed objects, then the clusters the region of interest excused (with their reason).
+        for verdict, c in (("missed_object", self.missed), ("outside_roi", self.outside_roi)):
+            for i in range(len(c["cells"])):
+                r = {"frame": frame, "timestamp_s": self.timestamp_s, "verdict": verdict}
+                if verdict == "outside_roi":
+                    r["reason"] = c["roi"][i]
+                r["centroid_m"] = [c["centroid_x_m"][i], c["centroid_y_m"][i]]
+                r["bounds_m"] = [c["min_x_m"][i], c["min_y_m"][i], c["max_x_m"][i], c["max_y_m"][i]]
+                r["cells"] = int(c["cells"][i])
+                out.append({k: _json_value(v) for k, v in r.items()})
         return out
 
 
