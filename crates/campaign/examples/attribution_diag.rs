@@ -14,6 +14,9 @@
 //! also the free-space test's walk over the occluder, traced from the outside); `MISSES=1` lists each verifiable
 //! miss, and `TRACE=1` with `SEEN_OVER=1` adds that trace to each. `TRANSIENT=1` adds the transient random
 //! position errors (`random_position_*`: sensor recall over every injected error and the combined precision).
+//! `HELD=1` adds, per row and summed per curve, the false alarms on clean object states by the length of the
+//! streak of consecutive flagged frames they belong to, and how many of those streaks began with a foreign cluster
+//! (a memory cascade when the streak is long).
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -397,6 +400,64 @@ fn seen_over_trace(
     out
 }
 
+/// `HELD=1`: the false alarms on clean object states grouped by the length of the streak of consecutive frames
+/// in which that track was flagged while clean (1, 2-5, 6-20, > 20 frames), and, per group, those whose streak
+/// began with a foreign cluster (a cluster not at the object's true place): `[alarms, began foreign]` per group.
+/// A long streak that began with a foreign cluster is a memory cascade (docs/attribution.md).
+fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 4], String> {
+    let spec = &run.spec;
+    let mut out = [[0u64; 2]; 4];
+    // Track id -> (streak length so far, began with a foreign cluster, seen in this frame).
+    let mut streaks: BTreeMap<u64, (u64, bool, bool)> = BTreeMap::new();
+    let close = |out: &mut [[u64; 2]; 4], (n, foreign): (u64, bool)| {
+        let b = match n {
+            0 => return,
+            1 => 0,
+            2..=5 => 1,
+            6..=20 => 2,
+            _ => 3,
+        };
+        if let Some(x) = out.get_mut(b) {
+            x[0] += n;
+            x[1] += if foreign { n } else { 0 };
+        }
+    };
+    pmon_campaign::paired_frames(scene, spec, |f| {
+        for v in streaks.values_mut() {
+            v.2 = false;
+        }
+        for (i, r) in f.reports.iter().enumerate() {
+            let injected = f.injections.iter().any(|x| x.index as usize == i);
+            let alarm = pmon_campaign::in_scope(r.sensor.verdict)
+                && matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+            let (Some(truth), Some(o)) = (f.clean.objects.get(i), f.objects.get(i)) else { continue };
+            if injected || !alarm {
+                continue;
+            }
+            let e = streaks.entry(o.id).or_insert((0, false, false));
+            if e.0 == 0 {
+                let truth_region = f.clean_monitor.region_of(truth);
+                e.1 = r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c))).is_some_and(|c| {
+                    !truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
+                });
+            }
+            e.0 += 1;
+            e.2 = true;
+        }
+        for v in streaks.values_mut() {
+            if !v.2 {
+                close(&mut out, (v.0, v.1));
+                *v = (0, false, false);
+            }
+        }
+        Ok(())
+    })?;
+    for v in streaks.values() {
+        close(&mut out, (v.0, v.1));
+    }
+    Ok(out)
+}
+
 /// Why a clean object state raised an alarm, or why an injected, verifiable one did not.
 fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
     let run_label = label(run);
@@ -636,13 +697,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let scene = scenes.get(r.spec.scene).ok_or("no scene")?;
             let res = run_one(scene, &r.spec)?;
             let c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
-            Ok::<_, String>((res, c))
+            let h = if std::env::var_os("HELD").is_some() { Some(held(scene, r)?) } else { None };
+            Ok::<_, String>((res, c, h))
         })
         .collect::<Result<_, _>>()?;
     let mut fa_total = (0u64, 0u64);
     let mut fa_by_curve: BTreeMap<String, (u64, u64)> = BTreeMap::new();
     let mut all_causes: BTreeMap<String, BTreeMap<String, u64>> = BTreeMap::new();
-    for (r, (res, c)) in chosen.iter().zip(&results) {
+    // `HELD=1`: per row group (false alarms, paper, hard, towards, transient), the streak buckets summed.
+    let mut held_by_group: BTreeMap<String, [[u64; 2]; 4]> = BTreeMap::new();
+    for (r, (res, c, h)) in chosen.iter().zip(&results) {
         let m = &res.metrics;
         let l = label(r);
         if l.starts_with("false_alarms") {
@@ -676,6 +740,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 m.sensor.alarms
             );
         }
+        if let Some(h) = h {
+            let row = |h: &[[u64; 2]; 4]| {
+                format!(
+                    "FA by streak 1: {} ({}) | 2-5: {} ({}) | 6-20: {} ({}) | >20: {} ({})",
+                    h[0][0], h[0][1], h[1][0], h[1][1], h[2][0], h[2][1], h[3][0], h[3][1]
+                )
+            };
+            println!("    HELD {}  [(n): began with a foreign cluster]", row(h));
+            let g = held_by_group.entry(l.split(" @ ").next().unwrap_or_default().to_string()).or_default();
+            for (a, b) in g.iter_mut().zip(h) {
+                a[0] += b[0];
+                a[1] += b[1];
+            }
+        }
         let group = if std::env::var("BYMAG").is_ok() {
             l.clone()
         } else {
@@ -687,6 +765,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     println!("sensor false alarms up to 0.3 m noise: {} in {}", fa_total.0, fa_total.1);
+    for (group, h) in &held_by_group {
+        let total: u64 = h.iter().map(|x| x[0]).sum();
+        let cascade = h[2][1] + h[3][1];
+        println!(
+            "HELD total {group}: {total} FA; streak 1: {} | 2-5: {} | 6-20: {} ({} began foreign) | >20: {} ({} began foreign); cascades (streak > 5, began foreign): {cascade}",
+            h[0][0], h[1][0], h[2][0], h[2][1], h[3][0], h[3][1]
+        );
+    }
     if correlated {
         for (curve, (k, n)) in &fa_by_curve {
             println!("  {curve}: {k} in {n}");
