@@ -7,7 +7,7 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`). With `FULL=1` the runs are those of the full plan
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
@@ -434,6 +434,9 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 4], String> {
             if injected || !alarm {
                 continue;
             }
+            if std::env::var("TRACK").ok().and_then(|t| t.parse::<u64>().ok()) == Some(o.id) {
+                track_line(f, i);
+            }
             let e = streaks.entry(o.id).or_insert((0, false, false));
             if e.0 == 0 {
                 let truth_region = f.clean_monitor.region_of(truth);
@@ -444,8 +447,17 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 4], String> {
             e.0 += 1;
             e.2 = true;
         }
-        for v in streaks.values_mut() {
+        for (id, v) in &mut streaks {
             if !v.2 {
+                if v.0 > 5 && std::env::var_os("STREAKS").is_some() {
+                    eprintln!(
+                        "STREAK [{}] id {id} frames {}..{} foreign {}",
+                        label(run),
+                        f.k as u64 - v.0,
+                        f.k - 1,
+                        v.1
+                    );
+                }
                 close(&mut out, (v.0, v.1));
                 *v = (0, false, false);
             }
@@ -456,6 +468,65 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 4], String> {
         close(&mut out, (v.0, v.1));
     }
     Ok(out)
+}
+
+/// `HELD=1 TRACK=ID`: one line per frame in which clean track `ID` is flagged: its box and true place, stated
+/// motion, the cluster it took and whose true place holds that cluster (with that object's box, verdict, cluster).
+fn track_line(f: &pmon_campaign::PairedFrame<'_>, i: usize) {
+    let (Some(r), Some(o), Some(t)) = (f.reports.get(i), f.objects.get(i), f.clean.objects.get(i)) else { return };
+    let c = r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c)));
+    let whose = c.map_or(String::from("-"), |c| {
+        let owners: Vec<String> = f
+            .clean
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(m, tm)| {
+                *m != i
+                    && f.clean_monitor
+                        .region_of(tm)
+                        .is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
+            })
+            .map(|(m, tm)| {
+                let om = f.objects.get(m).copied().unwrap_or(*tm);
+                let rm = f.reports.get(m);
+                format!(
+                    "id {} inj {} box ({:.1},{:.1}) truth ({:.1},{:.1}) verdict {:?} cluster {:?} eta_own {:.2}",
+                    tm.id,
+                    u8::from(f.injections.iter().any(|x| x.index as usize == m)),
+                    om.x_m,
+                    om.y_m,
+                    tm.x_m,
+                    tm.y_m,
+                    rm.map(|r| r.sensor.verdict),
+                    rm.and_then(|r| r.sensor.cluster),
+                    rm.map_or(0.0, |r| r.sensor.eta_own)
+                )
+            })
+            .collect();
+        format!(
+            "c ({:.2},{:.2}) {} cells, true place of: [{}]",
+            c.centroid_m[0],
+            c.centroid_m[1],
+            c.cells,
+            owners.join("; ")
+        )
+    });
+    eprintln!(
+        "TRACK frame {} id {} box ({:.2},{:.2}) truth ({:.2},{:.2}) v {:.1} hdg {:.2} {:?} offset ({:.2},{:.2}) vis {:.2} {whose}",
+        f.k,
+        o.id,
+        o.x_m,
+        o.y_m,
+        t.x_m,
+        t.y_m,
+        o.speed_mps,
+        o.heading_rad,
+        r.sensor.verdict,
+        r.sensor.offset_m[0],
+        r.sensor.offset_m[1],
+        r.sensor.visible_fraction
+    );
 }
 
 /// Why a clean object state raised an alarm, or why an injected, verifiable one did not.
@@ -688,6 +759,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.jump_from_returns |= std::env::var_os("JUMP").is_some();
             // `BODY=1`: the free-space test counts only rays that end on the body (the params key `seen_body`).
             r.spec.params.seen_body |= std::env::var_os("BODY").is_some();
+            // `MEMGATE=1`: evidence beyond the gate is never a box's (the params key `memory_gate`).
+            r.spec.params.memory_gate |= std::env::var_os("MEMGATE").is_some();
             r
         })
         .collect();
