@@ -3,7 +3,7 @@
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
 //! and without the params keys `seen_over`, `face_in_front`, `roi_graze_fraction` (with a region of interest) and
 //! `jump_from_returns`, with or without uncertainties on the objects and a turned sensor, and with or without
-//! `seen_body`.
+//! `seen_body` and `memory_gate`.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -71,6 +71,8 @@ fuzz_target!(|data: &[u8]| {
     let with_uncertainty = data.first().is_some_and(|b| b & 0x08 != 0);
     // And its next bit the free-space test's rays on the body only (`seen_body`).
     let seen_body = data.first().is_some_and(|b| b & 0x04 != 0);
+    // And its next bit evidence bounded by the gate (`memory_gate`).
+    let memory_gate = data.first().is_some_and(|b| b & 0x02 != 0);
     let half_plane: &[[f32; 2]] = &[[-20.0, -20.0], [0.0, -20.0], [0.0, 20.0], [-20.0, 20.0]];
     let polygons = [half_plane];
     let roi: &[&[[f32; 2]]] = if graze { &polygons } else { &[] };
@@ -82,6 +84,7 @@ fuzz_target!(|data: &[u8]| {
         face_in_front,
         jump_from_returns,
         seen_body,
+        memory_gate,
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,
         ..MonitorParams::default()

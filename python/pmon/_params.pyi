@@ -24,6 +24,7 @@ class Params:
     face_in_front: bool
     jump_from_returns: bool
     seen_body: bool
+    memory_gate: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

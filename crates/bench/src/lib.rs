@@ -149,6 +149,9 @@ pub struct BenchOptions {
     /// body: a look at the visibility map's bins across the region of a box the test would flag;
     /// docs/attribution.md). Off: the default parameters.
     pub seen_body: bool,
+    /// Check with the params key `memory_gate` on (evidence beyond `conflict_association_m` of a box is never its:
+    /// step 8 and the occluder rule bounded; docs/attribution.md). Off: the default parameters.
+    pub memory_gate: bool,
     /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
     /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
     /// "The grazing rule"). Since the rule is the default (issue #10), the default parameters have it on already.
@@ -176,6 +179,7 @@ impl Default for BenchOptions {
             face_in_front: false,
             jump_from_returns: false,
             seen_body: false,
+            memory_gate: false,
             roi_graze: false,
             no_roi_graze: false,
         }
@@ -687,6 +691,7 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     p.face_in_front = opts.face_in_front;
     p.jump_from_returns = opts.jump_from_returns;
     p.seen_body = opts.seen_body;
+    p.memory_gate = opts.memory_gate;
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
     }

@@ -19,6 +19,7 @@ fn quick() -> BenchOptions {
         face_in_front: false,
         jump_from_returns: false,
         seen_body: false,
+        memory_gate: false,
         roi_graze: false,
         no_roi_graze: false,
     }

@@ -7,13 +7,16 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`). With `FULL=1` the runs are those of the full plan
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
 //! also the free-space test's walk over the occluder, traced from the outside); `MISSES=1` lists each verifiable
 //! miss, and `TRACE=1` with `SEEN_OVER=1` adds that trace to each. `TRANSIENT=1` adds the transient random
 //! position errors (`random_position_*`: sensor recall over every injected error and the combined precision).
+//! `HELD=1` adds, per row and summed per curve, the false alarms on clean object states by the length of the
+//! streak of consecutive flagged frames they belong to, and how many of those streaks began with a foreign cluster
+//! (a memory cascade when the streak is long).
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -397,6 +400,143 @@ fn seen_over_trace(
     out
 }
 
+/// `HELD=1`: the false alarms on clean object states grouped by the length of the streak of consecutive frames
+/// in which that track was flagged while clean (1, 2-5, 6-20, > 20 frames), and, per group, those whose streak
+/// began with a foreign cluster (a cluster not at the object's true place): `[alarms, began foreign]` per group.
+/// A long streak that began with a foreign cluster is a memory cascade (docs/attribution.md). Last: verifiable
+/// errors found, and of them those whose reported offset exceeds `conflict_association_m` + 1 m.
+fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 5], String> {
+    let spec = &run.spec;
+    let mut out = [[0u64; 2]; 5];
+    // Track id -> (streak length so far, began with a foreign cluster, seen in this frame).
+    let mut streaks: BTreeMap<u64, (u64, bool, bool)> = BTreeMap::new();
+    let close = |out: &mut [[u64; 2]; 5], (n, foreign): (u64, bool)| {
+        let b = match n {
+            0 => return,
+            1 => 0,
+            2..=5 => 1,
+            6..=20 => 2,
+            _ => 3,
+        };
+        if let Some(x) = out.get_mut(b) {
+            x[0] += n;
+            x[1] += if foreign { n } else { 0 };
+        }
+    };
+    pmon_campaign::paired_frames(scene, spec, |f| {
+        for v in streaks.values_mut() {
+            v.2 = false;
+        }
+        for (i, r) in f.reports.iter().enumerate() {
+            let injected = f.injections.iter().any(|x| x.index as usize == i);
+            let alarm = pmon_campaign::in_scope(r.sensor.verdict)
+                && matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+            let (Some(truth), Some(o)) = (f.clean.objects.get(i), f.objects.get(i)) else { continue };
+            if injected && alarm && f.confirmed.get(i).copied().unwrap_or(false) {
+                // A verifiable error found with an offset beyond the gate (plus a metre for the box and the cluster's
+                // extent): found, but credited with evidence that is not its own.
+                let far = r.sensor.offset_m[0].hypot(r.sensor.offset_m[1]) > spec.params.conflict_association_m + 1.0;
+                out[4][0] += 1;
+                out[4][1] += u64::from(far);
+            }
+            if injected || !alarm {
+                continue;
+            }
+            if std::env::var("TRACK").ok().and_then(|t| t.parse::<u64>().ok()) == Some(o.id) {
+                track_line(f, i);
+            }
+            let e = streaks.entry(o.id).or_insert((0, false, false));
+            if e.0 == 0 {
+                let truth_region = f.clean_monitor.region_of(truth);
+                e.1 = r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c))).is_some_and(|c| {
+                    !truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
+                });
+            }
+            e.0 += 1;
+            e.2 = true;
+        }
+        for (id, v) in &mut streaks {
+            if !v.2 {
+                if v.0 > 5 && std::env::var_os("STREAKS").is_some() {
+                    eprintln!(
+                        "STREAK [{}] id {id} frames {}..{} foreign {}",
+                        label(run),
+                        f.k as u64 - v.0,
+                        f.k - 1,
+                        v.1
+                    );
+                }
+                close(&mut out, (v.0, v.1));
+                *v = (0, false, false);
+            }
+        }
+        Ok(())
+    })?;
+    for v in streaks.values() {
+        close(&mut out, (v.0, v.1));
+    }
+    Ok(out)
+}
+
+/// `HELD=1 TRACK=ID`: one line per frame in which clean track `ID` is flagged: its box and true place, stated
+/// motion, the cluster it took and whose true place holds that cluster (with that object's box, verdict, cluster).
+fn track_line(f: &pmon_campaign::PairedFrame<'_>, i: usize) {
+    let (Some(r), Some(o), Some(t)) = (f.reports.get(i), f.objects.get(i), f.clean.objects.get(i)) else { return };
+    let c = r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c)));
+    let whose = c.map_or(String::from("-"), |c| {
+        let owners: Vec<String> = f
+            .clean
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(m, tm)| {
+                *m != i
+                    && f.clean_monitor
+                        .region_of(tm)
+                        .is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
+            })
+            .map(|(m, tm)| {
+                let om = f.objects.get(m).copied().unwrap_or(*tm);
+                let rm = f.reports.get(m);
+                format!(
+                    "id {} inj {} box ({:.1},{:.1}) truth ({:.1},{:.1}) verdict {:?} cluster {:?} eta_own {:.2}",
+                    tm.id,
+                    u8::from(f.injections.iter().any(|x| x.index as usize == m)),
+                    om.x_m,
+                    om.y_m,
+                    tm.x_m,
+                    tm.y_m,
+                    rm.map(|r| r.sensor.verdict),
+                    rm.and_then(|r| r.sensor.cluster),
+                    rm.map_or(0.0, |r| r.sensor.eta_own)
+                )
+            })
+            .collect();
+        format!(
+            "c ({:.2},{:.2}) {} cells, true place of: [{}]",
+            c.centroid_m[0],
+            c.centroid_m[1],
+            c.cells,
+            owners.join("; ")
+        )
+    });
+    eprintln!(
+        "TRACK frame {} id {} box ({:.2},{:.2}) truth ({:.2},{:.2}) v {:.1} hdg {:.2} {:?} offset ({:.2},{:.2}) vis {:.2} {whose}",
+        f.k,
+        o.id,
+        o.x_m,
+        o.y_m,
+        t.x_m,
+        t.y_m,
+        o.speed_mps,
+        o.heading_rad,
+        r.sensor.verdict,
+        r.sensor.offset_m[0],
+        r.sensor.offset_m[1],
+        r.sensor.visible_fraction
+    );
+}
+
 /// Why a clean object state raised an alarm, or why an injected, verifiable one did not.
 fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
     let run_label = label(run);
@@ -627,6 +767,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.jump_from_returns |= std::env::var_os("JUMP").is_some();
             // `BODY=1`: the free-space test counts only rays that end on the body (the params key `seen_body`).
             r.spec.params.seen_body |= std::env::var_os("BODY").is_some();
+            // `MEMGATE=1`: evidence beyond the gate is never a box's (the params key `memory_gate`).
+            r.spec.params.memory_gate |= std::env::var_os("MEMGATE").is_some();
             r
         })
         .collect();
@@ -636,13 +778,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let scene = scenes.get(r.spec.scene).ok_or("no scene")?;
             let res = run_one(scene, &r.spec)?;
             let c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
-            Ok::<_, String>((res, c))
+            let h = if std::env::var_os("HELD").is_some() { Some(held(scene, r)?) } else { None };
+            Ok::<_, String>((res, c, h))
         })
         .collect::<Result<_, _>>()?;
     let mut fa_total = (0u64, 0u64);
     let mut fa_by_curve: BTreeMap<String, (u64, u64)> = BTreeMap::new();
     let mut all_causes: BTreeMap<String, BTreeMap<String, u64>> = BTreeMap::new();
-    for (r, (res, c)) in chosen.iter().zip(&results) {
+    // `HELD=1`: per row group (false alarms, paper, hard, towards, transient), the streak buckets summed.
+    let mut held_by_group: BTreeMap<String, [[u64; 2]; 5]> = BTreeMap::new();
+    for (r, (res, c, h)) in chosen.iter().zip(&results) {
         let m = &res.metrics;
         let l = label(r);
         if l.starts_with("false_alarms") {
@@ -676,6 +821,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 m.sensor.alarms
             );
         }
+        if let Some(h) = h {
+            let row = |h: &[[u64; 2]; 5]| {
+                format!(
+                    "FA by streak 1: {} ({}) | 2-5: {} ({}) | 6-20: {} ({}) | >20: {} ({}) | verifiable found {}, offset beyond gate + 1 m {}",
+                    h[0][0], h[0][1], h[1][0], h[1][1], h[2][0], h[2][1], h[3][0], h[3][1], h[4][0], h[4][1]
+                )
+            };
+            println!("    HELD {}  [(n): began with a foreign cluster]", row(h));
+            let g = held_by_group.entry(l.split(" @ ").next().unwrap_or_default().to_string()).or_default();
+            for (a, b) in g.iter_mut().zip(h) {
+                a[0] += b[0];
+                a[1] += b[1];
+            }
+        }
         let group = if std::env::var("BYMAG").is_ok() {
             l.clone()
         } else {
@@ -687,6 +846,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     println!("sensor false alarms up to 0.3 m noise: {} in {}", fa_total.0, fa_total.1);
+    for (group, h) in &held_by_group {
+        let total: u64 = h.iter().take(4).map(|x| x[0]).sum();
+        let cascade = h[2][1] + h[3][1];
+        println!(
+            "HELD total {group}: {total} FA; streak 1: {} | 2-5: {} | 6-20: {} ({} began foreign) | >20: {} ({} began foreign); cascades (streak > 5, began foreign): {cascade}; verifiable found {}, offset beyond gate + 1 m {}",
+            h[0][0], h[1][0], h[2][0], h[2][1], h[3][0], h[3][1], h[4][0], h[4][1]
+        );
+    }
     if correlated {
         for (curve, (k, n)) in &fa_by_curve {
             println!("  {curve}: {k} in {n}");

@@ -113,6 +113,10 @@ enum Command {
         /// end on the object's body, not on other returns its grown region owns (docs/attribution.md).
         #[arg(long)]
         seen_body: bool,
+        /// Check with the params key `memory_gate` on: evidence farther than `conflict_association_m` from a box is
+        /// never its (step 8 and the occluder rule bounded; docs/attribution.md).
+        #[arg(long)]
+        memory_gate: bool,
         /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
         /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
         /// outside it (docs/datasets.md, "The grazing rule"). The default since issue #10.
@@ -226,6 +230,7 @@ fn main() -> ExitCode {
             face_in_front,
             jump_from_returns,
             seen_body,
+            memory_gate,
             roi_graze,
             no_roi_graze,
         } => {
@@ -247,6 +252,7 @@ fn main() -> ExitCode {
                 face_in_front,
                 jump_from_returns,
                 seen_body,
+                memory_gate,
                 roi_graze,
                 no_roi_graze,
             };

@@ -1043,8 +1043,13 @@ impl Monitor {
                     } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, sight.occluder)
                         .filter(|&k| self.clusters.get(k).is_some_and(|c| c.in_roi && c.object.is_none()))
                     {
-                        self.give(k, j);
-                        cluster = Some(k);
+                        if self.occluder_within_gate(k, &region) {
+                            self.give(k, j);
+                            cluster = Some(k);
+                        } else {
+                            // With `memory_gate`: evidence beyond the gate cannot be this object; it hides it.
+                            occluded = true;
+                        }
                     }
                 }
                 let seen_through =

@@ -286,6 +286,16 @@ pub struct MonitorParams {
     /// on the body"). Costs a look at the visibility map's bins across the region, only for a box the test
     /// would flag.
     pub seen_body: bool,
+    /// Off by default. Evidence farther than `conflict_association_m` from a box is never its evidence, in the
+    /// two places where the sensor checks lacked that bound: (1) step 8 of docs/attribution.md (a hidden track
+    /// remembered as displaced stays flagged while occupied cells lie in a neighbour's margin where its
+    /// remembered offset puts its evidence) counts only cells within the gate of its grown region, as step 4 does
+    /// for clusters; (2) an unconfirmed box hidden behind evidence nobody explains takes that cluster only when it
+    /// stands within the gate; beyond it the cluster is an occluder and the box is `not_monitored(occluded)`
+    /// instead of taking it or being called a ghost. Without it a hidden clean pedestrian 32 m out took a cluster
+    /// 26 m in front of it once and was held displaced for 80 frames (docs/attribution.md, "Evidence beyond the
+    /// gate"). Costs a distance per cell looked at by step 8 and one cluster distance per such box.
+    pub memory_gate: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -376,6 +386,7 @@ impl MonitorParams {
         face_in_front: false,
         jump_from_returns: false,
         seen_body: false,
+        memory_gate: false,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {

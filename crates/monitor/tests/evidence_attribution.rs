@@ -871,3 +871,72 @@ fn rays_that_pass_beside_the_body_and_end_on_a_post_behind_it_prove_nothing() {
         assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "seen_body {key}, at the truth: {:?}", r[0].sensor);
     }
 }
+
+/// Evidence beyond the gate is never a box's (params key `memory_gate`). A clean pedestrian 30 m out, hidden
+/// behind an unlisted post 10 m out (no returns of its own), and a pedestrian truly displaced 1.5 m away from its
+/// returns, over two sweeps. In the first, the hidden box stands behind evidence nobody explains; without the key it
+/// takes that evidence, 20 m in front of it, as its own (`position_error`). In the second a listed neighbour with a
+/// wide margin arrives beside the post and explains it through its margin: without the key the evidence memory
+/// (step 8) holds the hidden box displaced by those cells, 20 m away. With the key the hidden box is
+/// `not_monitored(occluded)` in both sweeps, and the displaced pedestrian, whose evidence a second wide neighbour's
+/// margin explains in the second sweep, stays a `position_error` in both with and without it (its evidence lies
+/// within the gate).
+#[test]
+fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
+    let wide =
+        pmon_monitor::Uncertainty { x_m: 0.3, y_m: 0.3, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 };
+    // The post (0.3 m square, unlisted) and the hidden pedestrian on its bearing, 20 m behind it.
+    let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
+    let bearing = 0.5f32.atan2(10.15);
+    let hidden = object(1, 30.0, 30.0 * bearing.tan(), 0.0, 0.6, 0.6);
+    // The displaced pedestrian: true place (14, -3), reported 1.5 m further away.
+    let truth = object(2, 14.0, -3.0, 0.0, 0.6, 0.6);
+    let displaced = pmon_monitor::ObjectState { x_m: 15.5, ..truth };
+    // Second sweep: neighbours whose wide margins explain the post and the displaced pedestrian's returns.
+    let beside_post = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(3, 10.1, 1.3, 0.0, 0.6, 0.6) };
+    let beside_truth = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(4, 13.9, -2.2, 0.0, 0.6, 0.6) };
+    let mut first = visible_face_points(&post, 0.05);
+    first.extend(visible_face_points(&truth, 0.05));
+    first.extend(ground_points(45.0));
+    let mut second = first.clone();
+    second.extend(visible_face_points(&beside_post, 0.05));
+    second.extend(visible_face_points(&beside_truth, 0.05));
+    let run_at = |m: &mut Monitor, t: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
+        let pts = to_sensor(points);
+        let frame = Frame {
+            timestamp_s: t,
+            world_from_ego: Pose2::default(),
+            objects,
+            cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        m.check(&frame).unwrap().objects.to_vec()
+    };
+    let occluded = SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded);
+    for memory_gate in [false, true] {
+        let mut m = Monitor::new(MonitorParams { memory_gate, ..MonitorParams::default() }).unwrap();
+        let r = run_at(&mut m, 0.0, &[hidden, displaced], &first);
+        let (h, d) = (&r[0].sensor, &r[1].sensor);
+        assert_eq!(d.verdict, SensorVerdict::PositionError, "key {memory_gate}, first sweep, displaced: {d:?}");
+        if memory_gate {
+            assert_eq!(h.verdict, occluded, "first sweep, hidden box behind the post: {h:?}");
+        } else {
+            // Today: the post's evidence, 20 m in front of the box, is taken as the box's own.
+            assert_eq!(h.verdict, SensorVerdict::PositionError, "first sweep without the key: {h:?}");
+            assert!(h.offset_m[0] > 15.0, "the offset points 20 m back to the post: {:?}", h.offset_m);
+        }
+        let r = run_at(&mut m, 0.1, &[hidden, displaced, beside_post, beside_truth], &second);
+        let (h, d) = (&r[0].sensor, &r[1].sensor);
+        assert_eq!(r[2].sensor.verdict, SensorVerdict::Consistent, "neighbour of the post: {:?}", r[2].sensor);
+        assert_eq!(r[3].sensor.verdict, SensorVerdict::Consistent, "neighbour of the truth: {:?}", r[3].sensor);
+        assert_eq!(d.verdict, SensorVerdict::PositionError, "key {memory_gate}, second sweep, displaced: {d:?}");
+        if memory_gate {
+            assert_eq!(h.verdict, occluded, "second sweep, hidden box: {h:?}");
+        } else {
+            // Today: held displaced by cells 20 m away that the neighbour's margin explains (step 8).
+            assert_eq!(h.verdict, SensorVerdict::PositionError, "second sweep without the key: {h:?}");
+            assert!(h.cluster.is_none() && h.offset_m[0] > 15.0, "held by the memory: {h:?}");
+        }
+    }
+}

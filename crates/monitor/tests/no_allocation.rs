@@ -59,15 +59,17 @@ fn check_allocates_nothing_after_construction() {
     // with the face-in-front test, and with the grazing rule of the ROI (a tree below grazes the road's edge), and
     // with step 9 from the returns (`jump_from_returns`: per-cell sums kept by the grid, allocated in `new`; the
     // last frame's boxes jump), and with both (the rasterizer's instantiation that keeps sums and tall bits), and
-    // with the free-space test's rays on the body only (`seen_body`: a walk over the visibility map's bins).
-    for (seen_over, face_in_front, roi_graze_fraction, jump_from_returns, seen_body) in [
-        (false, false, 0.0, false, false),
-        (true, false, 0.0, false, false),
-        (false, true, 0.0, false, false),
-        (false, false, 0.5, false, false),
-        (false, false, 0.0, true, false),
-        (false, false, 0.5, true, false),
-        (false, false, 0.0, false, true),
+    // with the free-space test's rays on the body only (`seen_body`: a walk over the visibility map's bins), and
+    // with evidence bounded by the gate (`memory_gate`).
+    for (seen_over, face_in_front, roi_graze_fraction, jump_from_returns, seen_body, memory_gate) in [
+        (false, false, 0.0, false, false, false),
+        (true, false, 0.0, false, false, false),
+        (false, true, 0.0, false, false, false),
+        (false, false, 0.5, false, false, false),
+        (false, false, 0.0, true, false, false),
+        (false, false, 0.5, true, false, false),
+        (false, false, 0.0, false, true, false),
+        (false, false, 0.0, false, false, true),
     ] {
         let params = MonitorParams {
             max_objects: 64,
@@ -77,6 +79,7 @@ fn check_allocates_nothing_after_construction() {
             roi_graze_fraction,
             jump_from_returns,
             seen_body,
+            memory_gate,
             ..MonitorParams::default()
         };
         let mut monitor = Monitor::new(params).unwrap();
