@@ -142,8 +142,8 @@ pub struct BenchOptions {
     /// Check with the params key `face_in_front` on (a confirmed box whose rays end on its own evidence in front of
     /// its grown region is displaced: docs/attribution.md). Off: the default parameters.
     pub face_in_front: bool,
-    /// Check with the params key `jump_from_returns` on (step 9 takes evidence centres from the returns: a pass
-    /// over the recorded cells per frame; docs/attribution.md). Off: the default parameters.
+    /// Check with the params key `jump_from_returns` on (step 9 takes evidence centres from the returns: the
+    /// rasterizer sums each hit cell's band returns; docs/attribution.md). Off: the default parameters.
     pub jump_from_returns: bool,
     /// Check with the params key `seen_body` on (the free-space test counts only rays that end on the object's
     /// body: a look at the visibility map's bins across the region of a box the test would flag;

@@ -374,9 +374,10 @@ pub struct OccupancyGrid {
     /// from the sensor (m^2), their lowest and their highest z (m); set at the cell's first hit of the frame.
     returns: Vec<[f32; 3]>,
     /// Empty unless [`OccupancyGrid::with_sums`]: per cell with hits, the sum of its obstacle returns' x and y (ego
-    /// frame, metres, added one return at a time in point order) and their number (the params key
-    /// `jump_from_returns`); set to zero at the cell's first hit of the frame.
-    sums: Vec<[f32; 3]>,
+    /// frame, metres, added one return at a time in point order), their number and a zero (the params key
+    /// `jump_from_returns`); set to zero at the cell's first hit of the frame. Four lanes so that a return is
+    /// added as one 4-wide addition of `[x, y, 1, 0]`, whose lanes are the three scalar additions (and `0 + 0`).
+    sums: Vec<[f32; 4]>,
     /// Empty unless [`OccupancyGrid::with_tall`]: one bit per cell, set when a return of the frame in the cell
     /// stands higher than `tall_above_m` (any return of the sweep, in the band or not, ego footprint or not; the
     /// grazing rule's `ground_z_m + roi_graze_height_m`). The reset clears the words when `tall_any` (a bit was set
@@ -390,6 +391,19 @@ pub struct OccupancyGrid {
 
 /// A cell's returns before any: nothing is nearer, lower or higher.
 const NO_RETURNS: [f32; 3] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+
+/// At least this many of a block's 64 points in the grid: [`OccupancyGrid::add_sums`] adds all 64 (those outside
+/// the grid to a spare entry) rather than finding those in the grid one bit at a time.
+const DENSE_SUMS: u32 = 44;
+
+/// Adds a return at `(x, y)` to a cell's sums `[sum x, sum y, count, 0]`: the lanes of one 4-wide addition of
+/// `[x, y, 1, 0]` (the compiler's vector add), each lane the scalar addition it replaces, so the sums are those of
+/// `e[0] + x`, `e[1] + y`, `e[2] + 1` in turn, bit for bit.
+#[inline(always)]
+fn add_return(e: &mut [f32; 4], x: f32, y: f32) {
+    let v = [x, y, 1.0, 0.0];
+    *e = [e[0] + v[0], e[1] + v[1], e[2] + v[2], e[3] + v[3]];
+}
 
 impl OccupancyGrid {
     /// Allocates a grid; `max_touched` bounds the cells touched per frame (at most one per point).
@@ -422,7 +436,8 @@ impl OccupancyGrid {
     /// ([`OccupancyGrid::sums`]; the params key `jump_from_returns`). Allocates one entry per cell.
     #[must_use]
     pub fn with_sums(mut self) -> Self {
-        self.sums = vec![[0.0; 3]; self.hits.len()];
+        // One entry per cell and a spare one after them (see `add_sums`).
+        self.sums = vec![[0.0; 4]; self.hits.len() + 1];
         self
     }
 
@@ -444,7 +459,7 @@ impl OccupancyGrid {
         if self.hits(index) == 0 {
             return None;
         }
-        self.sums.get(index as usize).copied()
+        self.sums.get(index as usize).map(|&[x, y, n, _]| [x, y, n])
     }
 
     /// True when the grid keeps [`OccupancyGrid::sums`].
@@ -490,7 +505,7 @@ impl OccupancyGrid {
     #[inline(always)]
     fn add_sum(&mut self, index: u32, x: f32, y: f32) {
         if let Some(e) = self.sums.get_mut(index as usize) {
-            *e = [e[0] + x, e[1] + y, e[2] + 1.0];
+            add_return(e, x, y);
         }
     }
 
@@ -612,17 +627,36 @@ impl OccupancyGrid {
                 }
             }
         }
-        // The sums: each point in the grid in turn (in point order; the cells new this block were set to zero above,
+        // The sums: each point in the grid in turn, in point order (the cells new this block were set to zero above,
         // before any of their returns is added). A return whose cell could not join a full touched list is added to
         // an entry nobody reads (`sums` needs hits) and set to zero when the cell is first touched.
         if let Some((x, y)) = xy {
+            self.add_sums(cells, in_grid, x, y);
+        }
+    }
+
+    /// The sums of [`OccupancyGrid::add_hits_with_returns`]: adds each point `j` whose bit is set in `in_grid` (its
+    /// cell `cells[j]` is in the grid) to its cell's sums, in point order. A point's cell is clamped to the spare
+    /// entry after the last cell (`with_sums` allocates it; nobody reads it), which no cell in the grid reaches, so
+    /// there is no test per point: where most of a block's points are in the grid every point of the block is
+    /// added, those outside to the spare entry (no bit loop); elsewhere only the points in the grid.
+    #[inline(always)]
+    fn add_sums(&mut self, cells: &[u32; 64], in_grid: u64, x: &[f32; 64], y: &[f32; 64]) {
+        let Some(spare) = self.sums.len().checked_sub(1) else { return };
+        if in_grid.count_ones() >= DENSE_SUMS {
+            for ((&c, &x), &y) in cells.iter().zip(x).zip(y) {
+                if let Some(e) = self.sums.get_mut((c as usize).min(spare)) {
+                    add_return(e, x, y);
+                }
+            }
+        } else {
             let mut points = in_grid;
             while points != 0 {
                 let j = (points.trailing_zeros() & 63) as usize;
                 points &= points - 1;
                 let (Some(&c), Some(&x), Some(&y)) = (cells.get(j), x.get(j), y.get(j)) else { continue };
-                if let Some(e) = self.sums.get_mut(c as usize) {
-                    *e = [e[0] + x, e[1] + y, e[2] + 1.0];
+                if let Some(e) = self.sums.get_mut((c as usize).min(spare)) {
+                    add_return(e, x, y);
                 }
             }
         }
@@ -694,7 +728,7 @@ impl OccupancyGrid {
                 *v = NO_RETURNS;
             }
             if let Some(e) = self.sums.get_mut(index as usize) {
-                *e = [0.0; 3];
+                *e = [0.0; 4];
             }
             if let Some(w) = self.hit_bits.get_mut(index as usize / 64) {
                 *w |= 1 << (index % 64);

@@ -1060,6 +1060,41 @@ mod tests {
         }
     }
 
+    /// The grid's sums (`jump_from_returns`) take one of two paths per block of 64 points: every point at once where
+    /// most are obstacle returns in the grid (those outside added to a spare entry nobody reads), one bit at a
+    /// time elsewhere. Clouds with blocks of each kind, short and long runs of one cell, and points outside the
+    /// grid, below or above the band and not finite among them: the same sums as the reference's additions.
+    #[test]
+    fn blocked_equals_scalar_where_most_points_are_in_the_grid() {
+        let mut rng = Xorshift(7);
+        let t = Isometry3::from_yaw_translation(0.3, [1.0, -0.5, 1.8]);
+        for case in 0..12 {
+            // Out of every 64 points, `outside` are not obstacle returns in the grid: 0 to 40, so that blocks with
+            // 24 to 64 points in the grid come on both sides of the dense path's threshold.
+            let outside = [0, 1, 3, 6, 12, 19, 20, 21, 25, 32, 40, 2][case];
+            let run = 1 + case % 5;
+            let mut points = Vec::new();
+            let mut p = [0.0f32; 3];
+            for i in 0..(64 * 9 + case * 5) {
+                if i % run == 0 {
+                    p = [rng.range(-40.0, 40.0), rng.range(-40.0, 40.0), rng.range(-1.0, 0.5)];
+                }
+                let mut q = [p[0] + rng.range(-0.05, 0.05), p[1] + rng.range(-0.05, 0.05), p[2]];
+                if (i * 37) % 64 < outside {
+                    match i % 5 {
+                        0 => q[0] = 80.0,
+                        1 => q[2] = -3.0,
+                        2 => q[2] = 5.0,
+                        3 => q[1] = f32::NAN,
+                        _ => q[0] = f32::INFINITY,
+                    }
+                }
+                points.push(q);
+            }
+            assert_same(&points, &t, BAND, 200, 0.5, 720);
+        }
+    }
+
     #[test]
     fn falls_back_to_the_reference_for_a_modified_geometry() {
         // A geometry whose private inverse cell size no longer matches: pass 1 cannot reproduce it.
