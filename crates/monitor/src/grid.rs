@@ -29,8 +29,8 @@ const _: () = assert!(MAX_HITS == u8::MAX as u16);
 /// accumulator made it widen every lane to 64 bits (212 instructions per block in the AVX2 loop against about 110).
 #[inline(always)]
 fn run_masks(cells: &[u32; 64], cell_count: usize) -> (u64, u64) {
-    // Cells are u32: a count beyond `u32::MAX` (never: at most 4,096^2 cells) holds every cell but `NO_CELL`'s
-    // `u32::MAX`, as the saturated count does.
+    // Cells are u32; a count beyond `u32::MAX` (never for a grid of validated params: at most 4,096^2 cells) holds
+    // every cell, see the end.
     let count = u32::try_from(cell_count).unwrap_or(u32::MAX);
     // Each cell's successor; the last one's is a value unequal to it, so the block's last cell ends a run.
     let mut next = [0u32; 64];
@@ -52,7 +52,8 @@ fn run_masks(cells: &[u32; 64], cell_count: usize) -> (u64, u64) {
     let (next_lo, next_hi) = next.split_at(32);
     let (e0, g0) = half(lo, next_lo);
     let (e1, g1) = half(hi, next_hi);
-    (e0 | e1 << 32, g0 | g1 << 32)
+    let in_grid = if u32::try_from(cell_count).is_ok() { g0 | g1 << 32 } else { u64::MAX };
+    (e0 | e1 << 32, in_grid)
 }
 
 /// Cell flag: the cell intersects at least one object region `A_o`.
@@ -869,6 +870,32 @@ mod tests {
     use super::*;
 
     proptest::proptest! {
+        /// `run_masks` (two 32-bit halves) against its definition bit by bit, on blocks of few distinct cells (long
+        /// runs), with `NO_CELL`, cells at and above the count and the count 0 and beyond `u32::MAX`.
+        #[test]
+        fn run_masks_are_their_definition(
+            seed in proptest::prelude::any::<u64>(),
+            count in proptest::prop_oneof![0usize..10, 5usize..7, proptest::strategy::Just(u32::MAX as usize + 3)],
+        ) {
+            let mut state = seed | 1;
+            let cells: [u32; 64] = core::array::from_fn(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                match state % 5 {
+                    0 => crate::visibility::NO_CELL,
+                    1 => u32::MAX - 1,
+                    k => (state >> 32) as u32 % 8 + k as u32,
+                }
+            });
+            let (ends, in_grid) = run_masks(&cells, count);
+            for j in 0..64 {
+                let end = j == 63 || cells[j] != cells[j + 1];
+                proptest::prop_assert_eq!(ends >> j & 1 == 1, end, "end bit {}", j);
+                proptest::prop_assert_eq!(in_grid >> j & 1 == 1, (cells[j] as usize) < count, "grid bit {}", j);
+            }
+        }
+
         /// `neighbours4` gives exactly the cells one row or one column away inside the grid: at an edge, no
         /// neighbour wraps to the other end of the neighbouring row (the earlier `index +- 1` did).
         #[test]

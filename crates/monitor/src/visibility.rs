@@ -143,19 +143,31 @@ impl VisibilityMap {
     /// 64-bit comparison decides it. (Until round rast16 the range's bits and the cell were two fields and two
     /// conditional moves; before issue #16's first round, a 64-bit key `(r^2 bits << 32) | point index` in a second
     /// array of bins, copied into this one per frame.)
-    #[inline]
-    pub(crate) fn add_binned(&mut self, bins: &[u32], far_r2: &[f32], near_keys: &[u64]) {
-        const RANGE: u64 = !(u32::MAX as u64);
-        for ((&b, &far), &near) in bins.iter().zip(far_r2).zip(near_keys) {
-            if let Some(bin) = self.bins.get_mut(b as usize) {
-                // The farthest return: a `maxss` (neither range is NaN).
-                bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
-                // The nearest obstacle. An empty bin holds `INFINITY`, whose bits are below `u32::MAX`, so a
-                // point that is no obstacle never wins. Whether a return is the nearest so far is not
-                // predictable in real sweeps: no branch.
-                let old = bin.nearest_obstacle;
-                bin.nearest_obstacle = core::hint::select_unpredictable(near < (old & RANGE), near, old);
+    #[inline(always)]
+    pub(crate) fn add_binned(&mut self, bins: &[u32; 64], far_r2: &[f32; 64], near_keys: &[u64; 64]) {
+        // Four returns per turn of the loop: one loop test for four updates (each update still tests its bin).
+        let (bins, _) = bins.as_chunks::<4>();
+        let (far_r2, _) = far_r2.as_chunks::<4>();
+        let (near_keys, _) = near_keys.as_chunks::<4>();
+        for ((b, far), near) in bins.iter().zip(far_r2).zip(near_keys) {
+            for ((&b, &far), &near) in b.iter().zip(far).zip(near) {
+                self.add_keyed(b, far, near);
             }
+        }
+    }
+
+    /// One return of [`VisibilityMap::add_binned`].
+    #[inline(always)]
+    fn add_keyed(&mut self, b: u32, far: f32, near: u64) {
+        const RANGE: u64 = !(u32::MAX as u64);
+        if let Some(bin) = self.bins.get_mut(b as usize) {
+            // The farthest return: a `maxss` (neither range is NaN).
+            bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
+            // The nearest obstacle. An empty bin holds `INFINITY`, whose bits are below `u32::MAX`, so a point
+            // that is no obstacle never wins. Whether a return is the nearest so far is not predictable in real
+            // sweeps: no branch.
+            let old = bin.nearest_obstacle;
+            bin.nearest_obstacle = core::hint::select_unpredictable(near < (old & RANGE), near, old);
         }
     }
 
@@ -327,6 +339,33 @@ impl VisibilityMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The one 64-bit comparison of `add_binned` (a key below the bin's key with its cell half cleared) decides as
+    /// the strict comparison of the ranges' bits, whatever the cells: equal ranges keep the bin's obstacle, and
+    /// `u32::MAX` (no obstacle) never wins, not even over an empty bin.
+    #[test]
+    fn keys_compare_as_their_ranges() {
+        let ranges =
+            [0u32, 1, 2, 0x3F80_0000, f32::INFINITY.to_bits() - 1, f32::INFINITY.to_bits(), u32::MAX - 1, u32::MAX];
+        let cells = [0u32, 1, 77, NO_CELL - 1, NO_CELL];
+        for &r_new in &ranges {
+            for &r_old in &ranges {
+                for &c_new in &cells {
+                    for &c_old in &cells {
+                        let mut map = VisibilityMap::new(1);
+                        map.bins[0].nearest_obstacle = key(r_old, c_old);
+                        map.add_binned(&[0; 64], &[0.0; 64], &[key(r_new, c_new); 64]);
+                        let want = if r_new < r_old { (r_new, c_new) } else { (r_old, c_old) };
+                        let bin = map.bins[0];
+                        assert_eq!((bin.nearest_r2_bits(), bin.nearest_obstacle_cell()), want);
+                    }
+                }
+            }
+        }
+        let mut map = VisibilityMap::new(1);
+        map.add_binned(&[0; 64], &[0.0; 64], &[key(u32::MAX, 5); 64]);
+        assert_eq!(map.bins[0], Bin::EMPTY, "no obstacle never wins");
+    }
 
     /// `sight_with_clearance` gives `sight` and `clearance`'s distance, bit for bit, at random positions of random
     /// maps (also empty bins, obstacle-free bins and positions at the origin).
