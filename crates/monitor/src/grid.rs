@@ -52,8 +52,23 @@ fn run_masks(cells: &[u32; 64], cell_count: usize) -> (u64, u64) {
     let (next_lo, next_hi) = next.split_at(32);
     let (e0, g0) = half(lo, next_lo);
     let (e1, g1) = half(hi, next_hi);
-    let in_grid = if u32::try_from(cell_count).is_ok() { g0 | g1 << 32 } else { u64::MAX };
-    (e0 | e1 << 32, in_grid)
+    // All ones when the count exceeds every u32 (a compare and a negation, no branch per block).
+    let all = u64::from(u32::try_from(cell_count).is_err()).wrapping_neg();
+    (e0 | e1 << 32, g0 | g1 << 32 | all)
+}
+
+/// Bit j set when `cells[j] < bound`: [`run_masks`]' second mask for any bound, in the same two 32-bit halves.
+#[inline(always)]
+pub(crate) fn bits_below(cells: &[u32; 64], bound: u32) -> u64 {
+    let half = |c: &[u32]| -> u64 {
+        let mut g = 0u32;
+        for (j, &c) in c.iter().enumerate().take(32) {
+            g |= u32::from(c < bound) << j;
+        }
+        u64::from(g)
+    };
+    let (lo, hi) = cells.split_at(32);
+    half(lo) | half(hi) << 32
 }
 
 /// Cell flag: the cell intersects at least one object region `A_o`.
@@ -607,9 +622,9 @@ impl OccupancyGrid {
 
     /// [`OccupancyGrid::add_hits`], and with [`OccupancyGrid::with_returns`] each run's returns folded into its
     /// cell at once: `returns` gives each point's squared range from the sensor (as bits in the upper half of a
-    /// visibility-map key, `crate::visibility::key`: non-negative floats order as their bits) and its z; and with [`OccupancyGrid::with_sums`] each point's x and y from `xy` added to its
-    /// cell's sums, one at a time in point order (the reference's additions). Returns the number of the 64 cells
-    /// that are in the grid.
+    /// visibility-map key, `crate::visibility::key`: non-negative floats order as their bits) and its z; and with
+    /// [`OccupancyGrid::with_sums`] each point's x and y from `xy` added to its cell's sums, one at a time in point
+    /// order (the reference's additions). Returns the number of the 64 cells that are in the grid.
     #[inline(always)]
     pub(crate) fn add_hits_with_returns(
         &mut self,

@@ -32,7 +32,7 @@ use alloc::vec::Vec;
 
 use crate::frame::{Isometry3, PointColumns};
 use crate::geometry::diamond_angle_select;
-use crate::grid::{GridGeometry, OccupancyGrid};
+use crate::grid::{bits_below, GridGeometry, OccupancyGrid};
 use crate::params::MAX_CELLS_PER_SIDE;
 use crate::visibility::{key, BinParams, VisibilityMap, NO_CELL};
 
@@ -408,10 +408,8 @@ impl Block {
         // Most blocks hold no tall return (`NO_CELL` has every bit set: the `and` of the block's entries is `NO_CELL`
         // exactly when none is a cell); in the others, the tall points as a mask, then those alone.
         if TALL && self.tall.iter().fold(NO_CELL, |a, &c| a & c) != NO_CELL {
-            let mut mask = 0u64;
-            for (j, &c) in self.tall.iter().enumerate() {
-                mask |= u64::from(c != NO_CELL) << j;
-            }
+            // `c != NO_CELL` is `c < NO_CELL` (`u32::MAX`).
+            let mut mask = bits_below(&self.tall, NO_CELL);
             while mask != 0 {
                 let j = mask.trailing_zeros() as usize;
                 mask &= mask - 1;

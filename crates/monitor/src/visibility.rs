@@ -145,10 +145,10 @@ impl VisibilityMap {
     /// array of bins, copied into this one per frame.)
     #[inline(always)]
     pub(crate) fn add_binned(&mut self, bins: &[u32; 64], far_r2: &[f32; 64], near_keys: &[u64; 64]) {
-        // Four returns per turn of the loop: one loop test for four updates (each update still tests its bin).
-        let (bins, _) = bins.as_chunks::<4>();
-        let (far_r2, _) = far_r2.as_chunks::<4>();
-        let (near_keys, _) = near_keys.as_chunks::<4>();
+        // Eight returns per turn of the loop: one loop test for eight updates (each update still tests its bin).
+        let (bins, _) = bins.as_chunks::<8>();
+        let (far_r2, _) = far_r2.as_chunks::<8>();
+        let (near_keys, _) = near_keys.as_chunks::<8>();
         for ((b, far), near) in bins.iter().zip(far_r2).zip(near_keys) {
             for ((&b, &far), &near) in b.iter().zip(far).zip(near) {
                 self.add_keyed(b, far, near);
