@@ -19,6 +19,57 @@ use crate::geometry::OrientedRect;
 
 /// Hits beyond this are not counted further (the probability has long saturated).
 pub const MAX_HITS: u16 = 255;
+// `OccupancyGrid::add_run` saturates a byte's addition: at `MAX_HITS` only when it is the byte's maximum.
+const _: () = assert!(MAX_HITS == u8::MAX as u16);
+
+/// For a block of 64 cells (`NO_CELL` or any index at or above `cell_count`: outside the grid): bit j of the first
+/// mask is set when cell j ends a run of equal cells (cell j + 1 differs, or j is 63), bit j of the second when cell
+/// j is in the grid. Written as two halves of 32 bits, each bit a comparison of 32-bit lanes: so the compiler
+/// builds each half from vector compares (8 lanes per AVX2 instruction) and a few `or`s, where one 64-bit
+/// accumulator made it widen every lane to 64 bits (212 instructions per block in the AVX2 loop against about 110).
+#[inline(always)]
+fn run_masks(cells: &[u32; 64], cell_count: usize) -> (u64, u64) {
+    // Cells are u32; a count beyond `u32::MAX` (never for a grid of validated params: at most 4,096^2 cells) holds
+    // every cell, see the end.
+    let count = u32::try_from(cell_count).unwrap_or(u32::MAX);
+    // Each cell's successor; the last one's is a value unequal to it, so the block's last cell ends a run.
+    let mut next = [0u32; 64];
+    for (d, &s) in next.iter_mut().zip(cells.iter().skip(1)) {
+        *d = s;
+    }
+    let [.., last] = *cells;
+    let [.., next_last] = &mut next;
+    *next_last = !last;
+    let half = |c: &[u32], n: &[u32]| -> (u64, u64) {
+        let (mut e, mut g) = (0u32, 0u32);
+        for (j, (&c, &n)) in c.iter().zip(n).enumerate().take(32) {
+            e |= u32::from(c != n) << j;
+            g |= u32::from(c < count) << j;
+        }
+        (u64::from(e), u64::from(g))
+    };
+    let (lo, hi) = cells.split_at(32);
+    let (next_lo, next_hi) = next.split_at(32);
+    let (e0, g0) = half(lo, next_lo);
+    let (e1, g1) = half(hi, next_hi);
+    // All ones when the count exceeds every u32 (a compare and a negation, no branch per block).
+    let all = u64::from(u32::try_from(cell_count).is_err()).wrapping_neg();
+    (e0 | e1 << 32, g0 | g1 << 32 | all)
+}
+
+/// Bit j set when `cells[j] < bound`: [`run_masks`]' second mask for any bound, in the same two 32-bit halves.
+#[inline(always)]
+pub(crate) fn bits_below(cells: &[u32; 64], bound: u32) -> u64 {
+    let half = |c: &[u32]| -> u64 {
+        let mut g = 0u32;
+        for (j, &c) in c.iter().enumerate().take(32) {
+            g |= u32::from(c < bound) << j;
+        }
+        u64::from(g)
+    };
+    let (lo, hi) = cells.split_at(32);
+    half(lo) | half(hi) << 32
+}
 
 /// Cell flag: the cell intersects at least one object region `A_o`.
 pub const FLAG_EXPLAINED: u8 = 1;
@@ -581,51 +632,41 @@ impl OccupancyGrid {
     /// mispredicted at every run's end.
     #[cfg(test)]
     pub(crate) fn add_hits(&mut self, cells: &[u32; 64]) {
-        self.add_hits_with_returns(cells, None, None);
+        let _ = self.add_hits_with_returns(cells, None, None);
     }
 
     /// [`OccupancyGrid::add_hits`], and with [`OccupancyGrid::with_returns`] each run's returns folded into its
-    /// cell at once: `returns` gives each point's squared range from the sensor (as bits: non-negative floats order
-    /// as their bits) and its z; and with [`OccupancyGrid::with_sums`] each point's x and y from `xy` added to its
-    /// cell's sums, one at a time in point order (the reference's additions).
+    /// cell at once: `returns` gives each point's squared range from the sensor (as bits in the upper half of a
+    /// visibility-map key, `crate::visibility::key`: non-negative floats order as their bits) and its z; and with
+    /// [`OccupancyGrid::with_sums`] each point's x and y from `xy` added to its cell's sums, one at a time in point
+    /// order (the reference's additions). Returns the number of the 64 cells that are in the grid.
     #[inline(always)]
     pub(crate) fn add_hits_with_returns(
         &mut self,
         cells: &[u32; 64],
-        returns: Option<(&[u32; 64], &[f32; 64])>,
+        returns: Option<(&[u64; 64], &[f32; 64])>,
         xy: Option<(&[f32; 64], &[f32; 64])>,
-    ) {
+    ) -> u32 {
         let returns = returns.filter(|_| !self.returns.is_empty());
         let xy = xy.filter(|_| !self.sums.is_empty());
         // Bit j of `ends`: point j ends a run (the next point's cell differs, or j is the last point); of
         // `in_grid`: its cell is in the grid.
-        let mut ends = 1u64 << 63;
-        let mut in_grid = 0u64;
-        let cell_count = self.hits.len();
-        for (j, (c, next)) in cells.iter().zip(cells.iter().skip(1)).enumerate() {
-            ends |= u64::from(c != next) << j;
-        }
-        for (j, &c) in cells.iter().enumerate() {
-            in_grid |= u64::from((c as usize) < cell_count) << j;
-        }
-        let mut runs = ends & in_grid;
-        while runs != 0 {
-            let j = runs.trailing_zeros();
-            runs &= runs - 1;
-            // The run starts after the previous end (of any run, in the grid or not).
-            let before = ends & ((1u64 << j) - 1);
-            let start = if before == 0 { 0 } else { 64 - before.leading_zeros() };
-            if let Some(&c) = cells.get(j as usize) {
-                let added = self.add_run(c, j + 1 - start);
-                if let Some((r2_bits, z)) = returns.filter(|_| added) {
-                    let run = start as usize..=j as usize;
-                    let r2 = r2_bits.get(run.clone()).map_or(u32::MAX, |r| r.iter().copied().min().unwrap_or(u32::MAX));
-                    let (lo, hi) = z.get(run).map_or((f32::INFINITY, f32::NEG_INFINITY), |z| {
-                        z.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
-                    });
-                    self.fold_returns(c, f32::from_bits(r2), lo, hi);
-                }
-            }
+        let (ends, in_grid) = run_masks(cells, self.hits.len());
+        let runs = ends & in_grid;
+        // Two loops, with and without the returns, so that the default one does not test for them per run.
+        match returns {
+            None => self.add_runs(cells, ends, runs, |_, _, _, _| {}),
+            Some((r2_keys, z)) => self.add_runs(cells, ends, runs, |grid, c, start, j| {
+                let run = start as usize..=j as usize;
+                // The upper halves of the keys: the squared ranges' bits.
+                let r2 = r2_keys
+                    .get(run.clone())
+                    .map_or(u32::MAX, |r| r.iter().map(|&k| (k >> 32) as u32).min().unwrap_or(u32::MAX));
+                let (lo, hi) = z.get(run).map_or((f32::INFINITY, f32::NEG_INFINITY), |z| {
+                    z.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+                });
+                grid.fold_returns(c, f32::from_bits(r2), lo, hi);
+            }),
         }
         // The sums: each point in the grid in turn, in point order (the cells new this block were set to zero above,
         // before any of their returns is added). A return whose cell could not join a full touched list is added to
@@ -660,6 +701,7 @@ impl OccupancyGrid {
                 }
             }
         }
+        in_grid.count_ones()
     }
 
     /// Adds `other`'s hits to this grid, cell by cell in `other`'s order of first touch: the grid one pass over
@@ -677,7 +719,7 @@ impl OccupancyGrid {
         for k in 0..other.touched_len {
             let Some(&c) = other.touched.get(k) else { break };
             let new = self.hits(c) == 0;
-            if self.add_run(c, u32::from(other.hits(c))) {
+            if self.add_run(c, u8::try_from(other.hits(c)).unwrap_or(u8::MAX)) {
                 if let Some(&[r2, lo, hi]) = other.returns.get(c as usize) {
                     self.fold_returns(c, r2, lo, hi);
                 }
@@ -715,10 +757,37 @@ impl OccupancyGrid {
         }
     }
 
+    /// The runs of a block in order (`runs`: the bits of `ends`, see [`run_masks`], of the runs to add), each with
+    /// [`OccupancyGrid::add_run`] and, when that recorded it, `then(grid, cell, first point, last point)`.
+    #[inline(always)]
+    fn add_runs(
+        &mut self,
+        cells: &[u32; 64],
+        ends: u64,
+        mut runs: u64,
+        mut then: impl FnMut(&mut Self, u32, u32, u32),
+    ) {
+        while runs != 0 {
+            let j = runs.trailing_zeros();
+            runs &= runs - 1;
+            // The run starts after the previous end (of any run, in the grid or not); `leading_zeros` of 0 is 64,
+            // so a run that starts the block needs no test.
+            let before = ends & ((1u64 << j) - 1);
+            let start = 64 - before.leading_zeros();
+            if let Some(&c) = cells.get(j as usize) {
+                // At most 64 points: the truncation is exact.
+                #[allow(clippy::cast_possible_truncation)]
+                if self.add_run(c, (j + 1 - start) as u8) {
+                    then(self, c, start, j);
+                }
+            }
+        }
+    }
+
     /// `n` hits on one cell: the same as `n` calls of [`OccupancyGrid::add_hit`]. False when no hit was recorded
     /// (outside the grid, or a new cell while the touched list is full).
     #[inline(always)]
-    fn add_run(&mut self, index: u32, n: u32) -> bool {
+    fn add_run(&mut self, index: u32, n: u8) -> bool {
         let Some(h) = self.hits.get_mut(index as usize) else { return false };
         if *h == 0 {
             let Some(slot) = self.touched.get_mut(self.touched_len) else { return false };
@@ -734,8 +803,8 @@ impl OccupancyGrid {
                 *w |= 1 << (index % 64);
             }
         }
-        let sum = u32::from(*h).saturating_add(n).min(u32::from(MAX_HITS));
-        *h = u8::try_from(sum).unwrap_or(u8::MAX);
+        // `MAX_HITS` is `u8::MAX` (asserted below): the byte's saturating addition is the saturation at `MAX_HITS`.
+        *h = h.saturating_add(n);
         true
     }
 
@@ -850,6 +919,32 @@ mod tests {
     use super::*;
 
     proptest::proptest! {
+        /// `run_masks` (two 32-bit halves) against its definition bit by bit, on blocks of few distinct cells (long
+        /// runs), with `NO_CELL`, cells at and above the count and the count 0 and beyond `u32::MAX`.
+        #[test]
+        fn run_masks_are_their_definition(
+            seed in proptest::prelude::any::<u64>(),
+            count in proptest::prop_oneof![0usize..10, 5usize..7, proptest::strategy::Just(u32::MAX as usize + 3)],
+        ) {
+            let mut state = seed | 1;
+            let cells: [u32; 64] = core::array::from_fn(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                match state % 5 {
+                    0 => crate::visibility::NO_CELL,
+                    1 => u32::MAX - 1,
+                    k => (state >> 32) as u32 % 8 + k as u32,
+                }
+            });
+            let (ends, in_grid) = run_masks(&cells, count);
+            for j in 0..64 {
+                let end = j == 63 || cells[j] != cells[j + 1];
+                proptest::prop_assert_eq!(ends >> j & 1 == 1, end, "end bit {}", j);
+                proptest::prop_assert_eq!(in_grid >> j & 1 == 1, (cells[j] as usize) < count, "grid bit {}", j);
+            }
+        }
+
         /// `neighbours4` gives exactly the cells one row or one column away inside the grid: at an edge, no
         /// neighbour wraps to the other end of the neighbouring row (the earlier `index +- 1` did).
         #[test]

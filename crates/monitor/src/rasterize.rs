@@ -32,9 +32,9 @@ use alloc::vec::Vec;
 
 use crate::frame::{Isometry3, PointColumns};
 use crate::geometry::diamond_angle_select;
-use crate::grid::{GridGeometry, OccupancyGrid};
+use crate::grid::{bits_below, GridGeometry, OccupancyGrid};
 use crate::params::MAX_CELLS_PER_SIDE;
-use crate::visibility::{BinParams, VisibilityMap, NO_CELL};
+use crate::visibility::{key, BinParams, VisibilityMap, NO_CELL};
 
 /// Which implementation runs the rasterize stage ([`crate::Monitor::set_rasterizer`]). Both give bit-identical
 /// results; the choice exists for verification and benchmarking.
@@ -321,6 +321,11 @@ fn floor_of<const ROUND: bool>(f: f32) -> u32 {
 struct Block {
     bins: [u32; BLOCK],
     far_r2: [f32; BLOCK],
+    /// Each point's candidate nearest obstacle: its squared range's bits and its cell as a visibility-map key
+    /// (`crate::visibility::key`).
+    near_keys: [u64; BLOCK],
+    /// The upper halves of `near_keys`, as pass 1 computes them (the keys are built in a loop of their own: in pass
+    /// 1's, their 64-bit lanes halved its vector width).
     near_bits: [u32; BLOCK],
     cells: [u32; BLOCK],
     /// Each point's z in the ego frame (read for the points with a cell: obstacle returns in the grid).
@@ -336,6 +341,7 @@ impl Block {
     const EMPTY: Self = Self {
         bins: [0; BLOCK],
         far_r2: [0.0; BLOCK],
+        near_keys: [0; BLOCK],
         near_bits: [0; BLOCK],
         cells: [0; BLOCK],
         z: [0.0; BLOCK],
@@ -345,8 +351,8 @@ impl Block {
     };
 
     /// Pass 1 over a block of [`BLOCK`] points, read as [`Lanes`] gives them (records or columns: one body, the
-    /// same instructions per lane); returns the number of points that fall in the band and in the grid. With
-    /// `SUMS`, also each point's x and y, with `TALL` its tall cell.
+    /// same instructions per lane), and the points' visibility-map keys from its outputs. With `SUMS`, also each
+    /// point's x and y, with `TALL` its tall cell.
     #[inline(always)]
     fn fill<
         const TRANSLATION_ONLY: bool,
@@ -358,7 +364,7 @@ impl Block {
         &mut self,
         k: &Pass1,
         points: impl Lanes,
-    ) -> u32 {
+    ) {
         let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
         let cells = self.cells.iter_mut().zip(self.z.iter_mut());
         if SUMS || TALL {
@@ -380,23 +386,30 @@ impl Block {
                 (*bin, *far, *near, *cell, *height, _, _, _) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
             }
         }
-        self.cells.iter().map(|&c| u32::from(c != NO_CELL)).sum()
+        for (k, (&r2, &c)) in self.near_keys.iter_mut().zip(self.near_bits.iter().zip(&self.cells)) {
+            *k = key(r2, c);
+        }
     }
 
-    /// Pass 2: the updates, in point order (with `SUMS` and `TALL`, also the grid's sums and tall bits).
+    /// Pass 2: the updates, in point order (with `SUMS` and `TALL`, also the grid's sums and tall bits). Returns the
+    /// number of the block's points that fall in the band and in the grid.
     #[inline(always)]
-    fn apply<const SUMS: bool, const TALL: bool>(&self, grid: &mut OccupancyGrid, visibility: &mut VisibilityMap) {
-        visibility.add_binned(&self.bins, &self.far_r2, &self.near_bits, &self.cells);
-        // A point with a cell is an obstacle return in the grid: its `near_bits` are its squared range's bits.
+    fn apply<const SUMS: bool, const TALL: bool>(
+        &self,
+        grid: &mut OccupancyGrid,
+        visibility: &mut VisibilityMap,
+    ) -> u32 {
+        visibility.add_binned(&self.bins, &self.far_r2, &self.near_keys);
+        // A point with a cell is an obstacle return in the grid: its key's upper half is its squared range's bits.
         let xy = if SUMS { Some((&self.x, &self.y)) } else { None };
-        grid.add_hits_with_returns(&self.cells, Some((&self.near_bits, &self.z)), xy);
+        // The points with a cell (pass 1 gives a cell in the grid or `NO_CELL`): the block's points in the band and
+        // in the grid, counted from the grid's mask of them.
+        let in_band = grid.add_hits_with_returns(&self.cells, Some((&self.near_keys, &self.z)), xy);
         // Most blocks hold no tall return (`NO_CELL` has every bit set: the `and` of the block's entries is `NO_CELL`
         // exactly when none is a cell); in the others, the tall points as a mask, then those alone.
         if TALL && self.tall.iter().fold(NO_CELL, |a, &c| a & c) != NO_CELL {
-            let mut mask = 0u64;
-            for (j, &c) in self.tall.iter().enumerate() {
-                mask |= u64::from(c != NO_CELL) << j;
-            }
+            // `c != NO_CELL` is `c < NO_CELL` (`u32::MAX`).
+            let mut mask = bits_below(&self.tall, NO_CELL);
             while mask != 0 {
                 let j = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
@@ -405,6 +418,7 @@ impl Block {
                 }
             }
         }
+        in_band
     }
 }
 
@@ -538,9 +552,9 @@ fn blocks_on<
 
 /// The block loop compiled for a wider vector unit, chosen at run time.
 ///
-/// The only `unsafe` of the crate: calling a function compiled with `#[target_feature(enable = "avx2")]`, which
-/// is sound exactly when the processor has AVX2, and that is checked first (`is_x86_feature_detected!`, which
-/// caches its answer). The loop is the same Rust code as the baseline one, inlined: with the same IEEE-754
+/// The only `unsafe` of the crate: calling a function compiled with `#[target_feature(enable = "avx2")]` (and four
+/// integer bit-manipulation extensions, see [`available`]), which is sound exactly when the processor has them, and
+/// that is checked first (`is_x86_feature_detected!`, which caches its answer). The loop is the same Rust code as the baseline one, inlined: with the same IEEE-754
 /// operations in the same order (Rust does not contract `a * b + c` into a fused multiply-add, even where the
 /// processor has one) each lane computes the same bits in 8-wide registers as in 4-wide ones.
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -548,9 +562,16 @@ fn blocks_on<
 mod wide {
     use super::{OccupancyGrid, Pass1, Source, Vec, VisibilityMap};
 
-    /// True when the processor has AVX2.
+    /// True when the processor has AVX2 and the bit-manipulation extensions the wide loop is compiled with
+    /// (`bmi1`, `bmi2`, `lzcnt`, `popcnt`: every processor with AVX2 from Intel since Haswell and from AMD since
+    /// Excavator has them; they shorten the scans of pass 2's 64-bit masks: `tzcnt`, `blsr`, `bzhi`, `lzcnt`,
+    /// `popcnt` for sequences of 3 to 12 instructions; integer instructions only, so no floating-point bit changes).
     pub(super) fn available() -> bool {
         std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("popcnt")
     }
 
     /// [`super::blocks`] with AVX2, or with the baseline when the processor lacks it.
@@ -569,8 +590,8 @@ mod wide {
         cells: &mut Vec<u32>,
     ) -> u32 {
         if available() {
-            // SAFETY: the processor has AVX2 (checked on the line above), the one requirement of a function
-            // compiled with `target_feature(enable = "avx2")`.
+            // SAFETY: the processor has AVX2, BMI1, BMI2, LZCNT and POPCNT (checked on the line above), the one
+            // requirement of a function compiled with `target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")`.
             unsafe {
                 blocks_avx2::<S, TRANSLATION_ONLY, EGO_MASK, RECORD, SUMS, TALL>(k, points, grid, visibility, cells)
             }
@@ -579,7 +600,7 @@ mod wide {
         }
     }
 
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt")]
     fn blocks_avx2<
         S: Source,
         const TRANSLATION_ONLY: bool,
@@ -673,11 +694,12 @@ impl Block {
         visibility: &mut VisibilityMap,
         cells: &mut Vec<u32>,
         len: usize,
-    ) {
-        self.apply::<SUMS, TALL>(grid, visibility);
+    ) -> u32 {
+        let in_band = self.apply::<SUMS, TALL>(grid, visibility);
         if RECORD {
             cells.extend_from_slice(self.cells.get(..len).unwrap_or(&[]));
         }
+        in_band
     }
 }
 
@@ -716,8 +738,8 @@ impl Source for &[[f32; 3]] {
         let mut in_band = 0u32;
         let (chunks, rest) = self.as_chunks::<BLOCK>();
         for chunk in chunks {
-            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, chunk);
-            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
+            block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, chunk);
+            in_band += block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
         }
         if !rest.is_empty() {
             // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
@@ -725,8 +747,8 @@ impl Source for &[[f32; 3]] {
             for (d, s) in padded.iter_mut().zip(rest) {
                 *d = *s;
             }
-            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, &padded);
-            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, rest.len());
+            block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, &padded);
+            in_band += block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, rest.len());
         }
         in_band
     }
@@ -778,8 +800,8 @@ impl Source for PointColumns<'_> {
         let (ys, y_rest) = self.y().as_chunks::<BLOCK>();
         let (zs, z_rest) = self.z().as_chunks::<BLOCK>();
         for ((x, y), z) in xs.iter().zip(ys).zip(zs) {
-            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, [x, y, z]);
-            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
+            block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, [x, y, z]);
+            in_band += block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
         }
         if !x_rest.is_empty() {
             let mut padded = [[f32::NAN; BLOCK]; 3];
@@ -789,8 +811,8 @@ impl Source for PointColumns<'_> {
                 }
             }
             let [x, y, z] = &padded;
-            in_band += block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, [x, y, z]);
-            block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, x_rest.len());
+            block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, [x, y, z]);
+            in_band += block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, x_rest.len());
         }
         in_band
     }

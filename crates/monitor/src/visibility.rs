@@ -41,17 +41,45 @@ pub enum Sight {
 /// One azimuth bin: the nearest obstacle return (squared range and grid cell) and the farthest return.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Bin {
-    /// Squared range of the nearest obstacle return, m^2 (`INFINITY`: none).
-    nearest_obstacle_r2: f32,
-    /// Grid cell of that return (`NO_CELL`: none, or outside the grid).
-    nearest_obstacle_cell: u32,
+    /// The nearest obstacle return as one key: the bits of its squared range (m^2; `INFINITY`: none) in the upper
+    /// 32 bits, its grid cell (`NO_CELL`: none, or outside the grid) in the lower 32. One load, one conditional
+    /// move and one store per update in the rasterize loop, where two fields took two of each and an address
+    /// select (docs/performance.md, "Issue #16, round rast16").
+    nearest_obstacle: u64,
     /// Squared range of the farthest return below the band's top, m^2 (0: none).
     farthest_return_r2: f32,
 }
 
 impl Bin {
-    const EMPTY: Self =
-        Self { nearest_obstacle_r2: f32::INFINITY, nearest_obstacle_cell: NO_CELL, farthest_return_r2: 0.0 };
+    const EMPTY: Self = Self { nearest_obstacle: key(f32::INFINITY.to_bits(), NO_CELL), farthest_return_r2: 0.0 };
+
+    /// Squared range of the nearest obstacle return, m^2 (`INFINITY`: none).
+    #[inline(always)]
+    fn nearest_obstacle_r2(&self) -> f32 {
+        f32::from_bits(self.nearest_r2_bits())
+    }
+
+    /// The bits of [`Bin::nearest_obstacle_r2`].
+    #[inline(always)]
+    fn nearest_r2_bits(&self) -> u32 {
+        (self.nearest_obstacle >> 32) as u32
+    }
+
+    /// Grid cell of the nearest obstacle return (`NO_CELL`: none, or outside the grid).
+    #[inline(always)]
+    fn nearest_obstacle_cell(&self) -> u32 {
+        // The lower half: the truncation is the point.
+        #[allow(clippy::cast_possible_truncation)]
+        let cell = self.nearest_obstacle as u32;
+        cell
+    }
+}
+
+/// A nearest-obstacle key of [`Bin`]: a squared range's bits (upper half) and a cell (lower half). The rasterize
+/// loop's pass 1 builds them ([`VisibilityMap::add_binned`]).
+#[inline(always)]
+pub(crate) const fn key(r2_bits: u32, cell: u32) -> u64 {
+    ((r2_bits as u64) << 32) | cell as u64
 }
 
 /// The unit direction of a diamond angle (the inverse of [`diamond_angle`], normalised), for `a` in `[0, 4)`.
@@ -104,30 +132,42 @@ impl VisibilityMap {
 
     /// Records a block of returns already binned (see [`BinParams`]), in point order: the same map as
     /// [`VisibilityMap::add_return`] on each return in turn. Per return: its bin, its squared range as a candidate
-    /// farthest return (`0.0` for a point that is no return: it never wins), the bits of its squared range as a
-    /// candidate nearest obstacle (`u32::MAX` for a point that is no obstacle or has an infinite range: it never
-    /// wins; otherwise a finite non-negative float, whose bits order as its value), and the obstacle's grid cell.
+    /// farthest return (`0.0` for a point that is no return: it never wins), and its candidate nearest obstacle as
+    /// a [`key`] of the bits of its squared range and its grid cell (`u32::MAX` as the bits for a point that is no
+    /// obstacle or has an infinite range: it never wins; otherwise a finite non-negative float, whose bits order as
+    /// its value).
     ///
-    /// The nearest obstacle is compared by its bits, strictly, in point order: the first of equal ranges stays,
-    /// as in [`VisibilityMap::add_return`]. (It used to be a 64-bit key `(r^2 bits << 32) | point index` in a
-    /// second array of bins copied into this one per frame, left from a version that kept four copies of each
-    /// bin and merged them; with one copy the strict comparison in order gives the same bin, with fewer
-    /// instructions per return.)
-    #[inline]
-    pub(crate) fn add_binned(&mut self, bins: &[u32], far_r2: &[f32], near_bits: &[u32], cells: &[u32]) {
-        let returns = bins.iter().zip(far_r2).zip(near_bits).zip(cells);
-        for (((&b, &far), &near), &cell) in returns {
-            if let Some(bin) = self.bins.get_mut(b as usize) {
-                // The farthest return: a `maxss` (neither range is NaN).
-                bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
-                // The nearest obstacle. An empty bin holds `INFINITY`, whose bits are below `u32::MAX`, so a
-                // point that is no obstacle never wins. Whether a return is the nearest so far is not
-                // predictable in real sweeps: no branch.
-                let old = bin.nearest_obstacle_r2.to_bits();
-                let nearer = near < old;
-                bin.nearest_obstacle_r2 = f32::from_bits(core::hint::select_unpredictable(nearer, near, old));
-                bin.nearest_obstacle_cell = core::hint::select_unpredictable(nearer, cell, bin.nearest_obstacle_cell);
+    /// The nearest obstacle is compared by its range's bits, strictly, in point order: the first of equal ranges
+    /// stays, as in [`VisibilityMap::add_return`]. A key is below the bin's key with its cell half cleared exactly
+    /// when its upper half is below the bin's (equal upper halves: the key is at least the cleared one), so one
+    /// 64-bit comparison decides it. (Until round rast16 the range's bits and the cell were two fields and two
+    /// conditional moves; before issue #16's first round, a 64-bit key `(r^2 bits << 32) | point index` in a second
+    /// array of bins, copied into this one per frame.)
+    #[inline(always)]
+    pub(crate) fn add_binned(&mut self, bins: &[u32; 64], far_r2: &[f32; 64], near_keys: &[u64; 64]) {
+        // Eight returns per turn of the loop: one loop test for eight updates (each update still tests its bin).
+        let (bins, _) = bins.as_chunks::<8>();
+        let (far_r2, _) = far_r2.as_chunks::<8>();
+        let (near_keys, _) = near_keys.as_chunks::<8>();
+        for ((b, far), near) in bins.iter().zip(far_r2).zip(near_keys) {
+            for ((&b, &far), &near) in b.iter().zip(far).zip(near) {
+                self.add_keyed(b, far, near);
             }
+        }
+    }
+
+    /// One return of [`VisibilityMap::add_binned`].
+    #[inline(always)]
+    fn add_keyed(&mut self, b: u32, far: f32, near: u64) {
+        const RANGE: u64 = !(u32::MAX as u64);
+        if let Some(bin) = self.bins.get_mut(b as usize) {
+            // The farthest return: a `maxss` (neither range is NaN).
+            bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
+            // The nearest obstacle. An empty bin holds `INFINITY`, whose bits are below `u32::MAX`, so a point
+            // that is no obstacle never wins. Whether a return is the nearest so far is not predictable in real
+            // sweeps: no branch.
+            let old = bin.nearest_obstacle;
+            bin.nearest_obstacle = core::hint::select_unpredictable(near < (old & RANGE), near, old);
         }
     }
 
@@ -142,9 +182,8 @@ impl VisibilityMap {
             } else {
                 bin.farthest_return_r2
             };
-            if o.nearest_obstacle_r2.to_bits() < bin.nearest_obstacle_r2.to_bits() {
-                bin.nearest_obstacle_r2 = o.nearest_obstacle_r2;
-                bin.nearest_obstacle_cell = o.nearest_obstacle_cell;
+            if o.nearest_r2_bits() < bin.nearest_r2_bits() {
+                bin.nearest_obstacle = o.nearest_obstacle;
             }
         }
     }
@@ -153,8 +192,8 @@ impl VisibilityMap {
     #[cfg(test)]
     pub(crate) fn arrays(&self) -> (Vec<f32>, Vec<u32>, Vec<f32>) {
         (
-            self.bins.iter().map(|b| b.nearest_obstacle_r2).collect(),
-            self.bins.iter().map(|b| b.nearest_obstacle_cell).collect(),
+            self.bins.iter().map(|b| b.nearest_obstacle_r2()).collect(),
+            self.bins.iter().map(|b| b.nearest_obstacle_cell()).collect(),
             self.bins.iter().map(|b| b.farthest_return_r2).collect(),
         )
     }
@@ -177,9 +216,8 @@ impl VisibilityMap {
             if r2 > bin.farthest_return_r2 {
                 bin.farthest_return_r2 = r2;
             }
-            if obstacle && r2 < bin.nearest_obstacle_r2 {
-                bin.nearest_obstacle_r2 = r2;
-                bin.nearest_obstacle_cell = cell;
+            if obstacle && r2 < bin.nearest_obstacle_r2() {
+                bin.nearest_obstacle = key(r2.to_bits(), cell);
             }
         }
     }
@@ -207,8 +245,8 @@ impl VisibilityMap {
         let clearance = (sight == Sight::Visible)
             .then_some(bin)
             .flatten()
-            .filter(|b| b.nearest_obstacle_cell != NO_CELL)
-            .map(|b| libm::sqrtf(b.nearest_obstacle_r2) - libm::sqrtf(r2));
+            .filter(|b| b.nearest_obstacle_cell() != NO_CELL)
+            .map(|b| libm::sqrtf(b.nearest_obstacle_r2()) - libm::sqrtf(r2));
         (sight, clearance)
     }
 
@@ -219,10 +257,10 @@ impl VisibilityMap {
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
         let bin = self.bins.get(self.bin(dx, dy)).copied();
-        let near = bin.map_or(0.0, |b| b.nearest_obstacle_r2);
+        let near = bin.map_or(0.0, |b| b.nearest_obstacle_r2());
         let far = bin.map_or(0.0, |b| b.farthest_return_r2);
         let sight = if r2 >= near {
-            Sight::Shadowed(bin.map_or(NO_CELL, |b| b.nearest_obstacle_cell))
+            Sight::Shadowed(bin.map_or(NO_CELL, |b| b.nearest_obstacle_cell()))
         } else if r2 <= far {
             Sight::Visible
         } else {
@@ -239,8 +277,8 @@ impl VisibilityMap {
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
         let bin = self.bins.get(self.bin(dx, dy)).copied()?;
-        (r2 < bin.nearest_obstacle_r2 && r2 <= bin.farthest_return_r2 && bin.nearest_obstacle_cell != NO_CELL)
-            .then(|| (libm::sqrtf(bin.nearest_obstacle_r2) - libm::sqrtf(r2), bin.nearest_obstacle_cell))
+        (r2 < bin.nearest_obstacle_r2() && r2 <= bin.farthest_return_r2 && bin.nearest_obstacle_cell() != NO_CELL)
+            .then(|| (libm::sqrtf(bin.nearest_obstacle_r2()) - libm::sqrtf(r2), bin.nearest_obstacle_cell()))
     }
 
     /// The range of the nearest obstacle return in the bin of an ego-frame position, metres, and its grid cell;
@@ -248,8 +286,8 @@ impl VisibilityMap {
     #[must_use]
     pub fn nearest_obstacle(&self, x: f32, y: f32) -> Option<(f32, u32)> {
         let bin = self.bins.get(self.bin(x - self.origin[0], y - self.origin[1])).copied()?;
-        (bin.nearest_obstacle_cell != NO_CELL)
-            .then(|| (libm::sqrtf(bin.nearest_obstacle_r2), bin.nearest_obstacle_cell))
+        (bin.nearest_obstacle_cell() != NO_CELL)
+            .then(|| (libm::sqrtf(bin.nearest_obstacle_r2()), bin.nearest_obstacle_cell()))
     }
 
     /// Visits the nearest obstacle return (its range, metres, its grid cell, and where it lies, ego frame, taken
@@ -279,10 +317,10 @@ impl VisibilityMap {
         let (first, last) = ((lo * self.bins_per_unit) as usize, (hi * self.bins_per_unit) as usize);
         for b in first..=last.min(first.saturating_add(n / 2)) {
             if let Some(bin) = self.bins.get(b % n) {
-                if bin.nearest_obstacle_cell != NO_CELL {
-                    let r = libm::sqrtf(bin.nearest_obstacle_r2);
+                if bin.nearest_obstacle_cell() != NO_CELL {
+                    let r = libm::sqrtf(bin.nearest_obstacle_r2());
                     let d = diamond_direction(((b % n) as f32 + 0.5) / self.bins_per_unit);
-                    visit(r, bin.nearest_obstacle_cell, [self.origin[0] + r * d[0], self.origin[1] + r * d[1]]);
+                    visit(r, bin.nearest_obstacle_cell(), [self.origin[0] + r * d[0], self.origin[1] + r * d[1]]);
                 }
             }
         }
@@ -301,6 +339,33 @@ impl VisibilityMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The one 64-bit comparison of `add_binned` (a key below the bin's key with its cell half cleared) decides as
+    /// the strict comparison of the ranges' bits, whatever the cells: equal ranges keep the bin's obstacle, and
+    /// `u32::MAX` (no obstacle) never wins, not even over an empty bin.
+    #[test]
+    fn keys_compare_as_their_ranges() {
+        let ranges =
+            [0u32, 1, 2, 0x3F80_0000, f32::INFINITY.to_bits() - 1, f32::INFINITY.to_bits(), u32::MAX - 1, u32::MAX];
+        let cells = [0u32, 1, 77, NO_CELL - 1, NO_CELL];
+        for &r_new in &ranges {
+            for &r_old in &ranges {
+                for &c_new in &cells {
+                    for &c_old in &cells {
+                        let mut map = VisibilityMap::new(1);
+                        map.bins[0].nearest_obstacle = key(r_old, c_old);
+                        map.add_binned(&[0; 64], &[0.0; 64], &[key(r_new, c_new); 64]);
+                        let want = if r_new < r_old { (r_new, c_new) } else { (r_old, c_old) };
+                        let bin = map.bins[0];
+                        assert_eq!((bin.nearest_r2_bits(), bin.nearest_obstacle_cell()), want);
+                    }
+                }
+            }
+        }
+        let mut map = VisibilityMap::new(1);
+        map.add_binned(&[0; 64], &[0.0; 64], &[key(u32::MAX, 5); 64]);
+        assert_eq!(map.bins[0], Bin::EMPTY, "no obstacle never wins");
+    }
 
     /// `sight_with_clearance` gives `sight` and `clearance`'s distance, bit for bit, at random positions of random
     /// maps (also empty bins, obstacle-free bins and positions at the origin).
