@@ -674,6 +674,7 @@ impl OccupancyGrid {
         if let Some((x, y)) = xy {
             self.add_sums(cells, in_grid, x, y);
         }
+        in_grid.count_ones()
     }
 
     /// The sums of [`OccupancyGrid::add_hits_with_returns`]: adds each point `j` whose bit is set in `in_grid` (its
@@ -701,7 +702,6 @@ impl OccupancyGrid {
                 }
             }
         }
-        in_grid.count_ones()
     }
 
     /// Adds `other`'s hits to this grid, cell by cell in `other`'s order of first touch: the grid one pass over
