@@ -250,27 +250,15 @@ fn displaced_evidence_in_a_neighbours_margin_still_follows_its_track() {
     first.extend(ground_points(45.0));
     let mut second = first.clone();
     second.extend(visible_face_points(&neighbour, 0.05));
-    let run_at = |m: &mut Monitor, t: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
-        let pts = to_sensor(points);
-        let frame = Frame {
-            timestamp_s: t,
-            world_from_ego: Pose2::default(),
-            objects,
-            cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
-            roi_in_ego: &[],
-            static_in_ego: &[],
-        };
-        m.check(&frame).unwrap().objects.to_vec()
-    };
     let mut m = Monitor::new(MonitorParams::default()).unwrap();
-    let r = run_at(&mut m, 0.0, &[reported], &first);
+    let r = check_at(&mut m, 0.0, &[reported], &first, Pose2::default());
     assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "first frame: {:?}", r[0].sensor);
-    let r = run_at(&mut m, 0.1, &[neighbour, reported], &second);
+    let r = check_at(&mut m, 0.1, &[neighbour, reported], &second, Pose2::default());
     assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "neighbour: {:?}", r[0].sensor);
     assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "followed: {:?}", r[1].sensor);
     assert!(r[1].sensor.offset_m[0] > 0.5, "from its evidence back to the box: {:?}", r[1].sensor.offset_m);
     let mut alone = Monitor::new(MonitorParams::default()).unwrap();
-    let r = run_at(&mut alone, 0.1, &[neighbour, reported], &second);
+    let r = check_at(&mut alone, 0.1, &[neighbour, reported], &second, Pose2::default());
     assert_ne!(r[1].sensor.verdict, SensorVerdict::PositionError, "without the memory: {:?}", r[1].sensor);
 }
 
@@ -901,22 +889,10 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
     let mut second = first.clone();
     second.extend(visible_face_points(&beside_post, 0.05));
     second.extend(visible_face_points(&beside_truth, 0.05));
-    let run_at = |m: &mut Monitor, t: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
-        let pts = to_sensor(points);
-        let frame = Frame {
-            timestamp_s: t,
-            world_from_ego: Pose2::default(),
-            objects,
-            cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
-            roi_in_ego: &[],
-            static_in_ego: &[],
-        };
-        m.check(&frame).unwrap().objects.to_vec()
-    };
     let occluded = SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded);
     for memory_gate in [false, true] {
         let mut m = Monitor::new(MonitorParams { memory_gate, ..MonitorParams::default() }).unwrap();
-        let r = run_at(&mut m, 0.0, &[hidden, displaced], &first);
+        let r = check_at(&mut m, 0.0, &[hidden, displaced], &first, Pose2::default());
         let (h, d) = (&r[0].sensor, &r[1].sensor);
         assert_eq!(d.verdict, SensorVerdict::PositionError, "key {memory_gate}, first sweep, displaced: {d:?}");
         if memory_gate {
@@ -926,7 +902,7 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
             assert_eq!(h.verdict, SensorVerdict::PositionError, "first sweep without the key: {h:?}");
             assert!(h.offset_m[0] > 15.0, "the offset points 20 m back to the post: {:?}", h.offset_m);
         }
-        let r = run_at(&mut m, 0.1, &[hidden, displaced, beside_post, beside_truth], &second);
+        let r = check_at(&mut m, 0.1, &[hidden, displaced, beside_post, beside_truth], &second, Pose2::default());
         let (h, d) = (&r[0].sensor, &r[1].sensor);
         assert_eq!(r[2].sensor.verdict, SensorVerdict::Consistent, "neighbour of the post: {:?}", r[2].sensor);
         assert_eq!(r[3].sensor.verdict, SensorVerdict::Consistent, "neighbour of the truth: {:?}", r[3].sensor);
