@@ -74,12 +74,16 @@ const BINS: usize = 720;
 
 /// The definitions' knobs (environment): `THREE_SIGMA=1` grants 3 sigma instead of the grown region's margins
 /// (which add `safety_margin_m`), `BELOW_TOP=m` (0.2) keeps the volume that far below the true top,
-/// `TOLERANCE=m` (0.1) is how far outside a placement its own returns may lie and still be explained by it.
+/// `TOLERANCE=m` (0.1) is how far outside a placement its own returns may lie and still be explained by it;
+/// `NEIGHBOURS=1` also counts as explained the returns inside a clean neighbour's grown region (a placement that
+/// leaves only such returns outside is then indistinguishable: any rule that grants every correct box its grown
+/// region must grant that neighbour those returns).
 #[derive(Clone, Copy)]
 struct Knobs {
     three_sigma: bool,
     below_top_m: f32,
     tolerance_m: f32,
+    neighbours: bool,
 }
 
 /// What the sweep allows about one reported box.
@@ -129,6 +133,7 @@ impl Rays {
         z: (f32, f32),
         min_rays: u32,
         tolerance_m: f32,
+        absorbed: &dyn Fn(f32, f32) -> bool,
     ) -> Judgement {
         let (s, c) = o.heading_rad.sin_cos();
         let (hl, hw) = (0.5 * o.length_m + margins.0, 0.5 * o.width_m + margins.1);
@@ -171,6 +176,7 @@ impl Rays {
                     && tv.abs() <= 0.5 * truth.width_m + 0.05
                     && q[2] >= self.band.0
                     && q[2] <= self.band.1
+                    && !absorbed(q[0], q[1])
                 {
                     own.push([r[0], r[1]]);
                 }
@@ -265,8 +271,20 @@ fn count(hs: &HeightScene, run: &PlannedRun, min_rays: u32, knobs: Knobs) -> Res
             let less = if knobs.three_sigma { p.safety_margin_m } else { 0.0 };
             let margins = ((region.margin_length_m - less).max(0.0), (region.margin_width_m - less).max(0.0));
             let Some(truth) = clean.objects.get(i) else { continue };
+            // With `NEIGHBOURS=1`: the grown regions of the frame's other objects that carry no injected error.
+            let neighbours: Vec<pmon_monitor::geometry::OrientedRect> = if knobs.neighbours {
+                objects
+                    .iter()
+                    .enumerate()
+                    .filter(|&(j, _)| j != i && !injections.iter().any(|x| x.index as usize == j))
+                    .filter_map(|(_, n)| clean_monitor.region_of(n).map(|r| r.grown))
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            let absorbed = |x: f32, y: f32| neighbours.iter().any(|r| r.contains(x, y));
             let j = if z.0 < z.1 {
-                rays.judge(o, truth, margins, z, min_rays, knobs.tolerance_m)
+                rays.judge(o, truth, margins, z, min_rays, knobs.tolerance_m, &absorbed)
             } else {
                 Judgement { provable: false, indistinguishable: true }
             };
@@ -300,6 +318,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         three_sigma: std::env::var_os("THREE_SIGMA").is_some(),
         below_top_m: std::env::var("BELOW_TOP").map_or(Ok(0.2), |s| s.parse())?,
         tolerance_m: std::env::var("TOLERANCE").map_or(Ok(0.1), |s| s.parse())?,
+        neighbours: std::env::var_os("NEIGHBOURS").is_some(),
     };
     let scenes = scenes(seed)?;
     let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: Some(2), pedestrians_paper: Some(3) };
@@ -307,8 +326,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let chosen: Vec<&PlannedRun> = planned
         .iter()
         .filter(|r| {
-            r.probes.iter().any(|p| p.figure == "position_direction" && p.measure == Measure::SensorRecallVerifiable)
-                && label(r).contains(&filter)
+            r.probes.iter().any(|p| {
+                (p.figure == "position_direction" && p.measure == Measure::SensorRecallVerifiable)
+                    || (p.figure == "permanent_position" && p.measure == Measure::SensorRecall)
+            }) && label(r).contains(&filter)
         })
         .collect();
     let results: Vec<(String, Count, f64)> = chosen
@@ -324,10 +345,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect::<Result<_, _>>()?;
     println!(
-        "seed {seed}, quick plan, at least {min_rays} ray(s) per shift, allowance {}, volume up to {} m below the top, returns explained within {} m",
+        "seed {seed}, quick plan, at least {min_rays} ray(s) per shift, allowance {}, volume up to {} m below the top, returns explained within {} m{}",
         if knobs.three_sigma { "3 sigma" } else { "grown-region margins" },
         knobs.below_top_m,
-        knobs.tolerance_m
+        knobs.tolerance_m,
+        if knobs.neighbours { " or by a clean neighbour's grown region" } else { "" }
     );
     for (l, c, recall) in &results {
         let pct = |a: u64, b: u64| 100.0 * a as f64 / b.max(1) as f64;
