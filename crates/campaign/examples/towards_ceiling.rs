@@ -131,8 +131,7 @@ impl Rays {
         truth: &ObjectState,
         margins: (f32, f32),
         z: (f32, f32),
-        min_rays: u32,
-        tolerance_m: f32,
+        (min_rays, tolerance_m): (u32, f32),
         absorbed: &dyn Fn(f32, f32) -> bool,
     ) -> Judgement {
         let (s, c) = o.heading_rad.sin_cos();
@@ -284,7 +283,7 @@ fn count(hs: &HeightScene, run: &PlannedRun, min_rays: u32, knobs: Knobs) -> Res
             };
             let absorbed = |x: f32, y: f32| neighbours.iter().any(|r| r.contains(x, y));
             let j = if z.0 < z.1 {
-                rays.judge(o, truth, margins, z, min_rays, knobs.tolerance_m, &absorbed)
+                rays.judge(o, truth, margins, z, (min_rays, knobs.tolerance_m), &absorbed)
             } else {
                 Judgement { provable: false, indistinguishable: true }
             };
