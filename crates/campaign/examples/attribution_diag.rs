@@ -7,7 +7,7 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `MEMDRIFT=1`: `memory_drift`). With `FULL=1` the runs are those of the full plan
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
@@ -16,7 +16,10 @@
 //! position errors (`random_position_*`: sensor recall over every injected error and the combined precision).
 //! `HELD=1` adds, per row and summed per curve, the false alarms on clean object states by the length of the
 //! streak of consecutive flagged frames they belong to, and how many of those streaks began with a foreign cluster
-//! (a memory cascade when the streak is long).
+//! (a memory cascade when the streak is long). `DRIFT=1` prints how far the offset from a flagged box to the cluster it
+//! took wanders from the first frame of its run of alarms, for true errors and for clean tracks whose run began with a
+//! foreign cluster (world, ego and line-of-sight axes; errors of `DRIFT_MIN` metres or more, 0.8 unless told; with
+//! `TRACK=ID` one line per frame of that track); docs/attribution.md, "The drift of a remembered offset".
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -487,6 +490,9 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 5], String> {
 /// (distance, beyond)) per run.
 type DriftSamples = BTreeMap<(String, u64), Vec<[(f32, bool); 4]>>;
 
+/// One track's run in [`drift`]: anchor offsets (world, ego, line of sight), anchor frame, category, seen this frame.
+type DriftRun = (Option<[[f32; 2]; 3]>, usize, &'static str, bool);
+
 fn drift(scene: &Scene, run: &PlannedRun) -> Result<DriftSamples, String> {
     let spec = &run.spec;
     let mut out: DriftSamples = BTreeMap::new();
@@ -496,7 +502,7 @@ fn drift(scene: &Scene, run: &PlannedRun) -> Result<DriftSamples, String> {
         return Ok(out);
     }
     // Track id -> (anchor offsets [world, ego, los], anchor frame, category, seen this frame).
-    let mut runs: BTreeMap<u64, (Option<[[f32; 2]; 3]>, usize, &'static str, bool)> = BTreeMap::new();
+    let mut runs: BTreeMap<u64, DriftRun> = BTreeMap::new();
     let track: Option<u64> = std::env::var("TRACK").ok().and_then(|t| t.parse().ok());
     let mut anchors_own: BTreeMap<u64, bool> = BTreeMap::new();
     let mut last_own: BTreeMap<u64, usize> = BTreeMap::new();
@@ -946,8 +952,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.seen_body |= std::env::var_os("BODY").is_some();
             // `MEMGATE=1`: evidence beyond the gate is never a box's (the params key `memory_gate`).
             r.spec.params.memory_gate |= std::env::var_os("MEMGATE").is_some();
-            // `MEMDRIFT=1`: a hidden track's claims far from its anchor are not its (the params key `memory_drift`).
-            r.spec.params.memory_drift |= std::env::var_os("MEMDRIFT").is_some();
             r
         })
         .collect();

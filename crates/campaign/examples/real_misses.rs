@@ -15,8 +15,7 @@
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
 //! `FACE=1` checks with the params key `face_in_front`, `JUMP=1` with `jump_from_returns` (step 9 from the returns),
 //! `BODY=1` with `seen_body` (the free-space test counts only rays that end on the body), `MEMGATE=1` with
-//! `memory_gate` (evidence beyond the gate is never a box's), `MEMDRIFT=1` with `memory_drift` (a hidden track's
-//! claims far from its anchor are not its).
+//! `memory_gate` (evidence beyond the gate is never a box's).
 //! `DETAIL=1` (with `ONE_BOX=1 HISTORY=1`) prints, for each clean box flagged beside a displaced one, where both stand
 //! and the cluster that flagged it.
 //! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
@@ -48,7 +47,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         jump_from_returns: std::env::var_os("JUMP").is_some(),
         seen_body: std::env::var_os("BODY").is_some(),
         memory_gate: std::env::var_os("MEMGATE").is_some(),
-        memory_drift: std::env::var_os("MEMDRIFT").is_some(),
         ..base
     };
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();

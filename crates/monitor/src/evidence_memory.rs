@@ -20,10 +20,6 @@ pub(crate) enum EvidenceKind {
     Own,
     /// Evidence outside its region attributed to it (a position error).
     Displaced,
-    /// With the params key `memory_drift`: the track was hidden, and the evidence it could have taken stood
-    /// farther from its anchor (the offset of its first displaced claim) than a true error allows: it is
-    /// hidden behind evidence that is not its own. Kept so that the anchor outlives the frames it is hidden.
-    Drifted,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -33,11 +29,6 @@ struct Entry {
     seq: u32,
     t_s: f64,
     offset_world_m: [f32; 2],
-    /// The offset at the first frame of the track's current run of displaced claims (world axes; the offset
-    /// itself for an entry that begins a run or for its own evidence), and the bearing of the line of sight to
-    /// the box then (world axes, radians).
-    anchor_world_m: [f32; 2],
-    anchor_bearing_rad: f32,
     kind: EvidenceKind,
     /// The object's reported centre (world frame, metres), its velocity over ground as the object list stated it
     /// (world axes, m/s), and the number of occupied cells of its own evidence: where the evidence of an object
@@ -95,21 +86,6 @@ impl EvidenceMemory {
             .then(|| (e.kind, rotate(e.offset_world_m, -yaw_rad)))
     }
 
-    /// The anchor of track `id` (the offset from its centre to the evidence of the first frame of its current run
-    /// of displaced claims, and the bearing of the line of sight to the box then, both in the current ego axes),
-    /// for an entry remembered as displaced or drifted, under the same conditions as [`EvidenceMemory::recall`].
-    pub(crate) fn anchor(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<([f32; 2], f32)> {
-        let i = self.prev.binary_search_by_key(&id, |e| e.id).ok()?;
-        let e = self.prev.get(i)?;
-        let dt = t_s - e.t_s;
-        (!e.duplicate
-            && dt > 0.0
-            && dt <= max_dt_s
-            && yaw_rad.is_finite()
-            && matches!(e.kind, EvidenceKind::Displaced | EvidenceKind::Drifted))
-        .then(|| (rotate(e.anchor_world_m, -yaw_rad), (f64::from(e.anchor_bearing_rad) - yaw_rad) as f32))
-    }
-
     /// Where track `id`'s centre should stand now (current ego frame, metres) if it moved as the previous frame's
     /// object list said (its centre then, plus its velocity times the time step), how many occupied cells its
     /// own evidence held then, and (when recorded) the offset from its centre to its returns' mean then, in the
@@ -144,9 +120,8 @@ impl EvidenceMemory {
         self.next.clear();
     }
 
-    /// Records track `id`'s evidence offset (ego frame) in the frame being recorded, with the anchor of its run
-    /// of displaced claims (offset and bearing of the line of sight, ego frame). Non-finite values and entries
-    /// beyond the capacity are not recorded.
+    /// Records track `id`'s evidence offset (ego frame) in the frame being recorded. Non-finite values and
+    /// entries beyond the capacity are not recorded.
     pub(crate) fn record(
         &mut self,
         id: u64,
@@ -154,14 +129,11 @@ impl EvidenceMemory {
         t_s: f64,
         yaw_rad: f64,
         (kind, offset_ego_m): (EvidenceKind, [f32; 2]),
-        ((anchor_ego_m, anchor_bearing_ego_rad), motion): (([f32; 2], f32), Option<Motion>),
+        motion: Option<Motion>,
     ) {
         let offset_world_m = rotate(offset_ego_m, yaw_rad);
-        let anchor_world_m = rotate(anchor_ego_m, yaw_rad);
-        let anchor_bearing_rad = (f64::from(anchor_bearing_ego_rad) + yaw_rad) as f32;
-        let finite =
-            offset_world_m.iter().chain(&anchor_world_m).all(|v| v.is_finite()) && anchor_bearing_rad.is_finite();
-        if !(t_s.is_finite() && finite) || self.next.len() >= self.next.capacity() {
+        if !(t_s.is_finite() && offset_world_m.iter().all(|v| v.is_finite())) || self.next.len() >= self.next.capacity()
+        {
             return;
         }
         let seq = u32::try_from(seq).unwrap_or(u32::MAX);
@@ -174,17 +146,7 @@ impl EvidenceMemory {
             returns_offset_world_m: m.returns_offset_world_m.filter(|r| r.iter().all(|v| v.is_finite())),
             ..m
         });
-        self.next.push(Entry {
-            id,
-            seq,
-            t_s,
-            offset_world_m,
-            anchor_world_m,
-            anchor_bearing_rad,
-            kind,
-            motion,
-            duplicate: false,
-        });
+        self.next.push(Entry { id, seq, t_s, offset_world_m, kind, motion, duplicate: false });
     }
 
     /// Ends the frame: its records become the memory the next frame recalls.
@@ -215,14 +177,7 @@ mod tests {
     fn offsets_turn_with_the_ego_and_expire() {
         let mut m = EvidenceMemory::new(4);
         m.begin();
-        m.record(
-            7,
-            0,
-            1.0,
-            core::f64::consts::FRAC_PI_2,
-            (EvidenceKind::Displaced, [1.0, 0.0]),
-            (([1.0, 0.0], 0.0), None),
-        );
+        m.record(7, 0, 1.0, core::f64::consts::FRAC_PI_2, (EvidenceKind::Displaced, [1.0, 0.0]), None);
         m.commit();
         // The ego turned back to yaw 0: the offset, along ego y before, is along world y, so ego y now.
         let (kind, o) = m.recall(7, 1.1, 0.0, 0.5).unwrap();
@@ -237,9 +192,9 @@ mod tests {
     fn duplicate_ids_are_not_recalled() {
         let mut m = EvidenceMemory::new(4);
         m.begin();
-        m.record(3, 0, 0.0, 0.0, (EvidenceKind::Own, [1.0, 0.0]), (([1.0, 0.0], 0.0), None));
-        m.record(3, 1, 0.0, 0.0, (EvidenceKind::Own, [2.0, 0.0]), (([2.0, 0.0], 0.0), None));
-        m.record(4, 2, 0.0, 0.0, (EvidenceKind::Own, [f32::NAN, 0.0]), (([f32::NAN, 0.0], 0.0), None));
+        m.record(3, 0, 0.0, 0.0, (EvidenceKind::Own, [1.0, 0.0]), None);
+        m.record(3, 1, 0.0, 0.0, (EvidenceKind::Own, [2.0, 0.0]), None);
+        m.record(4, 2, 0.0, 0.0, (EvidenceKind::Own, [f32::NAN, 0.0]), None);
         m.commit();
         assert!(m.recall(3, 0.1, 0.0, 0.5).is_none());
         assert!(m.recall(4, 0.1, 0.0, 0.5).is_none(), "a NaN offset is never recorded");
@@ -255,8 +210,8 @@ mod tests {
             cells: 6.0,
             returns_offset_world_m: Some([-0.4, 0.1]),
         };
-        m.record(5, 0, 2.0, 0.0, (EvidenceKind::Own, [0.5, 0.0]), (([0.5, 0.0], 0.0), Some(motion)));
-        m.record(6, 1, 2.0, 0.0, (EvidenceKind::Own, [0.5, 0.0]), (([0.5, 0.0], 0.0), None));
+        m.record(5, 0, 2.0, 0.0, (EvidenceKind::Own, [0.5, 0.0]), Some(motion));
+        m.record(6, 1, 2.0, 0.0, (EvidenceKind::Own, [0.5, 0.0]), None);
         m.commit();
         // 0.1 s later the object is at (111, 50) in the world; the ego stands at (100, 50), turned by 90 degrees.
         let pose = Pose2 { x_m: 100.0, y_m: 50.0, yaw_rad: core::f64::consts::FRAC_PI_2 };

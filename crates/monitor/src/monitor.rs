@@ -22,7 +22,7 @@ mod attribution;
 mod face;
 mod graze;
 mod roi;
-use attribution::{claim, drifted_entry, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDERS};
+use attribution::{claim, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDERS};
 use graze::RoiAmount;
 #[doc(hidden)]
 pub use roi::roi_index_mismatch;
@@ -117,11 +117,6 @@ struct ObjectScratch {
     sight: Option<FootprintSight>,
     /// The track's evidence in the previous frame: kind and offset from the centre (ego frame, metres).
     recalled: Option<(EvidenceKind, [f32; 2])>,
-    /// With `memory_drift`: the offset from the centre to the evidence of the first frame of the track's run of
-    /// displaced claims and the bearing of the line of sight to the box then (ego frame, metres and radians), and
-    /// whether a claim was refused this frame for standing too far from where they put the evidence.
-    anchor: Option<([f32; 2], f32)>,
-    drift_refused: bool,
     /// Sum of the centres of the occupied cells the object owns, and their number.
     own_sum: [f32; 3],
     /// With `jump_from_returns`: the sum of the returns in those cells, and their number.
@@ -528,17 +523,6 @@ impl Monitor {
                 eta_own: 0.0,
                 sight: None,
                 recalled,
-                anchor: if self.params.memory_drift {
-                    self.memory.anchor(
-                        o.id,
-                        frame.timestamp_s,
-                        frame.world_from_ego.yaw_rad,
-                        self.params.max_time_step_s,
-                    )
-                } else {
-                    None
-                },
-                drift_refused: false,
                 own_sum: [0.0; 3],
                 own_returns: [0.0; 3],
                 followed: u32::MAX,
@@ -1047,8 +1031,7 @@ impl Monitor {
                         // Hidden, but a track whose evidence stood apart from it last frame finds that evidence
                         // again where its offset puts it, inside a neighbour's margin only: the evidence still
                         // follows it (the neighbour's margin hid it from the clusters).
-                        let at = self.followed_evidence(j, &region);
-                        if let Some(at) = at.filter(|&at| !self.drifted(j, &region, at)) {
+                        if let Some(at) = self.followed_evidence(j, &region) {
                             followed = Some(at);
                             occluded = false;
                         }
@@ -1060,12 +1043,11 @@ impl Monitor {
                     } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, sight.occluder)
                         .filter(|&k| self.clusters.get(k).is_some_and(|c| c.in_roi && c.object.is_none()))
                     {
-                        if self.occluder_within_gate(k, &region) && !self.drifted_cluster(j, &region, k) {
+                        if self.occluder_within_gate(k, &region) {
                             self.give(k, j);
                             cluster = Some(k);
                         } else {
-                            // With `memory_gate`: evidence beyond the gate cannot be this object; it hides it
-                            // (with `memory_drift`: nor evidence far from where its anchor puts it).
+                            // With `memory_gate`: evidence beyond the gate cannot be this object; it hides it.
                             occluded = true;
                         }
                     }
@@ -1161,19 +1143,11 @@ impl Monitor {
                     SensorVerdict::Consistent if own_sum[2] >= 1.0 => {
                         Some((EvidenceKind::Own, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
                     }
-                    // With `memory_drift`: hidden behind evidence that was not its own; the anchor is kept.
-                    SensorVerdict::NotMonitored(NotMonitoredReason::Occluded) => drifted_entry(&scratch)
-                        .map(|(a, _)| (EvidenceKind::Drifted, [centre[0] + a[0], centre[1] + a[1]])),
                     _ => None,
                 };
                 if let Some((kind, at)) = evidence {
                     let id = report.id;
                     let offset = [at[0] - centre[0], at[1] - centre[1]];
-                    // A run of displaced claims keeps its first offset and line of sight (with `memory_drift`; a
-                    // run begins here otherwise).
-                    let anchor = scratch.anchor.filter(|_| kind != EvidenceKind::Own).unwrap_or_else(|| {
-                        (offset, if self.params.memory_drift { self.bearing_of(&region) } else { 0.0 })
-                    });
                     // Where a confirmed track should stand next frame: its centre and stated velocity, world frame.
                     let motion = (kind == EvidenceKind::Own).then(|| frame.objects.get(j)).flatten().map(|o| {
                         let pose = &frame.world_from_ego;
@@ -1194,14 +1168,7 @@ impl Monitor {
                             returns_offset_world_m,
                         }
                     });
-                    self.memory.record(
-                        id,
-                        j,
-                        frame.timestamp_s,
-                        frame.world_from_ego.yaw_rad,
-                        (kind, offset),
-                        (anchor, motion),
-                    );
+                    self.memory.record(id, j, frame.timestamp_s, frame.world_from_ego.yaw_rad, (kind, offset), motion);
                 }
             }
             let Some(report) = self.reports.get_mut(j) else { continue };

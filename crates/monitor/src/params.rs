@@ -297,16 +297,6 @@ pub struct MonitorParams {
     /// 26 m in front of it once and was held displaced for 80 frames (docs/attribution.md, "Evidence beyond the
     /// gate"). Costs a distance per cell looked at by step 8 and one cluster distance per such box.
     pub memory_gate: bool,
-    /// Off by default. A track remembered as displaced keeps the offset from its box to the evidence of the
-    /// first frame of its run of displaced claims (its anchor, world axes). While the sensor does not contradict
-    /// its footprint (it is merely hidden), evidence that stands farther from where the anchor puts it than a
-    /// true error allows, along or across the box (step 9's allowance, `2 (margin - delta_safe) + delta_safe +
-    /// cell size`: the stated uncertainty in the two frames, the safety margin and a cell of rounding), is not
-    /// its evidence: under a permanent position error box and object move together, while a neighbour's
-    /// fragment moves with the neighbour. The track is then `not_monitored(occluded)`, and the anchor is kept
-    /// while it stays hidden (docs/attribution.md, "The drift of a remembered offset"). Costs one comparison per
-    /// claim of a track with an anchor.
-    pub memory_drift: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -398,7 +388,6 @@ impl MonitorParams {
         jump_from_returns: false,
         seen_body: false,
         memory_gate: false,
-        memory_drift: false,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {

@@ -388,10 +388,7 @@ impl Monitor {
                     if let Some(s) = self.scratch.get_mut(j) {
                         s.followed = k as u32;
                     }
-                    if self.evidence_fits(j, &region, k, false)
-                        && !self.drifted_cluster(j, &region, k)
-                        && self.pairs.len() < self.pairs.capacity()
-                    {
+                    if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
                         self.pairs.push((d, k as u32, j as u32, 0));
                         stayed_here |= self.candidates.get(j).is_some_and(|c| c.1 & CANDIDATE_STAYED != 0);
                     }
@@ -420,11 +417,7 @@ impl Monitor {
                 let reachable = d <= touch
                     || self.clusters.get(k).is_some_and(|c| self.behind(&region.footprint, c.centroid_m))
                     || self.sight_of(j, &region).contradicted() >= self.params.ghost_visible_fraction;
-                if reachable
-                    && self.evidence_fits(j, &region, k, false)
-                    && !self.drifted_cluster(j, &region, k)
-                    && self.pairs.len() < self.pairs.capacity()
-                {
+                if reachable && self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
                     self.pairs.push((d, k as u32, j as u32, 0));
                 }
             }
@@ -460,7 +453,7 @@ impl Monitor {
                             SpillOverFit::EveryReturn => self.spill_fits(j, &region, k),
                         }
                 } else {
-                    self.evidence_fits(j, &region, k, false) && !self.drifted_cluster(j, &region, k)
+                    self.evidence_fits(j, &region, k, false)
                 };
                 // Nearest; ties to the lower index (deterministic whatever the loop order).
                 if ok && best.is_none_or(|(bd, bj)| d.total_cmp(&bd).then(j.cmp(&bj)).is_lt()) {
@@ -583,7 +576,6 @@ impl Monitor {
                     || !footprints_touch(&region.footprint, &other.footprint, tol)
                     || self.cluster_distance(k, &region.grown, gate).is_none()
                     || !self.evidence_fits(j, &region, k, false)
-                    || self.drifted_cluster(j, &region, k)
                 {
                     continue;
                 }
@@ -867,50 +859,6 @@ impl Monitor {
     pub(super) fn occluder_within_gate(&self, k: usize, region: &Region) -> bool {
         !self.params.memory_gate
             || self.cluster_distance(k, &region.grown, self.params.conflict_association_m).is_some()
-    }
-
-    /// With `memory_drift`: whether evidence at `at` (ego frame) is not track `j`'s because it stands farther from
-    /// where the track's anchor (the offset of the first frame of its run of displaced claims) puts it than a true
-    /// error allows, along or across the box. The anchor is compared as it was (an error fixed in the world) and
-    /// turned by the change of the line of sight's bearing since (an error along the line of sight, such as a
-    /// range error: the campaign injects its permanent errors so); it is refused only beyond both. The allowance
-    /// is step 9's ([`Monitor::jump_allowances`]: the stated uncertainty in the two frames, the safety margin and a
-    /// cell of rounding) plus the box's length and width (the evidence's centre may stand anywhere on the object,
-    /// as its visible faces change). Only for a box merely hidden (the sensor does not contradict its footprint):
-    /// under a permanent error the box and its object move together and the offset stays put, while a fragment of
-    /// a neighbour's evidence moves with the neighbour. Marks the track (`drift_refused`) when it refuses. Always
-    /// false without the key or an anchor.
-    pub(super) fn drifted(&mut self, j: usize, region: &Region, at: [f32; 2]) -> bool {
-        let Some((a, bearing)) = self.scratch.get(j).and_then(|s| s.anchor) else { return false };
-        let fp = &region.footprint;
-        let allow = self.jump_allowances(region).0;
-        let allow = [allow[0] + 2.0 * fp.half_length, allow[1] + 2.0 * fp.half_width];
-        let turned = crate::evidence_memory::rotate(a, f64::from(self.bearing_of(region) - bearing));
-        let beyond = |a: [f32; 2]| beyond_allowance(fp, [at[0] - fp.cx - a[0], at[1] - fp.cy - a[1]], allow);
-        if !beyond(a)
-            || !beyond(turned)
-            || self.sight_of(j, region).contradicted() >= self.params.ghost_visible_fraction
-        {
-            return false;
-        }
-        if let Some(s) = self.scratch.get_mut(j) {
-            s.drift_refused = true;
-        }
-        true
-    }
-
-    /// The bearing of the line of sight from the sensor to a box's centre (ego frame, radians).
-    pub(super) fn bearing_of(&self, region: &Region) -> f32 {
-        let o = self.visibility.origin();
-        libm::atan2f(region.footprint.cy - o[1], region.footprint.cx - o[0])
-    }
-
-    /// [`Monitor::drifted`] for cluster `k`'s centroid.
-    pub(super) fn drifted_cluster(&mut self, j: usize, region: &Region, k: usize) -> bool {
-        match self.clusters.get(k).map(|c| c.centroid_m) {
-            Some(at) => self.drifted(j, region, at),
-            None => false,
-        }
     }
 
     /// The evidence follows its object, also when the box keeps evidence in its region (issue #10): for a track
@@ -1330,12 +1278,6 @@ pub(super) fn stayed_evidence(s: &super::ObjectScratch, region: &Region) -> Opti
     }
     let expected = [centre[0] + off[0], centre[1] + off[1]];
     (expected.iter().all(|v| v.is_finite()) && !region.grown.contains(expected[0], expected[1])).then_some(expected)
-}
-
-/// With `memory_drift`: the anchor a track hidden this frame keeps (remembered as drifted), when a claim of it
-/// was refused for drift this frame or it was remembered as drifted and is still hidden.
-pub(super) fn drifted_entry(s: &super::ObjectScratch) -> Option<([f32; 2], f32)> {
-    s.anchor.filter(|_| s.drift_refused || matches!(s.recalled, Some((EvidenceKind::Drifted, _))))
 }
 
 /// Average number of candidate objects per conflict cluster the evidence assignment keeps room for.
