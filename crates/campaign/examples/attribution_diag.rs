@@ -19,7 +19,9 @@
 //! (a memory cascade when the streak is long). `DRIFT=1` prints how far the offset from a flagged box to the cluster it
 //! took wanders from the first frame of its run of alarms, for true errors and for clean tracks whose run began with a
 //! foreign cluster (world, ego and line-of-sight axes; errors of `DRIFT_MIN` metres or more, 0.8 unless told; with
-//! `TRACK=ID` one line per frame of that track); docs/attribution.md, "The drift of a remembered offset".
+//! `TRACK=ID` one line per frame of that track), when the runs began (frames since the track was last confirmed), and
+//! how often the cluster continues a consistent neighbour's evidence; docs/attribution.md, "The drift of a remembered
+//! offset".
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -603,6 +605,39 @@ fn drift(scene: &Scene, run: &PlannedRun) -> Result<DriftSamples, String> {
                     r.sensor.visible_fraction
                 );
             }
+            // Does the cluster continue (8-adjacent occupied cells) evidence inside the grown region of another
+            // object the sensor calls consistent? (Approximate: the cluster's cells are the occupied cells within its
+            // bounds.)
+            let geo = f.monitor.grid().geometry;
+            let tau = spec.params.tau_fn;
+            let occupied = |idx: u32| f.monitor.grid().hits(idx) > 0 && f.monitor.grid().probability(idx) > tau;
+            let mut touches = false;
+            if let Some((x0, y0)) = geo.point_to_cell(c.bounds_m[0], c.bounds_m[1]).map(|i| geo.cell_center(i)) {
+                let step = geo.cell_size_m;
+                let mut y = y0;
+                while y <= c.bounds_m[3] + 1e-3 && !touches {
+                    let mut x = x0;
+                    while x <= c.bounds_m[2] + 1e-3 && !touches {
+                        if let Some(idx) = geo.point_to_cell(x, y).filter(|&i| occupied(i)) {
+                            touches = geo.block3x3(idx).any(|n| {
+                                let (nx, ny) = geo.cell_center(n);
+                                occupied(n)
+                                    && f.reports.iter().enumerate().any(|(m, rm)| {
+                                        m != i
+                                            && rm.sensor.verdict == SensorVerdict::Consistent
+                                            && f.objects
+                                                .get(m)
+                                                .and_then(|om| f.monitor.region_of(om))
+                                                .is_some_and(|g| g.grown.contains(nx, ny))
+                                    })
+                            });
+                        }
+                        x += step;
+                    }
+                    y += step;
+                }
+            }
+            out.entry((format!("touch-{kind}"), u64::from(touches))).or_default().push(s);
             out.entry((kind, lag)).or_default().push(s);
         }
         runs.retain(|_, v| v.3);
@@ -628,8 +663,18 @@ fn print_drift(group: &str, samples: &DriftSamples) {
             n(4)
         );
     }
+    let touch: std::collections::BTreeSet<&String> =
+        samples.keys().map(|(c, _)| c).filter(|c| c.starts_with("touch-")).collect();
+    for cat in touch {
+        let n = |b: u64| samples.get(&(cat.clone(), b)).map_or(0, Vec::len);
+        println!(
+            "DRIFT {group} {cat}: cluster continues a consistent neighbour's evidence {} of {}",
+            n(1),
+            n(0) + n(1)
+        );
+    }
     let cats: std::collections::BTreeSet<&String> =
-        samples.keys().map(|(c, _)| c).filter(|c| !c.starts_with("start-")).collect();
+        samples.keys().map(|(c, _)| c).filter(|c| !c.starts_with("start-") && !c.starts_with("touch-")).collect();
     for cat in cats {
         for lag in [1u64, 3, 5, 10, 20] {
             let Some(v) = samples.get(&(cat.clone(), lag)) else { continue };
