@@ -16,7 +16,12 @@
 //! position errors (`random_position_*`: sensor recall over every injected error and the combined precision).
 //! `HELD=1` adds, per row and summed per curve, the false alarms on clean object states by the length of the
 //! streak of consecutive flagged frames they belong to, and how many of those streaks began with a foreign cluster
-//! (a memory cascade when the streak is long).
+//! (a memory cascade when the streak is long). `DRIFT=1` prints how far the offset from a flagged box to the cluster it
+//! took wanders from the first frame of its run of alarms, for true errors and for clean tracks whose run began with a
+//! foreign cluster (world, ego and line-of-sight axes; errors of `DRIFT_MIN` metres or more, 0.8 unless told; with
+//! `TRACK=ID` one line per frame of that track), when the runs began (frames since the track was last confirmed), and
+//! how often the cluster continues a consistent neighbour's evidence; docs/attribution.md, "The drift of a remembered
+//! offset".
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -478,6 +483,229 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 5], String> {
     Ok(out)
 }
 
+/// `DRIFT=1`: how far the offset from a flagged box to the cluster it took wanders from the offset of the first
+/// frame of its run of consecutive alarms (the anchor), for true errors (injected, verifiable) and for clean tracks
+/// whose run began with a foreign cluster. The offset is compared in three frames: world axes, the ego frame, and
+/// the box's line of sight (along the ray from the ego to the box, and across it). Per curve and lag (frames since
+/// the anchor): the distance's percentiles, and per frame kind the share beyond step 9's allowance along or across
+/// the box (`2 (margin - delta_safe) + delta_safe + cell size`). Returned: (key, samples [world, ego, los, min] as
+/// (distance, beyond)) per run.
+type DriftSamples = BTreeMap<(String, u64), Vec<[(f32, bool); 4]>>;
+
+/// One track's run in [`drift`]: anchor offsets (world, ego, line of sight), anchor frame, category, seen this frame.
+type DriftRun = (Option<[[f32; 2]; 3]>, usize, &'static str, bool);
+
+fn drift(scene: &Scene, run: &PlannedRun) -> Result<DriftSamples, String> {
+    let spec = &run.spec;
+    let mut out: DriftSamples = BTreeMap::new();
+    // Only the errors of `DRIFT_MIN` metres or more (0.8 unless told).
+    let min: f64 = std::env::var("DRIFT_MIN").ok().and_then(|t| t.parse().ok()).unwrap_or(0.8);
+    if spec.injection.fault.magnitude() < min - 1e-6 {
+        return Ok(out);
+    }
+    // Track id -> (anchor offsets [world, ego, los], anchor frame, category, seen this frame).
+    let mut runs: BTreeMap<u64, DriftRun> = BTreeMap::new();
+    let track: Option<u64> = std::env::var("TRACK").ok().and_then(|t| t.parse().ok());
+    let mut anchors_own: BTreeMap<u64, bool> = BTreeMap::new();
+    let mut last_own: BTreeMap<u64, usize> = BTreeMap::new();
+    pmon_campaign::paired_frames(scene, spec, |f| {
+        for v in runs.values_mut() {
+            v.3 = false;
+        }
+        // The last frame each track was confirmed by its own evidence (consistent, `eta_own >= tau_tp`).
+        for (i, r) in f.reports.iter().enumerate() {
+            if r.sensor.verdict == SensorVerdict::Consistent && r.sensor.eta_own >= spec.params.tau_tp {
+                if let Some(o) = f.objects.get(i) {
+                    last_own.insert(o.id, f.k);
+                }
+            }
+        }
+        let yaw = f.clean.world_from_ego.yaw_rad as f32;
+        for (i, r) in f.reports.iter().enumerate() {
+            let injected = f.injections.iter().any(|x| x.index as usize == i);
+            let alarm = pmon_campaign::in_scope(r.sensor.verdict)
+                && matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+            let (Some(truth), Some(o)) = (f.clean.objects.get(i), f.objects.get(i)) else { continue };
+            if !alarm || (injected && !f.confirmed.get(i).copied().unwrap_or(false)) {
+                continue;
+            }
+            let c = r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c)));
+            let e = runs.entry(o.id).or_insert((None, f.k, "", false));
+            if e.2.is_empty() {
+                let truth_region = f.clean_monitor.region_of(truth);
+                let foreign = c.is_some_and(|c| {
+                    !truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
+                });
+                e.1 = f.k;
+                e.2 = if injected {
+                    "true"
+                } else if foreign {
+                    "clean-foreign"
+                } else {
+                    "clean-other"
+                };
+                // Frames since the track was last confirmed by its own evidence when its run began.
+                let gap = last_own.get(&o.id).map_or(u64::MAX, |&k| (f.k - k) as u64);
+                let bucket = match gap {
+                    1 => 0,
+                    2..=5 => 1,
+                    6..=20 => 2,
+                    u64::MAX => 4,
+                    _ => 3,
+                };
+                let key = (format!("start-{}", e.2), bucket);
+                out.entry(key).or_default().push([(0.0, false); 4]);
+            }
+            e.3 = true;
+            let Some(c) = c else { continue };
+            let d = [c.centroid_m[0] - o.x_m, c.centroid_m[1] - o.y_m];
+            let rot = |v: [f32; 2], a: f32| {
+                let (s, cs) = a.sin_cos();
+                [cs * v[0] - s * v[1], s * v[0] + cs * v[1]]
+            };
+            let bearing = o.y_m.atan2(o.x_m);
+            let now = [rot(d, yaw), d, rot(d, -bearing)];
+            let truth_region = f.clean_monitor.region_of(truth);
+            let own_now = truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5);
+            let Some(anchor) = e.0 else {
+                e.0 = Some(now);
+                e.1 = f.k;
+                anchors_own.insert(o.id, own_now);
+                continue;
+            };
+            let kind = format!(
+                "{}:{}>{}",
+                e.2,
+                if anchors_own.get(&o.id).copied().unwrap_or(false) { "own" } else { "for" },
+                if own_now { "own" } else { "for" }
+            );
+            let lag = (f.k - e.1) as u64;
+            let Some(g) = f.monitor.region_of(o) else { continue };
+            let delta = spec.params.safety_margin_m;
+            let cell = spec.params.cell_size_m;
+            let allow =
+                [2.0 * (g.margin_length_m - delta) + delta + cell, 2.0 * (g.margin_width_m - delta) + delta + cell];
+            // Each difference back in the current ego frame's axes, then in the box's.
+            let back = [yaw, 0.0, -bearing];
+            let mut s = [(0.0f32, false); 4];
+            for v in 0..3 {
+                let dd = [now[v][0] - anchor[v][0], now[v][1] - anchor[v][1]];
+                let de = rot(dd, -back[v]);
+                let (sn, cs) = o.heading_rad.sin_cos();
+                let (u, w) = (de[0] * cs + de[1] * sn, -de[0] * sn + de[1] * cs);
+                s[v] = (dd[0].hypot(dd[1]), u.abs() > allow[0] || w.abs() > allow[1]);
+            }
+            let m = (0..3).min_by(|&a, &b| s[a].0.total_cmp(&s[b].0)).unwrap_or(0);
+            s[3] = (s[m].0, s[0].1 && s[1].1 && s[2].1);
+            if track == Some(o.id) {
+                eprintln!(
+                    "DRIFTTRACK [{}] frame {} id {} {} lag {lag} box ({:.2},{:.2}) truth ({:.2},{:.2}) c ({:.2},{:.2}) {} cells world off ({:.2},{:.2}) drift w/e/l {:.2}/{:.2}/{:.2} beyond {}/{}/{} vis {:.2}",
+                    label(run), f.k, o.id, kind, o.x_m, o.y_m, truth.x_m, truth.y_m, c.centroid_m[0], c.centroid_m[1], c.cells,
+                    now[0][0], now[0][1], s[0].0, s[1].0, s[2].0, u8::from(s[0].1), u8::from(s[1].1), u8::from(s[2].1),
+                    r.sensor.visible_fraction
+                );
+            }
+            // Does the cluster continue (8-adjacent occupied cells) evidence inside the grown region of another
+            // object the sensor calls consistent? (Approximate: the cluster's cells are the occupied cells within its
+            // bounds.)
+            let geo = f.monitor.grid().geometry;
+            let tau = spec.params.tau_fn;
+            let occupied = |idx: u32| f.monitor.grid().hits(idx) > 0 && f.monitor.grid().probability(idx) > tau;
+            let mut touches = false;
+            if let Some((x0, y0)) = geo.point_to_cell(c.bounds_m[0], c.bounds_m[1]).map(|i| geo.cell_center(i)) {
+                let step = geo.cell_size_m;
+                let mut y = y0;
+                while y <= c.bounds_m[3] + 1e-3 && !touches {
+                    let mut x = x0;
+                    while x <= c.bounds_m[2] + 1e-3 && !touches {
+                        if let Some(idx) = geo.point_to_cell(x, y).filter(|&i| occupied(i)) {
+                            touches = geo.block3x3(idx).any(|n| {
+                                let (nx, ny) = geo.cell_center(n);
+                                occupied(n)
+                                    && f.reports.iter().enumerate().any(|(m, rm)| {
+                                        m != i
+                                            && rm.sensor.verdict == SensorVerdict::Consistent
+                                            && f.objects
+                                                .get(m)
+                                                .and_then(|om| f.monitor.region_of(om))
+                                                .is_some_and(|g| g.grown.contains(nx, ny))
+                                    })
+                            });
+                        }
+                        x += step;
+                    }
+                    y += step;
+                }
+            }
+            out.entry((format!("touch-{kind}"), u64::from(touches))).or_default().push(s);
+            out.entry((kind, lag)).or_default().push(s);
+        }
+        runs.retain(|_, v| v.3);
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+/// Prints [`drift`]'s samples of one curve: per category the distance's percentiles at lags 1, 3, 5, 10, 20 and,
+/// over every lag, the share beyond the allowance (world, ego, line of sight, all three).
+fn print_drift(group: &str, samples: &DriftSamples) {
+    // Runs by frames since the track was last confirmed when they began: 1, 2-5, 6-20, more, never.
+    let starts: std::collections::BTreeSet<&String> =
+        samples.keys().map(|(c, _)| c).filter(|c| c.starts_with("start-")).collect();
+    for cat in starts {
+        let n = |b: u64| samples.get(&(cat.clone(), b)).map_or(0, Vec::len);
+        println!(
+            "DRIFT {group} {cat}: runs begun 1 frame after the track was last confirmed {} | 2-5 {} | 6-20 {} | more {} | never {}",
+            n(0),
+            n(1),
+            n(2),
+            n(3),
+            n(4)
+        );
+    }
+    let touch: std::collections::BTreeSet<&String> =
+        samples.keys().map(|(c, _)| c).filter(|c| c.starts_with("touch-")).collect();
+    for cat in touch {
+        let n = |b: u64| samples.get(&(cat.clone(), b)).map_or(0, Vec::len);
+        println!(
+            "DRIFT {group} {cat}: cluster continues a consistent neighbour's evidence {} of {}",
+            n(1),
+            n(0) + n(1)
+        );
+    }
+    let cats: std::collections::BTreeSet<&String> =
+        samples.keys().map(|(c, _)| c).filter(|c| !c.starts_with("start-") && !c.starts_with("touch-")).collect();
+    for cat in cats {
+        for lag in [1u64, 3, 5, 10, 20] {
+            let Some(v) = samples.get(&(cat.clone(), lag)) else { continue };
+            let pct = |k: usize| {
+                let mut d: Vec<f32> = v.iter().map(|s| s[k].0).collect();
+                d.sort_by(f32::total_cmp);
+                let at = |q: f64| d.get(((d.len() as f64 - 1.0) * q).round() as usize).copied().unwrap_or(f32::NAN);
+                format!("{:.2}/{:.2}/{:.2}/{:.2}", at(0.5), at(0.9), at(0.99), at(1.0))
+            };
+            println!(
+                "DRIFT {group} {cat:<22} lag {lag:>2}: n {:>6} p50/p90/p99/max world {} ego {} los {} min {}",
+                v.len(),
+                pct(0),
+                pct(1),
+                pct(2),
+                pct(3)
+            );
+        }
+        let all: Vec<&[(f32, bool); 4]> = samples.iter().filter(|((c, _), _)| c == cat).flat_map(|(_, v)| v).collect();
+        let share = |k: usize| all.iter().filter(|s| s[k].1).count();
+        println!(
+            "DRIFT {group} {cat:<22} every lag: n {} beyond allowance world {} ego {} los {} all three {}",
+            all.len(),
+            share(0),
+            share(1),
+            share(2),
+            share(3)
+        );
+    }
+}
+
 /// `HELD=1 TRACK=ID`: one line per frame in which clean track `ID` is flagged: its box and true place, stated
 /// motion, the cluster it took and whose true place holds that cluster (with that object's box, verdict, cluster).
 fn track_line(f: &pmon_campaign::PairedFrame<'_>, i: usize) {
@@ -779,7 +1007,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let res = run_one(scene, &r.spec)?;
             let c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
             let h = if std::env::var_os("HELD").is_some() { Some(held(scene, r)?) } else { None };
-            Ok::<_, String>((res, c, h))
+            let d = if std::env::var_os("DRIFT").is_some() { Some(drift(scene, r)?) } else { None };
+            Ok::<_, String>((res, c, h, d))
         })
         .collect::<Result<_, _>>()?;
     let mut fa_total = (0u64, 0u64);
@@ -787,7 +1016,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut all_causes: BTreeMap<String, BTreeMap<String, u64>> = BTreeMap::new();
     // `HELD=1`: per row group (false alarms, paper, hard, towards, transient), the streak buckets summed.
     let mut held_by_group: BTreeMap<String, [[u64; 2]; 5]> = BTreeMap::new();
-    for (r, (res, c, h)) in chosen.iter().zip(&results) {
+    let mut drift_by_group: BTreeMap<String, DriftSamples> = BTreeMap::new();
+    for (r, (res, c, h, d)) in chosen.iter().zip(&results) {
         let m = &res.metrics;
         let l = label(r);
         if l.starts_with("false_alarms") {
@@ -835,6 +1065,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 a[1] += b[1];
             }
         }
+        if let Some(d) = d {
+            let g = drift_by_group.entry(l.split(" @ ").next().unwrap_or_default().to_string()).or_default();
+            for (k, v) in d {
+                g.entry(k.clone()).or_default().extend_from_slice(v);
+            }
+        }
         let group = if std::env::var("BYMAG").is_ok() {
             l.clone()
         } else {
@@ -853,6 +1089,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "HELD total {group}: {total} FA; streak 1: {} | 2-5: {} | 6-20: {} ({} began foreign) | >20: {} ({} began foreign); cascades (streak > 5, began foreign): {cascade}; verifiable found {}, offset beyond gate + 1 m {}",
             h[0][0], h[1][0], h[2][0], h[2][1], h[3][0], h[3][1], h[4][0], h[4][1]
         );
+    }
+    for (group, d) in &drift_by_group {
+        print_drift(group, d);
     }
     if correlated {
         for (curve, (k, n)) in &fa_by_curve {
