@@ -636,15 +636,16 @@ impl OccupancyGrid {
     }
 
     /// [`OccupancyGrid::add_hits`], and with [`OccupancyGrid::with_returns`] each run's returns folded into its
-    /// cell at once: `returns` gives each point's squared range from the sensor (as bits in the upper half of a
-    /// visibility-map key, `crate::visibility::key`: non-negative floats order as their bits) and its z; and with
+    /// cell at once: `returns` gives each point's squared range from the sensor (as the bits in the first half of
+    /// a visibility-map key's `[bits, cell]` pair, `crate::visibility::key`: non-negative floats order as their
+    /// bits) and its z; and with
     /// [`OccupancyGrid::with_sums`] each point's x and y from `xy` added to its cell's sums, one at a time in point
     /// order (the reference's additions). Returns the number of the 64 cells that are in the grid.
     #[inline(always)]
     pub(crate) fn add_hits_with_returns(
         &mut self,
         cells: &[u32; 64],
-        returns: Option<(&[u64; 64], &[f32; 64])>,
+        returns: Option<(&[[u32; 2]; 64], &[f32; 64])>,
         xy: Option<(&[f32; 64], &[f32; 64])>,
     ) -> u32 {
         let returns = returns.filter(|_| !self.returns.is_empty());
@@ -658,10 +659,10 @@ impl OccupancyGrid {
             None => self.add_runs(cells, ends, runs, |_, _, _, _| {}),
             Some((r2_keys, z)) => self.add_runs(cells, ends, runs, |grid, c, start, j| {
                 let run = start as usize..=j as usize;
-                // The upper halves of the keys: the squared ranges' bits.
+                // The lower halves of the keys (`[bits, cell]`): the squared ranges' bits.
                 let r2 = r2_keys
                     .get(run.clone())
-                    .map_or(u32::MAX, |r| r.iter().map(|&k| (k >> 32) as u32).min().unwrap_or(u32::MAX));
+                    .map_or(u32::MAX, |r| r.iter().map(|&[bits, _]| bits).min().unwrap_or(u32::MAX));
                 let (lo, hi) = z.get(run).map_or((f32::INFINITY, f32::NEG_INFINITY), |z| {
                     z.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
                 });

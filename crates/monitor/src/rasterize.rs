@@ -34,7 +34,7 @@ use crate::frame::{Isometry3, PointColumns};
 use crate::geometry::diamond_angle_select;
 use crate::grid::{bits_below, GridGeometry, OccupancyGrid};
 use crate::params::MAX_CELLS_PER_SIDE;
-use crate::visibility::{key, BinParams, VisibilityMap, NO_CELL};
+use crate::visibility::{BinParams, VisibilityMap, NO_CELL};
 
 /// Which implementation runs the rasterize stage ([`crate::Monitor::set_rasterizer`]). Both give bit-identical
 /// results; the choice exists for verification and benchmarking.
@@ -321,12 +321,13 @@ fn floor_of<const ROUND: bool>(f: f32) -> u32 {
 struct Block {
     bins: [u32; BLOCK],
     far_r2: [f32; BLOCK],
-    /// Each point's candidate nearest obstacle: its squared range's bits and its cell as a visibility-map key
-    /// (`crate::visibility::key`).
-    near_keys: [u64; BLOCK],
-    /// The upper halves of `near_keys`, as pass 1 computes them (the keys are built in a loop of their own: in pass
-    /// 1's, their 64-bit lanes halved its vector width).
-    near_bits: [u32; BLOCK],
+    /// Each point's candidate nearest obstacle as the two 32-bit halves of a visibility-map key
+    /// (`crate::visibility::key`), lower half first: `[squared range's bits, cell]`. Pass 1 writes them, its 32-bit
+    /// lanes interleaved (two unpacks and two lane permutes per 8 points); `VisibilityMap::add_binned` compares the
+    /// bits and moves the pair as one 64-bit key. (Until round viscopy the keys were `u64`s built in a loop of their
+    /// own after pass 1, 1.28 instructions per point; built as `u64`s in pass 1 their 64-bit lanes halved its vector
+    /// width.)
+    near_keys: [[u32; 2]; BLOCK],
     cells: [u32; BLOCK],
     /// Each point's z in the ego frame (read for the points with a cell: obstacle returns in the grid).
     z: [f32; BLOCK],
@@ -341,8 +342,7 @@ impl Block {
     const EMPTY: Self = Self {
         bins: [0; BLOCK],
         far_r2: [0.0; BLOCK],
-        near_keys: [0; BLOCK],
-        near_bits: [0; BLOCK],
+        near_keys: [[0; 2]; BLOCK],
         cells: [0; BLOCK],
         z: [0.0; BLOCK],
         x: [0.0; BLOCK],
@@ -365,7 +365,7 @@ impl Block {
         k: &Pass1,
         points: impl Lanes,
     ) {
-        let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_bits.iter_mut());
+        let outputs = self.bins.iter_mut().zip(self.far_r2.iter_mut()).zip(self.near_keys.iter_mut());
         let cells = self.cells.iter_mut().zip(self.z.iter_mut());
         if SUMS || TALL {
             let extra = self.x.iter_mut().zip(self.y.iter_mut()).zip(self.tall.iter_mut());
@@ -373,7 +373,9 @@ impl Block {
                 points.points().zip(outputs).zip(cells).zip(extra)
             {
                 let (q0, q1, t);
-                (*bin, *far, *near, *cell, *height, q0, q1, t) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                let (r2, c);
+                (*bin, *far, r2, c, *height, q0, q1, t) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                (*near, *cell) = ([r2, c], c);
                 if SUMS {
                     (*qx, *qy) = (q0, q1);
                 }
@@ -383,11 +385,10 @@ impl Block {
             }
         } else {
             for (([x, y, z], ((bin, far), near)), (cell, height)) in points.points().zip(outputs).zip(cells) {
-                (*bin, *far, *near, *cell, *height, _, _, _) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                let (r2, c);
+                (*bin, *far, r2, c, *height, _, _, _) = k.point::<TRANSLATION_ONLY, EGO_MASK, ROUND>(x, y, z);
+                (*near, *cell) = ([r2, c], c);
             }
-        }
-        for (k, (&r2, &c)) in self.near_keys.iter_mut().zip(self.near_bits.iter().zip(&self.cells)) {
-            *k = key(r2, c);
         }
     }
 
@@ -400,7 +401,7 @@ impl Block {
         visibility: &mut VisibilityMap,
     ) -> u32 {
         visibility.add_binned(&self.bins, &self.far_r2, &self.near_keys);
-        // A point with a cell is an obstacle return in the grid: its key's upper half is its squared range's bits.
+        // A point with a cell is an obstacle return in the grid: its key pair's first half is its squared range's bits.
         let xy = if SUMS { Some((&self.x, &self.y)) } else { None };
         // The points with a cell (pass 1 gives a cell in the grid or `NO_CELL`): the block's points in the band and
         // in the grid, counted from the grid's mask of them.

@@ -41,10 +41,14 @@ pub enum Sight {
 /// One azimuth bin: the nearest obstacle return (squared range and grid cell) and the farthest return.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Bin {
-    /// The nearest obstacle return as one key: the bits of its squared range (m^2; `INFINITY`: none) in the upper
-    /// 32 bits, its grid cell (`NO_CELL`: none, or outside the grid) in the lower 32. One load, one conditional
-    /// move and one store per update in the rasterize loop, where two fields took two of each and an address
-    /// select (docs/performance.md, "Issue #16, round rast16").
+    /// The nearest obstacle return as one [`key`]: the bits of its squared range (m^2; `INFINITY`: none) in the
+    /// lower 32 bits, its grid cell (`NO_CELL`: none, or outside the grid) in the upper 32. One load, one compare of
+    /// the lower half with the candidate's bits in memory, one conditional move and one store per update in the
+    /// rasterize loop (docs/performance.md, "Issue #16, round rast16" and "round viscopy").
+    ///
+    /// (Round rast16 had the range in the upper half, compared as `key < old & !0xFFFF_FFFF`: a copy and an `and`
+    /// per update more; round viscopy put it in the lower half, which x86 compares as the 32-bit register of the
+    /// loaded key with no instruction of its own.)
     nearest_obstacle: u64,
     /// Squared range of the farthest return below the band's top, m^2 (0: none).
     farthest_return_r2: f32,
@@ -62,24 +66,25 @@ impl Bin {
     /// The bits of [`Bin::nearest_obstacle_r2`].
     #[inline(always)]
     fn nearest_r2_bits(&self) -> u32 {
-        (self.nearest_obstacle >> 32) as u32
+        // The lower half: the truncation is the point.
+        #[allow(clippy::cast_possible_truncation)]
+        let bits = self.nearest_obstacle as u32;
+        bits
     }
 
     /// Grid cell of the nearest obstacle return (`NO_CELL`: none, or outside the grid).
     #[inline(always)]
     fn nearest_obstacle_cell(&self) -> u32 {
-        // The lower half: the truncation is the point.
-        #[allow(clippy::cast_possible_truncation)]
-        let cell = self.nearest_obstacle as u32;
-        cell
+        (self.nearest_obstacle >> 32) as u32
     }
 }
 
-/// A nearest-obstacle key of [`Bin`]: a squared range's bits (upper half) and a cell (lower half). The rasterize
-/// loop's pass 1 builds them ([`VisibilityMap::add_binned`]).
+/// A nearest-obstacle key of [`Bin`]: a squared range's bits (lower half) and a cell (upper half). It is not
+/// compared as a whole: the range's bits alone decide ([`VisibilityMap::add_binned`]). The rasterize loop's pass 1
+/// writes its two halves as `[bits, cell]`, which is the key's little-endian memory.
 #[inline(always)]
 pub(crate) const fn key(r2_bits: u32, cell: u32) -> u64 {
-    ((r2_bits as u64) << 32) | cell as u64
+    ((cell as u64) << 32) | r2_bits as u64
 }
 
 /// The unit direction of a diamond angle (the inverse of [`diamond_angle`], normalised), for `a` in `[0, 4)`.
@@ -133,33 +138,36 @@ impl VisibilityMap {
     /// Records a block of returns already binned (see [`BinParams`]), in point order: the same map as
     /// [`VisibilityMap::add_return`] on each return in turn. Per return: its bin, its squared range as a candidate
     /// farthest return (`0.0` for a point that is no return: it never wins), and its candidate nearest obstacle as
-    /// a [`key`] of the bits of its squared range and its grid cell (`u32::MAX` as the bits for a point that is no
-    /// obstacle or has an infinite range: it never wins; otherwise a finite non-negative float, whose bits order as
-    /// its value).
+    /// the halves `[bits, cell]` of a [`key`]: the bits of its squared range and its grid cell (`u32::MAX` as the
+    /// bits for a point that is no obstacle or has an infinite range: it never wins; otherwise a finite non-negative
+    /// float, whose bits order as its value).
     ///
     /// The nearest obstacle is compared by its range's bits, strictly, in point order: the first of equal ranges
-    /// stays, as in [`VisibilityMap::add_return`]. A key is below the bin's key with its cell half cleared exactly
-    /// when its upper half is below the bin's (equal upper halves: the key is at least the cleared one), so one
-    /// 64-bit comparison decides it. (Until round rast16 the range's bits and the cell were two fields and two
-    /// conditional moves; before issue #16's first round, a 64-bit key `(r^2 bits << 32) | point index` in a second
-    /// array of bins, copied into this one per frame.)
+    /// stays, as in [`VisibilityMap::add_return`] (the definition is unchanged since before issue #16; the updates
+    /// run in point order, one bin at a time). The candidate's bits are compared with the lower half of the bin's
+    /// key (on x86-64: a 32-bit compare of the candidate in memory with the loaded key's register), and the winner's
+    /// whole key is moved in (a 64-bit load of the `[bits, cell]` pair). (Round rast16: the range in the upper half
+    /// and one 64-bit comparison with the cell half cleared, 14 instructions per update; round viscopy: 11. Until
+    /// round rast16 the range's bits and the cell were two fields and two conditional moves; before issue #16's
+    /// first round, a 64-bit key `(r^2 bits << 32) | point index` in a second array of bins, copied into this one
+    /// per frame.)
     #[inline(always)]
-    pub(crate) fn add_binned(&mut self, bins: &[u32; 64], far_r2: &[f32; 64], near_keys: &[u64; 64]) {
+    pub(crate) fn add_binned(&mut self, bins: &[u32; 64], far_r2: &[f32; 64], near_keys: &[[u32; 2]; 64]) {
         // Eight returns per turn of the loop: one loop test for eight updates (each update still tests its bin).
         let (bins, _) = bins.as_chunks::<8>();
         let (far_r2, _) = far_r2.as_chunks::<8>();
         let (near_keys, _) = near_keys.as_chunks::<8>();
         for ((b, far), near) in bins.iter().zip(far_r2).zip(near_keys) {
-            for ((&b, &far), &near) in b.iter().zip(far).zip(near) {
-                self.add_keyed(b, far, near);
+            for ((&b, &far), &[bits, cell]) in b.iter().zip(far).zip(near) {
+                // On a little-endian processor one 64-bit load: the pair lies in memory as the key's bytes.
+                self.add_keyed(b, far, key(bits, cell), bits);
             }
         }
     }
 
     /// One return of [`VisibilityMap::add_binned`].
     #[inline(always)]
-    fn add_keyed(&mut self, b: u32, far: f32, near: u64) {
-        const RANGE: u64 = !(u32::MAX as u64);
+    fn add_keyed(&mut self, b: u32, far: f32, near: u64, bits: u32) {
         if let Some(bin) = self.bins.get_mut(b as usize) {
             // The farthest return: a `maxss` (neither range is NaN).
             bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
@@ -167,7 +175,7 @@ impl VisibilityMap {
             // that is no obstacle never wins. Whether a return is the nearest so far is not predictable in real
             // sweeps: no branch.
             let old = bin.nearest_obstacle;
-            bin.nearest_obstacle = core::hint::select_unpredictable(near < (old & RANGE), near, old);
+            bin.nearest_obstacle = core::hint::select_unpredictable(bits < bin.nearest_r2_bits(), near, old);
         }
     }
 
@@ -340,9 +348,9 @@ impl VisibilityMap {
 mod tests {
     use super::*;
 
-    /// The one 64-bit comparison of `add_binned` (a key below the bin's key with its cell half cleared) decides as
-    /// the strict comparison of the ranges' bits, whatever the cells: equal ranges keep the bin's obstacle, and
-    /// `u32::MAX` (no obstacle) never wins, not even over an empty bin.
+    /// `add_binned` keeps the nearest obstacle by the strict comparison of the ranges' bits, whatever the cells:
+    /// equal ranges keep the bin's obstacle, and `u32::MAX` (no obstacle) never wins, not even over an empty bin;
+    /// a winner's key is its range's bits and its cell, as `key` builds it.
     #[test]
     fn keys_compare_as_their_ranges() {
         let ranges =
@@ -354,7 +362,7 @@ mod tests {
                     for &c_old in &cells {
                         let mut map = VisibilityMap::new(1);
                         map.bins[0].nearest_obstacle = key(r_old, c_old);
-                        map.add_binned(&[0; 64], &[0.0; 64], &[key(r_new, c_new); 64]);
+                        map.add_binned(&[0; 64], &[0.0; 64], &[[r_new, c_new]; 64]);
                         let want = if r_new < r_old { (r_new, c_new) } else { (r_old, c_old) };
                         let bin = map.bins[0];
                         assert_eq!((bin.nearest_r2_bits(), bin.nearest_obstacle_cell()), want);
@@ -363,7 +371,7 @@ mod tests {
             }
         }
         let mut map = VisibilityMap::new(1);
-        map.add_binned(&[0; 64], &[0.0; 64], &[key(u32::MAX, 5); 64]);
+        map.add_binned(&[0; 64], &[0.0; 64], &[[u32::MAX, 5]; 64]);
         assert_eq!(map.bins[0], Bin::EMPTY, "no obstacle never wins");
     }
 
