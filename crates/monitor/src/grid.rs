@@ -604,11 +604,13 @@ impl OccupancyGrid {
 
     /// With [`OccupancyGrid::with_first_returns`], after the hits of a block of 64 points (`cells`, as for
     /// [`OccupancyGrid::add_hits_with_returns`]) joined the touched list from position `from` on: each cell new
-    /// in the block gets its first return, the x and y `xy(j)` of its first point `j` in the block (a cell new in the
-    /// block had no hit before it, so its first point in the block is its first of the frame). Nothing otherwise. Costs a vector compare of the block's
-    /// cells per new cell (the mask of its points, the first set bit its first point). Inlined into each loop (the
-    /// compare as wide as the loop's instruction set).
-    #[inline(always)]
+    /// in the block gets its first return, the x and y `xy(j)` of its first point `j` in the block (a cell new in
+    /// the block had no hit before it, so its first point in the block is its first of the frame). Nothing
+    /// otherwise. Costs a vector compare of the block's cells per new cell (the mask of its points, the first set
+    /// bit its first point). Not inlined into the loops (`#[inline]` only): the default loop's instructions were
+    /// lowest this way (inlined, or its work out of line behind an inlined test, the loop without the key took
+    /// up to 1.0 or 1.4 % more; docs/performance.md).
+    #[inline]
     pub(crate) fn set_first_returns(
         &mut self,
         cells: &[u32; 64],

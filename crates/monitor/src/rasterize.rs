@@ -418,7 +418,10 @@ impl Block {
         // The points with a cell (pass 1 gives a cell in the grid or `NO_CELL`): the block's points in the band and
         // in the grid, counted from the grid's mask of them.
         let in_band = grid.add_hits_with_returns(&self.cells, Some((&self.near_keys, &self.z)), xy);
-        grid.set_first_returns(&self.cells, from, |j| k.xy(points.point(j)));
+        // First returns come with the loop without `SUMS` (`blocks_for`): the loops with it do not look.
+        if !SUMS {
+            grid.set_first_returns(&self.cells, from, |j| k.xy(points.point(j)));
+        }
         // Most blocks hold no tall return (`NO_CELL` has every bit set: the `and` of the block's entries is `NO_CELL`
         // exactly when none is a cell); in the others, the tall points as a mask, then those alone.
         if TALL && self.tall.iter().fold(NO_CELL, |a, &c| a & c) != NO_CELL {
