@@ -3,7 +3,7 @@
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
 //! and without the params keys `seen_over`, `face_in_front`, `roi_graze_fraction` (with a region of interest) and
 //! `jump_from_returns`, with or without uncertainties on the objects and a turned sensor, and with or without
-//! `seen_body` and `memory_gate`.
+//! `seen_body` and `memory_gate`, and with `jump_from_returns`, with or without `jump_first_return`.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -73,6 +73,9 @@ fuzz_target!(|data: &[u8]| {
     let seen_body = data.first().is_some_and(|b| b & 0x04 != 0);
     // And its next bit evidence bounded by the gate (`memory_gate`).
     let memory_gate = data.first().is_some_and(|b| b & 0x02 != 0);
+    // And its last bit, with `jump_from_returns`, each cell's first return for step 9 (`jump_first_return`, which
+    // needs `jump_from_returns`).
+    let jump_first_return = jump_from_returns && data.first().is_some_and(|b| b & 0x01 != 0);
     let half_plane: &[[f32; 2]] = &[[-20.0, -20.0], [0.0, -20.0], [0.0, 20.0], [-20.0, 20.0]];
     let polygons = [half_plane];
     let roi: &[&[[f32; 2]]] = if graze { &polygons } else { &[] };
@@ -83,6 +86,7 @@ fuzz_target!(|data: &[u8]| {
         seen_over,
         face_in_front,
         jump_from_returns,
+        jump_first_return,
         seen_body,
         memory_gate,
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },

@@ -23,6 +23,7 @@ class Params:
     seen_over: bool
     face_in_front: bool
     jump_from_returns: bool
+    jump_first_return: bool
     seen_body: bool
     memory_gate: bool
     roi_graze_fraction: float

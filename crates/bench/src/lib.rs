@@ -145,6 +145,9 @@ pub struct BenchOptions {
     /// Check with the params key `jump_from_returns` on (step 9 takes evidence centres from the returns: the
     /// rasterizer sums each hit cell's band returns; docs/attribution.md). Off: the default parameters.
     pub jump_from_returns: bool,
+    /// Check with the params keys `jump_from_returns` and `jump_first_return` on (step 9's returns' mean from each
+    /// cell's first return, set when the cell is first touched; docs/attribution.md). Implies `jump_from_returns`.
+    pub jump_first_return: bool,
     /// Check with the params key `seen_body` on (the free-space test counts only rays that end on the object's
     /// body: a look at the visibility map's bins across the region of a box the test would flag;
     /// docs/attribution.md). Off: the default parameters.
@@ -178,6 +181,7 @@ impl Default for BenchOptions {
             seen_over: false,
             face_in_front: false,
             jump_from_returns: false,
+            jump_first_return: false,
             seen_body: false,
             memory_gate: false,
             roi_graze: false,
@@ -689,7 +693,8 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let mut p = params(def.cell_size_m, def.grid_size_m);
     p.seen_over = opts.seen_over;
     p.face_in_front = opts.face_in_front;
-    p.jump_from_returns = opts.jump_from_returns;
+    p.jump_from_returns = opts.jump_from_returns || opts.jump_first_return;
+    p.jump_first_return = opts.jump_first_return;
     p.seen_body = opts.seen_body;
     p.memory_gate = opts.memory_gate;
     if opts.roi_graze {

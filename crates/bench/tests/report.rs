@@ -18,6 +18,7 @@ fn quick() -> BenchOptions {
         seen_over: false,
         face_in_front: false,
         jump_from_returns: false,
+        jump_first_return: false,
         seen_body: false,
         memory_gate: false,
         roi_graze: false,

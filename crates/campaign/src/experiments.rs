@@ -183,7 +183,7 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 8] = [
+const LATE_PARAMS_KEYS: [&str; 9] = [
     "spill_over_fit",
     "seen_over",
     "face_in_front",
@@ -192,6 +192,7 @@ const LATE_PARAMS_KEYS: [&str; 8] = [
     "jump_from_returns",
     "seen_body",
     "memory_gate",
+    "jump_first_return",
 ];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].

@@ -109,6 +109,11 @@ enum Command {
         /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md).
         #[arg(long)]
         jump_from_returns: bool,
+        /// Check with the params keys `jump_from_returns` and `jump_first_return` on: step 9's returns' mean is
+        /// each cell's first return, set when the cell is first touched (no per-return sums; docs/attribution.md).
+        /// Implies `--jump-from-returns`.
+        #[arg(long)]
+        jump_first_return: bool,
         /// Check with the params key `seen_body` on: the free-space test towards the sensor counts only rays that
         /// end on the object's body, not on other returns its grown region owns (docs/attribution.md).
         #[arg(long)]
@@ -229,6 +234,7 @@ fn main() -> ExitCode {
             seen_over,
             face_in_front,
             jump_from_returns,
+            jump_first_return,
             seen_body,
             memory_gate,
             roi_graze,
@@ -251,6 +257,7 @@ fn main() -> ExitCode {
                 seen_over,
                 face_in_front,
                 jump_from_returns,
+                jump_first_return,
                 seen_body,
                 memory_gate,
                 roi_graze,

@@ -71,6 +71,20 @@ pub(crate) fn bits_below(cells: &[u32; 64], bound: u32) -> u64 {
     half(lo) | half(hi) << 32
 }
 
+/// Bit j set when `cells[j] == cell`: [`bits_below`]'s way (two 32-bit halves of vector compares).
+#[inline(always)]
+fn bits_equal(cells: &[u32; 64], cell: u32) -> u64 {
+    let half = |c: &[u32]| -> u64 {
+        let mut g = 0u32;
+        for (j, &c) in c.iter().enumerate().take(32) {
+            g |= u32::from(c == cell) << j;
+        }
+        u64::from(g)
+    };
+    let (lo, hi) = cells.split_at(32);
+    half(lo) | half(hi) << 32
+}
+
 /// Cell flag: the cell intersects at least one object region `A_o`.
 pub const FLAG_EXPLAINED: u8 = 1;
 /// Cell flag: visited by the conflict clustering.
@@ -429,6 +443,10 @@ pub struct OccupancyGrid {
     /// `jump_from_returns`); set to zero at the cell's first hit of the frame. Four lanes so that a return is
     /// added as one 4-wide addition of `[x, y, 1, 0]`, whose lanes are the three scalar additions (and `0 + 0`).
     sums: Vec<[f32; 4]>,
+    /// [`OccupancyGrid::with_first_returns`]: each entry of `sums` holds the cell's first return alone (`[0 + x,
+    /// 0 + y, 1, 0]`, the sums of that one return), not the sum of all its returns (the params key
+    /// `jump_first_return`).
+    first_only: bool,
     /// Empty unless [`OccupancyGrid::with_tall`]: one bit per cell, set when a return of the frame in the cell
     /// stands higher than `tall_above_m` (any return of the sweep, in the band or not, ego footprint or not; the
     /// grazing rule's `ground_z_m + roi_graze_height_m`). The reset clears the words when `tall_any` (a bit was set
@@ -476,6 +494,7 @@ impl OccupancyGrid {
             probability,
             returns: Vec::new(),
             sums: Vec::new(),
+            first_only: false,
             tall_bits: Vec::new(),
             tall_above_m: f32::INFINITY,
             tall_any: false,
@@ -490,6 +509,26 @@ impl OccupancyGrid {
         // One entry per cell and a spare one after them (see `add_sums`).
         self.sums = vec![[0.0; 4]; self.hits.len() + 1];
         self
+    }
+
+    /// [`OccupancyGrid::with_sums`], but each cell's entry is its **first return** of the frame alone (the first
+    /// obstacle-band return in point order that lands in it): [`OccupancyGrid::sums`] gives its x, its y and the
+    /// count 1 (the params keys `jump_from_returns` and `jump_first_return`). Set when the cell is first touched
+    /// (the rasterizer computes that one point's x and y there): no per-return addition, and pass 1 writes no x and
+    /// y. Allocates one entry per cell.
+    #[must_use]
+    pub fn with_first_returns(mut self) -> Self {
+        self = self.with_sums();
+        self.first_only = true;
+        self
+    }
+
+    /// True when [`OccupancyGrid::sums`] holds each cell's first return alone
+    /// ([`OccupancyGrid::with_first_returns`]).
+    #[must_use]
+    #[inline]
+    pub fn has_first_returns(&self) -> bool {
+        self.first_only
     }
 
     /// The grid also keeps a bit per cell: a return higher than `above_m` in the cell this frame
@@ -552,12 +591,53 @@ impl OccupancyGrid {
     }
 
     /// Adds a return's x and y to a cell's sums (nothing without [`OccupancyGrid::with_sums`], or outside the
-    /// grid).
+    /// grid); with [`OccupancyGrid::with_first_returns`] only the cell's first (an entry still zero).
     #[inline(always)]
     fn add_sum(&mut self, index: u32, x: f32, y: f32) {
+        let first_only = self.first_only;
         if let Some(e) = self.sums.get_mut(index as usize) {
-            add_return(e, x, y);
+            if !first_only || e[2] == 0.0 {
+                add_return(e, x, y);
+            }
         }
+    }
+
+    /// With [`OccupancyGrid::with_first_returns`], after the hits of a block of 64 points (`cells`, as for
+    /// [`OccupancyGrid::add_hits_with_returns`]) joined the touched list from position `from` on: each cell new
+    /// in the block gets its first return, the x and y `xy(j)` of its first point `j` in the block (a cell new in
+    /// the block had no hit before it, so its first point in the block is its first of the frame). Nothing
+    /// otherwise. Costs a vector compare of the block's cells per new cell (the mask of its points, the first set
+    /// bit its first point). Not inlined into the loops (`#[inline]` only): the default loop's instructions were
+    /// lowest this way (inlined, or its work out of line behind an inlined test, the loop without the key took
+    /// up to 1.0 or 1.4 % more; docs/performance.md).
+    #[inline]
+    pub(crate) fn set_first_returns(
+        &mut self,
+        cells: &[u32; 64],
+        from: usize,
+        mut xy: impl FnMut(usize) -> (f32, f32),
+    ) {
+        if !self.first_only || from >= self.touched_len {
+            return;
+        }
+        for k in from..self.touched_len {
+            let Some(&c) = self.touched.get(k) else { break };
+            let points = bits_equal(cells, c);
+            if points == 0 {
+                continue;
+            }
+            let (x, y) = xy((points.trailing_zeros() & 63) as usize);
+            if let Some(e) = self.sums.get_mut(c as usize) {
+                *e = [0.0; 4];
+                add_return(e, x, y);
+            }
+        }
+    }
+
+    /// The number of cells touched so far this frame.
+    #[inline(always)]
+    pub(crate) fn touched_len(&self) -> usize {
+        self.touched_len
     }
 
     /// The grid also keeps, per cell with hits, the nearest squared range and the lowest and highest z of its
@@ -727,6 +807,8 @@ impl OccupancyGrid {
                 if let (Some(mine), Some(theirs)) = (self.sums.get_mut(c as usize), other.sums.get_mut(c as usize)) {
                     if new {
                         *mine = *theirs;
+                    } else if self.first_only {
+                        // First returns: the cell's first return is this grid's (its points come first).
                     } else {
                         theirs[2] = -1.0;
                         shared = true;

@@ -206,7 +206,7 @@ fn grid_for(params: &MonitorParams, geometry: GridGeometry) -> OccupancyGrid {
         grid = grid.with_returns();
     }
     if params.jump_from_returns {
-        grid = grid.with_sums();
+        grid = if params.jump_first_return { grid.with_first_returns() } else { grid.with_sums() };
     }
     if params.roi_graze_fraction > 0.0 {
         grid = grid.with_tall(params.ground_z_m + params.roi_graze_height_m);

@@ -278,6 +278,12 @@ pub struct MonitorParams {
     /// nuScenes and Argoverse 2 within 10 %, the synthetic 64-beam frame +15.5 %), and up to 0.9 points less
     /// combined precision on the simulated transient errors (Argoverse 2 at 1 m: 10 -> 31 of 38).
     pub jump_from_returns: bool,
+    /// Off by default; only with `jump_from_returns` (rejected without it). Step 9's returns' mean is the mean
+    /// over the cells of each cell's **first return** of the frame (the first obstacle-band return in point order
+    /// that lands in it) instead of the mean of all the cells' returns: the grid keeps one return per cell, set when
+    /// the cell is first touched (`OccupancyGrid::with_first_returns`), with no per-return addition and no x and y
+    /// from pass 1 (docs/attribution.md, "Step 9 from each cell's first return").
+    pub jump_first_return: bool,
     /// Off by default. The free-space test towards the sensor (a confirmed box whose rays pass through most of
     /// its footprint and end on its own evidence behind it) counts a ray only when it ends on the object's
     /// *body*: within the box's depth along the ray (plus `safety_margin_m`) of the nearest return of the
@@ -386,6 +392,7 @@ impl MonitorParams {
         seen_over: false,
         face_in_front: false,
         jump_from_returns: false,
+        jump_first_return: false,
         seen_body: false,
         memory_gate: false,
         roi_graze_fraction: 0.5,
@@ -568,6 +575,9 @@ impl MonitorParams {
         at_most("conflict_association_m", self.conflict_association_m, 20.0, "must be <= 20 m")?;
         unit("ghost_visible_fraction", self.ghost_visible_fraction)?;
         unit("roi_graze_fraction", self.roi_graze_fraction)?;
+        if self.jump_first_return && !self.jump_from_returns {
+            return Err(ParamError { field: "jump_first_return", reason: "needs jump_from_returns = true" });
+        }
         pos("roi_graze_height_m", self.roi_graze_height_m)?;
         at_most("roi_graze_height_m", self.roi_graze_height_m, 100.0, "must be <= 100 m")?;
         if self.roi_graze_fraction > 0.0 && self.roi_graze_height_m < self.max_obstacle_height_m {
@@ -705,6 +715,15 @@ mod tests {
             assert_eq!(e.field, field, "{e}");
         }
         assert!(d.validate().is_ok());
+    }
+
+    /// `jump_first_return` changes what `jump_from_returns` keeps per cell: without that key it is refused.
+    #[test]
+    fn jump_first_return_needs_jump_from_returns() {
+        let d = MonitorParams::default();
+        let e = MonitorParams { jump_first_return: true, ..d }.validate().unwrap_err();
+        assert_eq!(e.field, "jump_first_return", "{e}");
+        assert!(MonitorParams { jump_first_return: true, jump_from_returns: true, ..d }.validate().is_ok());
     }
 
     #[test]

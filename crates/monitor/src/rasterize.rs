@@ -212,6 +212,15 @@ impl Pass1 {
         })
     }
 
+    /// A point's x and y in the ego frame, exactly as `Isometry3::transform` (the reference loop's) computes them:
+    /// the first return of a new cell with `OccupancyGrid::with_first_returns`, computed once per new cell.
+    #[inline(always)]
+    fn xy(&self, [x, y, z]: [f32; 3]) -> (f32, f32) {
+        let [r0, r1, _] = self.rotation;
+        let [t0, t1, _] = self.translation;
+        (r0[0] * x + r0[1] * y + r0[2] * z + t0, r1[0] * x + r1[1] * y + r1[2] * z + t1)
+    }
+
     /// True when the rotation is the identity (entries exactly 1 and 0, of either sign): the common upright
     /// sensor, for which [`Pass1::point`] has a cheaper exact transform.
     #[allow(clippy::float_cmp)] // Exact ones and zeros are the condition (either zero: `-0.0 == 0.0`).
@@ -392,20 +401,28 @@ impl Block {
         }
     }
 
-    /// Pass 2: the updates, in point order (with `SUMS` and `TALL`, also the grid's sums and tall bits). Returns the
-    /// number of the block's points that fall in the band and in the grid.
+    /// Pass 2: the updates, in point order (with `SUMS` and `TALL`, also the grid's sums and tall bits; with the
+    /// grid's first returns, those of the cells new in the block, from `points`). Returns the number of the block's
+    /// points that fall in the band and in the grid.
     #[inline(always)]
     fn apply<const SUMS: bool, const TALL: bool>(
         &self,
+        k: &Pass1,
+        points: impl Lanes,
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
     ) -> u32 {
+        let from = grid.touched_len();
         visibility.add_binned(&self.bins, &self.far_r2, &self.near_keys);
         // A point with a cell is an obstacle return in the grid: its key pair's first half is its squared range's bits.
         let xy = if SUMS { Some((&self.x, &self.y)) } else { None };
         // The points with a cell (pass 1 gives a cell in the grid or `NO_CELL`): the block's points in the band and
         // in the grid, counted from the grid's mask of them.
         let in_band = grid.add_hits_with_returns(&self.cells, Some((&self.near_keys, &self.z)), xy);
+        // First returns come with the loop without `SUMS` (`blocks_for`): the loops with it do not look.
+        if !SUMS {
+            grid.set_first_returns(&self.cells, from, |j| k.xy(points.point(j)));
+        }
         // Most blocks hold no tall return (`NO_CELL` has every bit set: the `and` of the block's entries is `NO_CELL`
         // exactly when none is a cell); in the others, the tall points as a mask, then those alone.
         if TALL && self.tall.iter().fold(NO_CELL, |a, &c| a & c) != NO_CELL {
@@ -493,7 +510,9 @@ fn blocks_for<S: Source, const RECORD: bool>(
     }
     let tall = grid.tall_above_m();
     let with_tall = &Pass1 { tall_m: tall.unwrap_or(f32::INFINITY), ..*k };
-    match (grid.has_sums(), tall.is_some()) {
+    // First returns alone (`OccupancyGrid::with_first_returns`): the loop without the sums (pass 2 sets each new
+    // cell's first return).
+    match (grid.has_sums() && !grid.has_first_returns(), tall.is_some()) {
         (false, false) => on!(k, false, false),
         (true, false) => on!(k, true, false),
         (false, true) => on!(with_tall, false, true),
@@ -664,9 +683,12 @@ pub(crate) trait Source: Copy + Send + Sync {
 /// One block's points as pass 1 reads them: `[x, y, z]` records or three columns. [`Block::fill`] is the one body
 /// for both; the accessor is inlined, so each layout's instantiation reads its points the way a loop written for it
 /// would (the records' loop and the columns' loop vectorise as before: docs/performance.md, "The rasterize loop").
-trait Lanes {
+trait Lanes: Copy {
     /// The block's [`BLOCK`] points in order.
     fn points(self) -> impl Iterator<Item = [f32; 3]>;
+
+    /// The block's point `j` (NaN beyond the block).
+    fn point(self, j: usize) -> [f32; 3];
 }
 
 impl Lanes for &[[f32; 3]; BLOCK] {
@@ -676,6 +698,11 @@ impl Lanes for &[[f32; 3]; BLOCK] {
         // 3x the instructions).
         self.iter().map(|&[x, y, z]| [x, y, z])
     }
+
+    #[inline(always)]
+    fn point(self, j: usize) -> [f32; 3] {
+        self.get(j).copied().unwrap_or([f32::NAN; 3])
+    }
 }
 
 impl Lanes for [&[f32; BLOCK]; 3] {
@@ -684,6 +711,12 @@ impl Lanes for [&[f32; BLOCK]; 3] {
         let [xs, ys, zs] = self;
         xs.iter().zip(ys).zip(zs).map(|((&x, &y), &z)| [x, y, z])
     }
+
+    #[inline(always)]
+    fn point(self, j: usize) -> [f32; 3] {
+        let [xs, ys, zs] = self;
+        [xs, ys, zs].map(|c| c.get(j).copied().unwrap_or(f32::NAN))
+    }
 }
 
 impl Block {
@@ -691,12 +724,14 @@ impl Block {
     #[inline(always)]
     fn finish<const RECORD: bool, const SUMS: bool, const TALL: bool>(
         &self,
+        k: &Pass1,
+        points: impl Lanes,
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
         cells: &mut Vec<u32>,
         len: usize,
     ) -> u32 {
-        let in_band = self.apply::<SUMS, TALL>(grid, visibility);
+        let in_band = self.apply::<SUMS, TALL>(k, points, grid, visibility);
         if RECORD {
             cells.extend_from_slice(self.cells.get(..len).unwrap_or(&[]));
         }
@@ -740,7 +775,7 @@ impl Source for &[[f32; 3]] {
         let (chunks, rest) = self.as_chunks::<BLOCK>();
         for chunk in chunks {
             block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, chunk);
-            in_band += block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
+            in_band += block.finish::<RECORD, SUMS, TALL>(k, chunk, grid, visibility, cells, BLOCK);
         }
         if !rest.is_empty() {
             // NaN padding: the reference skips such points, and so do both passes (no bin, range or cell wins).
@@ -749,7 +784,7 @@ impl Source for &[[f32; 3]] {
                 *d = *s;
             }
             block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, &padded);
-            in_band += block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, rest.len());
+            in_band += block.finish::<RECORD, SUMS, TALL>(k, &padded, grid, visibility, cells, rest.len());
         }
         in_band
     }
@@ -802,7 +837,7 @@ impl Source for PointColumns<'_> {
         let (zs, z_rest) = self.z().as_chunks::<BLOCK>();
         for ((x, y), z) in xs.iter().zip(ys).zip(zs) {
             block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, [x, y, z]);
-            in_band += block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, BLOCK);
+            in_band += block.finish::<RECORD, SUMS, TALL>(k, [x, y, z], grid, visibility, cells, BLOCK);
         }
         if !x_rest.is_empty() {
             let mut padded = [[f32::NAN; BLOCK]; 3];
@@ -813,7 +848,7 @@ impl Source for PointColumns<'_> {
             }
             let [x, y, z] = &padded;
             block.fill::<TRANSLATION_ONLY, EGO_MASK, ROUND, SUMS, TALL>(k, [x, y, z]);
-            in_band += block.finish::<RECORD, SUMS, TALL>(grid, visibility, cells, x_rest.len());
+            in_band += block.finish::<RECORD, SUMS, TALL>(k, [x, y, z], grid, visibility, cells, x_rest.len());
         }
         in_band
     }
@@ -848,13 +883,17 @@ mod tests {
         }
     }
 
-    /// Runs both loops on fresh grids and maps; asserts bit-identical results; returns the points in band. Twice:
-    /// on grids without and with the sums and tall bits of the params keys `jump_from_returns` and
-    /// `roi_graze_fraction` (the loops' `SUMS` and `TALL` instantiation), checked against their definitions.
+    /// Runs both loops on fresh grids and maps; asserts bit-identical results; returns the points in band. Three
+    /// times: on grids without and with the sums and tall bits of the params keys `jump_from_returns` and
+    /// `roi_graze_fraction` (the loops' `SUMS` and `TALL` instantiation), and with each cell's first return instead
+    /// of the sums (`jump_first_return`: the loop without `SUMS`) and the tall bits, checked against their
+    /// definitions.
     fn assert_same(points: &[[f32; 3]], t: &Isometry3, band: Band, cells: u32, cell_m: f32, bins: u32) -> u32 {
         // Tall: 0.5 m above the band (the params refuse a threshold below its top).
         let n = assert_same_with(points, t, band, cells, cell_m, bins, None);
-        assert_eq!(n, assert_same_with(points, t, band, cells, cell_m, bins, Some(band.hi_m + 0.5)));
+        for first in [false, true] {
+            assert_eq!(n, assert_same_with(points, t, band, cells, cell_m, bins, Some((band.hi_m + 0.5, first))));
+        }
         n
     }
 
@@ -865,7 +904,7 @@ mod tests {
         cells: u32,
         cell_m: f32,
         bins: u32,
-        extra: Option<f32>,
+        extra: Option<(f32, bool)>,
     ) -> u32 {
         let geometry = GridGeometry::new(cells, cell_m);
         // 0: the reference, 1: the blocked loop on the baseline, 2: with the widest vector unit available.
@@ -875,8 +914,10 @@ mod tests {
         let columns = PointColumns::new(&x, &y, &z).unwrap();
         let run = |mode: u8| {
             let mut grid = OccupancyGrid::new(geometry, 0.7, points.len()).with_returns();
-            if let Some(top) = extra {
-                grid = grid.with_sums().with_tall(top);
+            match extra {
+                Some((top, false)) => grid = grid.with_sums().with_tall(top),
+                Some((top, true)) => grid = grid.with_first_returns().with_tall(top),
+                None => {}
             }
             let mut vis = VisibilityMap::new(bins);
             vis.reset([t.translation_m[0], t.translation_m[1]]);
@@ -922,20 +963,23 @@ mod tests {
             assert_eq!(*r, want.map(f32::to_bits), "returns of cell {c}");
         }
         // The sums and tall bits, by their definitions: each hit cell's obstacle returns' x and y added in point
-        // order from zero, and their number; the cells of the returns above the threshold, any return.
+        // order from zero, and their number (with first returns: only the first return in point order, added to
+        // zero, and the count 1); the cells of the returns above the threshold, any return.
         let mut want_tall = Vec::new();
+        let first_only = extra.is_some_and(|(_, first)| first);
         for (&c, sums) in scalar.1.iter().zip(&scalar.7) {
             let mut want = [0.0f32; 3];
             for p in points {
                 let q = t.transform(*p);
                 let obstacle = q[2] >= band.lo_m && q[2] <= band.hi_m && !band.in_ego(q[0], q[1]);
-                if obstacle && geometry.point_to_cell(q[0], q[1]) == Some(c) {
+                if obstacle && geometry.point_to_cell(q[0], q[1]) == Some(c) && !(first_only && want[2] > 0.0) {
                     want = [want[0] + q[0], want[1] + q[1], want[2] + 1.0];
                 }
             }
+            assert!(want[2] >= 1.0, "a hit cell has a return");
             assert_eq!(*sums, extra.map(|_| want.map(f32::to_bits)), "sums of cell {c}");
         }
-        if let Some(top) = extra {
+        if let Some((top, _)) = extra {
             for p in points {
                 let q = t.transform(*p);
                 if let Some(c) = geometry.point_to_cell(q[0], q[1]).filter(|_| q[2] > top) {

@@ -101,8 +101,9 @@ pub(crate) fn rasterize_split<S: Source>(
     {
         let Half { grid: ga, visibility: va, cells: ca } = first;
         let Half { grid: gb, visibility: vb, cells: cb } = second;
-        // The second half's cells also for the fold of the sums.
-        let record_b = record || gb.has_sums();
+        // The second half's cells also for the fold of the sums (not of first returns: a cell both halves touched
+        // keeps the first half's, `OccupancyGrid::absorb`).
+        let record_b = record || (gb.has_sums() && !gb.has_first_returns());
         let mut a = || in_a = rasterize_blocked_into(a_points, t, band, ga, va, wide, record, ca);
         let mut b = || in_b = rasterize_blocked_into(b_points, t, band, gb, vb, wide, record_b, cb);
         join.join(&mut a, &mut b);
@@ -202,6 +203,11 @@ mod tests {
         grid(max_touched).with_sums().with_tall(1.2)
     }
 
+    /// [`grid`] with each cell's first return (`jump_first_return`) and the tall bits.
+    fn grid_first(max_touched: usize) -> OccupancyGrid {
+        grid(max_touched).with_first_returns().with_tall(1.2)
+    }
+
     #[test]
     fn split_rasterize_equals_one_pass() {
         let band = Band { lo_m: -0.2, hi_m: 1.0, ego_m: [-1.0, -1.0, 2.0, 1.0] };
@@ -209,8 +215,9 @@ mod tests {
         let upright = Isometry3::from_translation(0.5, 0.0, 1.8);
         for (seed, n) in [(1u64, 0usize), (2, 1), (3, 63), (4, 64), (5, 130), (6, 5_000), (7, 40_001)] {
             for t in [t, upright] {
-                for (record, extra) in [(false, false), (true, false), (false, true), (true, true)] {
-                    let grid = if extra { grid_extra } else { grid };
+                for (record, kind) in [(false, 0), (true, 0), (false, 1), (true, 1), (false, 2), (true, 2)] {
+                    let extra = kind > 0;
+                    let grid = [grid, grid_extra, grid_first][kind];
                     for wide in [false, true] {
                         let pts = sweep(seed, n);
                         let (mut g1, mut v1, mut c1) = (grid(n), VisibilityMap::new(720), Vec::with_capacity(n));
@@ -239,7 +246,7 @@ mod tests {
                                 rasterize_split(columns, &t, band, first, second, wide, record, &Sequential)
                             };
                             let what = alloc::format!(
-                                "seed {seed}, n {n}, record {record}, extra {extra}, wide {wide}, pass {pass}"
+                                "seed {seed}, n {n}, record {record}, extra {kind}, wide {wide}, pass {pass}"
                             );
                             assert_eq!(in1, in2, "{what}");
                             assert_eq!(g1.touched(), g2.touched(), "{what}");

@@ -60,17 +60,21 @@ fn check_allocates_nothing_after_construction() {
     // with step 9 from the returns (`jump_from_returns`: per-cell sums kept by the grid, allocated in `new`; the
     // last frame's boxes jump), and with both (the rasterizer's instantiation that keeps sums and tall bits), and
     // with the free-space test's rays on the body only (`seen_body`: a walk over the visibility map's bins), and
-    // with evidence bounded by the gate (`memory_gate`).
-    for (seen_over, face_in_front, roi_graze_fraction, jump_from_returns, seen_body, memory_gate) in [
-        (false, false, 0.0, false, false, false),
-        (true, false, 0.0, false, false, false),
-        (false, true, 0.0, false, false, false),
-        (false, false, 0.5, false, false, false),
-        (false, false, 0.0, true, false, false),
-        (false, false, 0.5, true, false, false),
-        (false, false, 0.0, false, true, false),
-        (false, false, 0.0, false, false, true),
+    // with evidence bounded by the gate (`memory_gate`), and with step 9 from each cell's first return
+    // (`jump_first_return`, with and without the grazing rule).
+    for (seen_over, face_in_front, roi_graze_fraction, jump, seen_body, memory_gate) in [
+        (false, false, 0.0, (false, false), false, false),
+        (true, false, 0.0, (false, false), false, false),
+        (false, true, 0.0, (false, false), false, false),
+        (false, false, 0.5, (false, false), false, false),
+        (false, false, 0.0, (true, false), false, false),
+        (false, false, 0.5, (true, false), false, false),
+        (false, false, 0.0, (false, false), true, false),
+        (false, false, 0.0, (false, false), false, true),
+        (false, false, 0.0, (true, true), false, false),
+        (false, false, 0.5, (true, true), false, false),
     ] {
+        let (jump_from_returns, jump_first_return) = jump;
         let params = MonitorParams {
             max_objects: 64,
             max_points: 200_000,
@@ -78,6 +82,7 @@ fn check_allocates_nothing_after_construction() {
             face_in_front,
             roi_graze_fraction,
             jump_from_returns,
+            jump_first_return,
             seen_body,
             memory_gate,
             ..MonitorParams::default()

@@ -231,6 +231,10 @@ fn synthetic_sequences_give_identical_reports() {
     let params = MonitorParams { jump_from_returns: true, roi_graze_fraction: 0.5, ..MonitorParams::PAPER };
     run_sequence(&seq32, params, &[upright, yawed]);
     run_sequence(&seq64, params, &[upright]);
+    // And with each hit cell's first return instead of its sums (`jump_first_return`).
+    let params = MonitorParams { jump_first_return: true, ..params };
+    run_sequence(&seq32, params, &[upright, yawed]);
+    run_sequence(&seq64, params, &[upright]);
 }
 
 #[test]
@@ -401,8 +405,11 @@ fn frames_with_a_region_of_interest_split_identically() {
     // Also with the keys whose per-cell data the rasterizer keeps: each hit cell's sums (`jump_from_returns`) and
     // the tall bits (`roi_graze_fraction`), folded across the halves (`split.rs`), compared cell by cell.
     let on = MonitorParams { jump_from_returns: true, roi_graze_fraction: 0.5, ..off };
+    // And each hit cell's first return instead of its sums (`jump_first_return`): a cell both halves touched keeps
+    // the first half's.
+    let first = MonitorParams { jump_first_return: true, ..on };
     let mut tall_cells = 0usize;
-    for params in [off, on] {
+    for params in [off, on, first] {
         tall_cells += roi_frames_split_identically(&seq, &roi, params);
     }
     assert!(tall_cells > 100, "the 64-beam frames have returns above the grazing height in hit cells: {tall_cells}");
