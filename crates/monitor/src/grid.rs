@@ -57,13 +57,14 @@ fn run_masks(cells: &[u32; 64], cell_count: usize) -> (u64, u64) {
     (e0 | e1 << 32, g0 | g1 << 32 | all)
 }
 
-/// Bit j set when `cells[j] < bound`: [`run_masks`]' second mask for any bound, in the same two 32-bit halves.
+/// Bit j set when `test(cells[j])`, built as [`run_masks`] builds its masks: two halves of 32 bits, each bit a
+/// comparison of 32-bit lanes (vector compares and a few `or`s once the test is inlined).
 #[inline(always)]
-pub(crate) fn bits_below(cells: &[u32; 64], bound: u32) -> u64 {
+fn bits_where(cells: &[u32; 64], test: impl Fn(u32) -> bool) -> u64 {
     let half = |c: &[u32]| -> u64 {
         let mut g = 0u32;
         for (j, &c) in c.iter().enumerate().take(32) {
-            g |= u32::from(c < bound) << j;
+            g |= u32::from(test(c)) << j;
         }
         u64::from(g)
     };
@@ -71,18 +72,16 @@ pub(crate) fn bits_below(cells: &[u32; 64], bound: u32) -> u64 {
     half(lo) | half(hi) << 32
 }
 
-/// Bit j set when `cells[j] == cell`: [`bits_below`]'s way (two 32-bit halves of vector compares).
+/// Bit j set when `cells[j] < bound`: [`run_masks`]' second mask for any bound.
+#[inline(always)]
+pub(crate) fn bits_below(cells: &[u32; 64], bound: u32) -> u64 {
+    bits_where(cells, |c| c < bound)
+}
+
+/// Bit j set when `cells[j] == cell`.
 #[inline(always)]
 fn bits_equal(cells: &[u32; 64], cell: u32) -> u64 {
-    let half = |c: &[u32]| -> u64 {
-        let mut g = 0u32;
-        for (j, &c) in c.iter().enumerate().take(32) {
-            g |= u32::from(c == cell) << j;
-        }
-        u64::from(g)
-    };
-    let (lo, hi) = cells.split_at(32);
-    half(lo) | half(hi) << 32
+    bits_where(cells, |c| c == cell)
 }
 
 /// Cell flag: the cell intersects at least one object region `A_o`.

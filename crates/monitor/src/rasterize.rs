@@ -212,13 +212,12 @@ impl Pass1 {
         })
     }
 
-    /// A point's x and y in the ego frame, exactly as `Isometry3::transform` (the reference loop's) computes them:
+    /// A point's x and y in the ego frame, by `Isometry3::transform` itself (the reference loop's computation):
     /// the first return of a new cell with `OccupancyGrid::with_first_returns`, computed once per new cell.
     #[inline(always)]
-    fn xy(&self, [x, y, z]: [f32; 3]) -> (f32, f32) {
-        let [r0, r1, _] = self.rotation;
-        let [t0, t1, _] = self.translation;
-        (r0[0] * x + r0[1] * y + r0[2] * z + t0, r1[0] * x + r1[1] * y + r1[2] * z + t1)
+    fn xy(&self, p: [f32; 3]) -> (f32, f32) {
+        let [x, y, _] = Isometry3 { rotation: self.rotation, translation_m: self.translation }.transform(p);
+        (x, y)
     }
 
     /// True when the rotation is the identity (entries exactly 1 and 0, of either sign): the common upright
