@@ -649,11 +649,22 @@ fn drift(scene: &Scene, run: &PlannedRun) -> Result<DriftSamples, String> {
 /// Prints [`drift`]'s samples of one curve: per category the distance's percentiles at lags 1, 3, 5, 10, 20 and,
 /// over every lag, the share beyond the allowance (world, ego, line of sight, all three).
 fn print_drift(group: &str, samples: &DriftSamples) {
+    // The categories whose names start with `prefix` (or, with `None`, those of neither counting prefix), and the
+    // number of samples of one category under one key.
+    let categories = |prefix: Option<&str>| -> std::collections::BTreeSet<&String> {
+        samples
+            .keys()
+            .map(|(c, _)| c)
+            .filter(|c| match prefix {
+                Some(p) => c.starts_with(p),
+                None => !c.starts_with("start-") && !c.starts_with("touch-"),
+            })
+            .collect()
+    };
+    let count = |cat: &String, b: u64| samples.get(&(cat.clone(), b)).map_or(0, Vec::len);
     // Runs by frames since the track was last confirmed when they began: 1, 2-5, 6-20, more, never.
-    let starts: std::collections::BTreeSet<&String> =
-        samples.keys().map(|(c, _)| c).filter(|c| c.starts_with("start-")).collect();
-    for cat in starts {
-        let n = |b: u64| samples.get(&(cat.clone(), b)).map_or(0, Vec::len);
+    for cat in categories(Some("start-")) {
+        let n = |b: u64| count(cat, b);
         println!(
             "DRIFT {group} {cat}: runs begun 1 frame after the track was last confirmed {} | 2-5 {} | 6-20 {} | more {} | never {}",
             n(0),
@@ -663,19 +674,15 @@ fn print_drift(group: &str, samples: &DriftSamples) {
             n(4)
         );
     }
-    let touch: std::collections::BTreeSet<&String> =
-        samples.keys().map(|(c, _)| c).filter(|c| c.starts_with("touch-")).collect();
-    for cat in touch {
-        let n = |b: u64| samples.get(&(cat.clone(), b)).map_or(0, Vec::len);
+    for cat in categories(Some("touch-")) {
+        let n = |b: u64| count(cat, b);
         println!(
             "DRIFT {group} {cat}: cluster continues a consistent neighbour's evidence {} of {}",
             n(1),
             n(0) + n(1)
         );
     }
-    let cats: std::collections::BTreeSet<&String> =
-        samples.keys().map(|(c, _)| c).filter(|c| !c.starts_with("start-") && !c.starts_with("touch-")).collect();
-    for cat in cats {
+    for cat in categories(None) {
         for lag in [1u64, 3, 5, 10, 20] {
             let Some(v) = samples.get(&(cat.clone(), lag)) else { continue };
             let pct = |k: usize| {

@@ -258,6 +258,19 @@ fn count(hs: &HeightScene, run: &PlannedRun, min_rays: u32, knobs: Knobs) -> Res
         let band = (p.ground_z_m + p.min_obstacle_height_m, p.ground_z_m + p.max_obstacle_height_m);
         let Some(rays) = Rays::of(clean, band) else { return Ok(()) };
         let heights = hs.heights.get(k);
+        let injected = |j: usize| injections.iter().any(|x| x.index as usize == j);
+        // With `NEIGHBOURS=1`: the frame's objects that carry no injected error, with their grown regions (once per
+        // frame; each object's test leaves itself out).
+        let clean_regions: Vec<(usize, pmon_monitor::geometry::OrientedRect)> = if knobs.neighbours {
+            objects
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| !injected(j))
+                .filter_map(|(j, n)| clean_monitor.region_of(n).map(|r| (j, r.grown)))
+                .collect()
+        } else {
+            Vec::new()
+        };
         for (i, v) in verdicts.iter().enumerate() {
             if !pmon_campaign::in_scope(*v) || !confirmed.get(i).copied().unwrap_or(false) {
                 continue;
@@ -270,26 +283,14 @@ fn count(hs: &HeightScene, run: &PlannedRun, min_rays: u32, knobs: Knobs) -> Res
             let less = if knobs.three_sigma { p.safety_margin_m } else { 0.0 };
             let margins = ((region.margin_length_m - less).max(0.0), (region.margin_width_m - less).max(0.0));
             let Some(truth) = clean.objects.get(i) else { continue };
-            // With `NEIGHBOURS=1`: the grown regions of the frame's other objects that carry no injected error.
-            let neighbours: Vec<pmon_monitor::geometry::OrientedRect> = if knobs.neighbours {
-                objects
-                    .iter()
-                    .enumerate()
-                    .filter(|&(j, _)| j != i && !injections.iter().any(|x| x.index as usize == j))
-                    .filter_map(|(_, n)| clean_monitor.region_of(n).map(|r| r.grown))
-                    .collect()
-            } else {
-                Vec::new()
-            };
-            let absorbed = |x: f32, y: f32| neighbours.iter().any(|r| r.contains(x, y));
+            let absorbed = |x: f32, y: f32| clean_regions.iter().any(|&(j, r)| j != i && r.contains(x, y));
             let j = if z.0 < z.1 {
                 rays.judge(o, truth, margins, z, (min_rays, knobs.tolerance_m), &absorbed)
             } else {
                 Judgement { provable: false, indistinguishable: true }
             };
             let provable = j.provable;
-            let injected = injections.iter().any(|x| x.index as usize == i);
-            if injected {
+            if injected(i) {
                 let alarm = matches!(v, SensorVerdict::Ghost | SensorVerdict::PositionError);
                 out.verifiable += 1;
                 out.detected += u64::from(alarm);
