@@ -142,12 +142,18 @@ pub struct BenchOptions {
     /// Check with the params key `face_in_front` on (a confirmed box whose rays end on its own evidence in front of
     /// its grown region is displaced: docs/attribution.md). Off: the default parameters.
     pub face_in_front: bool,
-    /// Check with the params key `jump_from_returns` on (step 9 takes evidence centres from the returns: the
-    /// rasterizer sums each hit cell's band returns; docs/attribution.md). Off: the default parameters.
+    /// Check with the params key `jump_from_returns` on (step 9 takes evidence centres from the returns;
+    /// docs/attribution.md). Since the key is the default (issue #10), the default parameters have it on already.
     pub jump_from_returns: bool,
     /// Check with the params keys `jump_from_returns` and `jump_first_return` on (step 9's returns' mean from each
-    /// cell's first return, set when the cell is first touched; docs/attribution.md). Implies `jump_from_returns`.
+    /// cell's first return, set when the cell is first touched; docs/attribution.md). The default since issue #10.
     pub jump_first_return: bool,
+    /// Check with `jump_from_returns` (and so `jump_first_return`) off: step 9 on the cells' centres only, the
+    /// default before issue #10. Wins over `jump_from_returns` and `jump_first_return`.
+    pub no_jump_from_returns: bool,
+    /// Check with `jump_first_return` off: step 9's returns' mean from every return (the rasterizer sums each hit
+    /// cell's band returns). Wins over `jump_first_return`.
+    pub no_jump_first_return: bool,
     /// Check with the params key `seen_body` on (the free-space test counts only rays that end on the object's
     /// body: a look at the visibility map's bins across the region of a box the test would flag;
     /// docs/attribution.md). Off: the default parameters.
@@ -182,6 +188,8 @@ impl Default for BenchOptions {
             face_in_front: false,
             jump_from_returns: false,
             jump_first_return: false,
+            no_jump_from_returns: false,
+            no_jump_first_return: false,
             seen_body: false,
             memory_gate: false,
             roi_graze: false,
@@ -693,8 +701,15 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let mut p = params(def.cell_size_m, def.grid_size_m);
     p.seen_over = opts.seen_over;
     p.face_in_front = opts.face_in_front;
-    p.jump_from_returns = opts.jump_from_returns || opts.jump_first_return;
-    p.jump_first_return = opts.jump_first_return;
+    p.jump_from_returns |= opts.jump_from_returns || opts.jump_first_return;
+    p.jump_first_return |= opts.jump_first_return;
+    if opts.no_jump_first_return {
+        p.jump_first_return = false;
+    }
+    if opts.no_jump_from_returns {
+        p.jump_from_returns = false;
+        p.jump_first_return = false;
+    }
     p.seen_body = opts.seen_body;
     p.memory_gate = opts.memory_gate;
     if opts.roi_graze {

@@ -19,6 +19,8 @@ fn quick() -> BenchOptions {
         face_in_front: false,
         jump_from_returns: false,
         jump_first_return: false,
+        no_jump_from_returns: false,
+        no_jump_first_return: false,
         seen_body: false,
         memory_gate: false,
         roi_graze: false,

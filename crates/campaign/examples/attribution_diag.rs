@@ -7,7 +7,8 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FIRST=1`: `jump_first_return`, with `JUMP=1`). With `FULL=1` the runs are those of the full plan
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
+//! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
@@ -998,15 +999,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut r = r.clone();
             r.spec.params.seen_over |= seen_over;
             r.spec.params.face_in_front |= std::env::var_os("FACE").is_some();
-            // `JUMP=1`: step 9 from the returns (the params key `jump_from_returns`).
+            // `JUMP=1`: step 9 from the returns (the params key `jump_from_returns`, the default since issue #10;
+            // `NOJUMP=1` turns it off, and with it `jump_first_return`).
             r.spec.params.jump_from_returns |= std::env::var_os("JUMP").is_some();
             // `BODY=1`: the free-space test counts only rays that end on the body (the params key `seen_body`).
             r.spec.params.seen_body |= std::env::var_os("BODY").is_some();
             // `MEMGATE=1`: evidence beyond the gate is never a box's (the params key `memory_gate`).
             r.spec.params.memory_gate |= std::env::var_os("MEMGATE").is_some();
-            // `FIRST=1`: step 9's returns' mean from each cell's first return (the params key `jump_first_return`;
-            // needs `JUMP=1`).
+            // `FIRST=1`: step 9's returns' mean from each cell's first return (the params key `jump_first_return`,
+            // the default since issue #10; `NOFIRST=1`: the sums of all the returns).
             r.spec.params.jump_first_return |= std::env::var_os("FIRST").is_some();
+            if std::env::var_os("NOFIRST").is_some() {
+                r.spec.params.jump_first_return = false;
+            }
+            if std::env::var_os("NOJUMP").is_some() {
+                r.spec.params.jump_from_returns = false;
+                r.spec.params.jump_first_return = false;
+            }
             r
         })
         .collect();

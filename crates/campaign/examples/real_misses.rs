@@ -13,10 +13,10 @@
 //! labels; every check starts with a fresh track memory), as the experiment's one-box curve. With `ONE_BOX=1
 //! HISTORY=1`, only frames that follow another sweep are used, and the previous sweep, clean, is checked right before
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
-//! `FACE=1` checks with the params key `face_in_front`, `JUMP=1` with `jump_from_returns` (step 9 from the returns),
-//! `BODY=1` with `seen_body` (the free-space test counts only rays that end on the body), `MEMGATE=1` with
-//! `memory_gate` (evidence beyond the gate is never a box's), `FIRST=1` with `jump_first_return` (step 9's returns'
-//! mean from each cell's first return; with `JUMP=1`, which it needs).
+//! `FACE=1` checks with the params key `face_in_front`, `BODY=1` with `seen_body` (the free-space test counts only
+//! rays that end on the body), `MEMGATE=1` with `memory_gate` (evidence beyond the gate is never a box's).
+//! `jump_from_returns` (step 9 from the returns) and `jump_first_return` (their mean from each cell's first return)
+//! are the default since issue #10: `NOJUMP=1` checks without both, `NOFIRST=1` without the first return.
 //! `DETAIL=1` (with `ONE_BOX=1 HISTORY=1`) prints, for each clean box flagged beside a displaced one, where both stand
 //! and the cluster that flagged it.
 //! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
@@ -45,8 +45,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ground_z_m: ds.info.ground_z_m,
         ego_footprint_m: ds.info.format.ego_footprint_m(),
         face_in_front: std::env::var_os("FACE").is_some(),
-        jump_from_returns: std::env::var_os("JUMP").is_some(),
-        jump_first_return: std::env::var_os("FIRST").is_some(),
+        // The jump keys are the default since issue #10: `NOJUMP=1` turns both off, `NOFIRST=1` the first return.
+        jump_from_returns: base.jump_from_returns && std::env::var_os("NOJUMP").is_none(),
+        jump_first_return: base.jump_first_return
+            && std::env::var_os("NOJUMP").is_none()
+            && std::env::var_os("NOFIRST").is_none(),
         seen_body: std::env::var_os("BODY").is_some(),
         memory_gate: std::env::var_os("MEMGATE").is_some(),
         ..base

@@ -106,14 +106,23 @@ enum Command {
         #[arg(long)]
         face_in_front: bool,
         /// Check with the params key `jump_from_returns` on: step 9 (a box that jumps away from evidence that
-        /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md).
+        /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md). The
+        /// default since issue #10; kept for older commands.
         #[arg(long)]
         jump_from_returns: bool,
         /// Check with the params keys `jump_from_returns` and `jump_first_return` on: step 9's returns' mean is
         /// each cell's first return, set when the cell is first touched (no per-return sums; docs/attribution.md).
-        /// Implies `--jump-from-returns`.
+        /// The default since issue #10; kept for older commands.
         #[arg(long)]
         jump_first_return: bool,
+        /// Check with `jump_from_returns` off (and so `jump_first_return`): step 9 on the cells' centres only, the
+        /// default before issue #10.
+        #[arg(long, conflicts_with_all = ["jump_from_returns", "jump_first_return", "no_jump_first_return"])]
+        no_jump_from_returns: bool,
+        /// Check with `jump_first_return` off: step 9's returns' mean from every return, which the rasterizer sums
+        /// per hit cell.
+        #[arg(long, conflicts_with = "jump_first_return")]
+        no_jump_first_return: bool,
         /// Check with the params key `seen_body` on: the free-space test towards the sensor counts only rays that
         /// end on the object's body, not on other returns its grown region owns (docs/attribution.md).
         #[arg(long)]
@@ -235,6 +244,8 @@ fn main() -> ExitCode {
             face_in_front,
             jump_from_returns,
             jump_first_return,
+            no_jump_from_returns,
+            no_jump_first_return,
             seen_body,
             memory_gate,
             roi_graze,
@@ -258,6 +269,8 @@ fn main() -> ExitCode {
                 face_in_front,
                 jump_from_returns,
                 jump_first_return,
+                no_jump_from_returns,
+                no_jump_first_return,
                 seen_body,
                 memory_gate,
                 roi_graze,

@@ -490,8 +490,12 @@ fn a_box_that_jumps_away_from_evidence_that_stayed_is_a_position_error() {
 /// predicted by its own speed raise nothing with the key; a single sweep (no history) is the same with it.
 #[test]
 fn a_box_that_jumps_1_m_from_returns_that_stayed_is_caught_by_their_mean() {
-    let off = MonitorParams::default();
-    let on = MonitorParams { jump_from_returns: true, ..off };
+    // The default: step 9 from each cell's first return; `sums`: from all the returns; `off`: the cells' centres
+    // only (the default before issue #10; the first-return key alone changes nothing: `off_first`).
+    let on = MonitorParams::default();
+    let sums = MonitorParams { jump_first_return: false, ..on };
+    let off = MonitorParams { jump_from_returns: false, jump_first_return: false, ..on };
+    let off_first = MonitorParams { jump_from_returns: false, ..on };
     let verdicts = |params: MonitorParams, first: (f32, f32), second: (f32, f32)| {
         let mut m = Monitor::new(params).unwrap();
         let (objects, pts, pose) = street_at(0.0, first.0, first.1);
@@ -501,18 +505,23 @@ fn a_box_that_jumps_1_m_from_returns_that_stayed_is_caught_by_their_mean() {
         check_at(&mut m, 0.1, &objects, &pts, pose)
     };
     // The jump of 1 m: confirmed by the cells, a position error by the returns.
-    let r = verdicts(off, (0.0, 0.0), (1.0, 0.0));
-    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "without the key: {:?}", r[0].sensor);
-    let r = verdicts(on, (0.0, 0.0), (1.0, 0.0));
-    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "with the key: {:?}", r[0].sensor);
-    let o = r[0].sensor.offset_m;
-    assert!(o[0] > 0.7 && o[0] < 1.3 && o[1].abs() < 0.3, "offset {o:?}");
-    assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "pedestrian: {:?}", r[1].sensor);
+    for params in [off, off_first] {
+        let r = verdicts(params, (0.0, 0.0), (1.0, 0.0));
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "without the key: {:?}", r[0].sensor);
+    }
+    for params in [on, sums] {
+        let r = verdicts(params, (0.0, 0.0), (1.0, 0.0));
+        let first = params.jump_first_return;
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "with the key ({first}): {:?}", r[0].sensor);
+        let o = r[0].sensor.offset_m;
+        assert!(o[0] > 0.7 && o[0] < 1.3 && o[1].abs() < 0.3, "offset {o:?} ({first})");
+        assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "pedestrian ({first}): {:?}", r[1].sensor);
+    }
     // Noise-like jumps and small errors: nothing, with the key as without it.
     for (first, second) in
         [((-0.3, 0.0), (0.3, 0.0)), ((0.0, 0.0), (0.3, 0.0)), ((0.0, 0.0), (0.0, 0.3)), ((0.0, -0.3), (0.0, 0.3))]
     {
-        for params in [off, on] {
+        for params in [off, on, sums] {
             let r = verdicts(params, first, second);
             assert!(
                 r.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent),
@@ -522,7 +531,7 @@ fn a_box_that_jumps_1_m_from_returns_that_stayed_is_caught_by_their_mean() {
         }
     }
     // No history: a single sweep is judged the same with the key.
-    for params in [off, on] {
+    for params in [off, on, sums] {
         let mut m = Monitor::new(params).unwrap();
         let (objects, pts, pose) = street_at(0.1, 1.0, 0.0);
         let r = check_at(&mut m, 0.1, &objects, &pts, pose);
@@ -562,8 +571,9 @@ fn post_at(t_s: f32, box_m: [f32; 2], ped_m: [f32; 2]) -> (Vec<pmon_monitor::Obj
 /// pedestrian.
 #[test]
 fn a_box_that_jumps_1_m_diagonally_from_returns_that_stayed_is_a_position_error() {
-    let off = MonitorParams::default();
-    let on = MonitorParams { jump_from_returns: true, ..off };
+    // The default (each cell's first return) and the cells' centres only (the default before issue #10).
+    let on = MonitorParams::default();
+    let off = MonitorParams { jump_from_returns: false, jump_first_return: false, ..on };
     let verdicts = |params: MonitorParams, first: ([f32; 2], [f32; 2]), second: ([f32; 2], [f32; 2])| {
         let mut m = Monitor::new(params).unwrap();
         let (objects, pts, pose) = post_at(0.0, first.0, first.1);
