@@ -22,7 +22,9 @@
 //! foreign cluster (world, ego and line-of-sight axes; errors of `DRIFT_MIN` metres or more, 0.8 unless told; with
 //! `TRACK=ID` one line per frame of that track), when the runs began (frames since the track was last confirmed), and
 //! how often the cluster continues a consistent neighbour's evidence; docs/attribution.md, "The drift of a remembered
-//! offset".
+//! offset". `IDENT=1` counts, for the same two kinds of alarm frames, whose evidence the cells of the cluster taken
+//! were in the previous frame (cluster identity over frames; `IDENT_DILATE=1`: a cell nobody had takes a labelled
+//! 8-neighbour's owner; `TRACK=ID` prints the track's frames); docs/attribution.md, "Cluster identity over frames".
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -649,6 +651,238 @@ fn drift(scene: &Scene, run: &PlannedRun) -> Result<DriftSamples, String> {
 
 /// Prints [`drift`]'s samples of one curve: per category the distance's percentiles at lags 1, 3, 5, 10, 20 and,
 /// over every lag, the share beyond the allowance (world, ego, line of sight, all three).
+/// `IDENT=1`: cluster identity over frames (docs/attribution.md, "Cluster identity over frames"). For every alarm
+/// frame of a true error (injected, verifiable) and of a clean track (its run of consecutive alarms classed by its
+/// first frame as in [`drift`]: `clean-foreign` when that frame's cluster was not at the object's true place), the
+/// cells of the cluster it took are looked up in the previous frame (through the ego poses: world, then the previous
+/// ego frame): to which track that frame's attribution gave each cell (the object that took the conflict cluster
+/// holding it, else the object owning it; `Monitor::cell_attributed_to`). Signals:
+/// - `other`: most of the cluster's cells were another track's;
+/// - `other-unconf`: `other`, and that track is not confirmed by its own evidence now (`eta_own < tau_tp`);
+/// - `carried`: per track, set by an `other` frame, kept over the following alarm frames of its run whose cluster
+///   was mostly its own last frame (or nobody's) or that have no cluster (step 8), cleared by a frame whose cluster
+///   was mostly nobody's or its own at the run's start; what a memory bit per track would carry.
+///
+/// Counted per category: alarm frames, those with a cluster, and per signal the frames carrying it; runs, and runs
+/// whose first frame with a cluster carries `other`. Errors of `DRIFT_MIN` metres or more (0.8 unless told).
+/// One track's run in [`ident`]: category, carried, first cluster frame seen, seen this frame, first cluster frame
+/// was `other`, alarm frames so far.
+type IdentRun = (&'static str, bool, bool, bool, bool, u64);
+
+fn ident(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
+    let spec = &run.spec;
+    let mut out: BTreeMap<String, u64> = BTreeMap::new();
+    let min: f64 = std::env::var("DRIFT_MIN").ok().and_then(|t| t.parse().ok()).unwrap_or(0.8);
+    if spec.injection.fault.magnitude() < min - 1e-6 {
+        return Ok(out);
+    }
+    // Track id -> (category, carried, first cluster frame seen, seen this frame, first cluster frame was `other`,
+    // alarm frames so far).
+    let mut runs: BTreeMap<u64, IdentRun> = BTreeMap::new();
+    // The previous frame's attribution per cell (track id, `u64::MAX`: nobody) and its ego pose.
+    let mut prev: Vec<u64> = Vec::new();
+    // Occupied (and not known scenery) in the previous frame.
+    let mut prev_occ: Vec<bool> = Vec::new();
+    // The previous frame's attribution was through a conflict cluster (not ownership).
+    let mut prev_by_cluster: Vec<bool> = Vec::new();
+    let dilate = std::env::var_os("IDENT_DILATE").is_some();
+    let mut prev_pose: Option<pmon_monitor::Pose2> = None;
+    let track: Option<u64> = std::env::var("TRACK").ok().and_then(|t| t.parse().ok());
+    let bump = |out: &mut BTreeMap<String, u64>, k: String| *out.entry(k).or_default() += 1;
+    pmon_campaign::paired_frames(scene, spec, |f| {
+        for v in runs.values_mut() {
+            v.3 = false;
+        }
+        let geo = f.monitor.grid().geometry;
+        let pose = f.clean.world_from_ego;
+        for (i, r) in f.reports.iter().enumerate() {
+            let injected = f.injections.iter().any(|x| x.index as usize == i);
+            let alarm = pmon_campaign::in_scope(r.sensor.verdict)
+                && matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+            let (Some(truth), Some(o)) = (f.clean.objects.get(i), f.objects.get(i)) else { continue };
+            if !alarm || (injected && !f.confirmed.get(i).copied().unwrap_or(false)) {
+                continue;
+            }
+            let ci = r.sensor.cluster.map(usize::from);
+            let c = ci.and_then(|c| f.clusters.get(c));
+            let e = runs.entry(o.id).or_insert(("", false, false, false, false, 0));
+            if e.0.is_empty() {
+                let truth_region = f.clean_monitor.region_of(truth);
+                let foreign = c.is_some_and(|c| {
+                    !truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
+                });
+                e.0 = if injected {
+                    "true"
+                } else if foreign {
+                    "clean-foreign"
+                } else {
+                    "clean-other"
+                };
+                bump(&mut out, format!("{} runs", e.0));
+            }
+            e.3 = true;
+            e.5 += 1;
+            let cat = e.0;
+            bump(&mut out, format!("{cat} frames"));
+            // The cluster's cells in the previous frame: whose were they?
+            let (mut own, mut other, mut none, mut none_free, mut other_by_cluster) = (0u32, 0u32, 0u32, 0u32, 0u32);
+            let mut others: BTreeMap<u64, u32> = BTreeMap::new();
+            if let (Some(ci), Some(pp)) = (ci, prev_pose) {
+                let (ps, pc) = (pp.yaw_rad.sin(), pp.yaw_rad.cos());
+                for &cell in f.monitor.last_cluster_cells(ci) {
+                    let (x, y) = geo.cell_center(cell);
+                    let (wx, wy) = pose.transform_point(f64::from(x), f64::from(y));
+                    let (dx, dy) = (wx - pp.x_m, wy - pp.y_m);
+                    let (px, py) = ((pc * dx + ps * dy) as f32, (-ps * dx + pc * dy) as f32);
+                    let pcell = geo.point_to_cell(px, py);
+                    let mut who = pcell.and_then(|p| prev.get(p as usize)).copied().unwrap_or(u64::MAX);
+                    if who == u64::MAX && dilate {
+                        // `IDENT_DILATE=1`: a cell nobody had last frame takes the label of an 8-neighbour that had one
+                        // (the lowest id among the most frequent; evidence moves by up to a cell per frame).
+                        let mut near: BTreeMap<u64, u32> = BTreeMap::new();
+                        for n in pcell.map(|p| geo.block3x3(p)).into_iter().flatten() {
+                            if let Some(&w) = prev.get(n as usize).filter(|&&w| w != u64::MAX) {
+                                *near.entry(w).or_default() += 1;
+                            }
+                        }
+                        if let Some((&w, _)) = near.iter().max_by_key(|&(id, n)| (*n, std::cmp::Reverse(*id))) {
+                            who = w;
+                        }
+                    }
+                    if who == u64::MAX {
+                        let occupied_then = pcell.and_then(|p| prev_occ.get(p as usize)).copied().unwrap_or(false);
+                        if occupied_then {
+                            none_free += 1;
+                        }
+                        none += 1;
+                    } else if who == o.id {
+                        own += 1;
+                    } else {
+                        other += 1;
+                        other_by_cluster +=
+                            u32::from(pcell.and_then(|p| prev_by_cluster.get(p as usize)).copied().unwrap_or(false));
+                        *others.entry(who).or_default() += 1;
+                    }
+                }
+            }
+            let cells = own + other + none;
+            if cells == 0 {
+                // No cluster (held by step 8, a ghost) or no previous frame: the carried bit stays.
+                if e.1 {
+                    bump(&mut out, format!("{cat} frames carried"));
+                }
+                continue;
+            }
+            bump(&mut out, format!("{cat} frames with a cluster"));
+            let first = !e.2;
+            e.2 = true;
+            let is_other = 2 * other > cells;
+            // The track most of those cells were: is it confirmed by its own evidence now?
+            let j = others.iter().max_by_key(|&(id, n)| (*n, std::cmp::Reverse(*id))).map(|(&id, _)| id);
+            let unconf = j.is_some_and(|j| {
+                f.objects
+                    .iter()
+                    .position(|x| x.id == j)
+                    .and_then(|m| f.reports.get(m))
+                    .is_none_or(|rm| rm.sensor.eta_own < spec.params.tau_tp)
+            });
+            if is_other {
+                e.1 = true;
+            } else if 2 * own <= cells && 2 * none > cells {
+                // Mostly nobody's last frame: the identity is lost.
+                e.1 = false;
+            }
+            let carried = e.1;
+            if is_other {
+                bump(&mut out, format!("{cat} frames other"));
+                if unconf {
+                    bump(&mut out, format!("{cat} frames other-unconf"));
+                }
+                if 2 * other_by_cluster > other {
+                    bump(&mut out, format!("{cat} frames other, mostly through that track's cluster"));
+                }
+                // Is that track itself displaced (injected now)? Not known to the monitor: for the explanation.
+                let j_injected = j.is_some_and(|j| {
+                    f.injections.iter().any(|x| f.objects.get(x.index as usize).is_some_and(|oj| oj.id == j))
+                });
+                if j_injected {
+                    bump(&mut out, format!("{cat} frames other, that track displaced"));
+                }
+                if first {
+                    e.4 = true;
+                    bump(&mut out, format!("{cat} runs first-other"));
+                }
+            }
+            if first && 2 * own > cells {
+                bump(&mut out, format!("{cat} runs first-own-majority"));
+            }
+            if first && 2 * none > cells {
+                bump(&mut out, format!("{cat} runs first-none-majority"));
+                if 2 * none_free > none {
+                    bump(&mut out, format!("{cat} runs first-none-majority, mostly occupied and free then"));
+                }
+            }
+            if other > 0 {
+                bump(&mut out, format!("{cat} frames any-other"));
+            }
+            if 2 * own > cells {
+                bump(&mut out, format!("{cat} frames own-majority"));
+            }
+            if 2 * none > cells {
+                bump(&mut out, format!("{cat} frames none-majority"));
+                if 2 * none_free > none {
+                    bump(&mut out, format!("{cat} frames none-majority, mostly occupied and free then"));
+                }
+            }
+            if carried {
+                bump(&mut out, format!("{cat} frames carried"));
+            }
+            if track == Some(o.id) {
+                eprintln!(
+                    "IDENTTRACK [{}] frame {} id {} {cat} cells {cells} own {own} other {other} ({others:?}) none {none} other-unconf {} carried {}",
+                    label(run), f.k, o.id, u8::from(unconf), u8::from(carried)
+                );
+            }
+        }
+        for v in runs.values() {
+            if !v.3 && v.4 {
+                *out.entry(format!("{} frames in first-other runs", v.0)).or_default() += v.5;
+            }
+        }
+        runs.retain(|_, v| v.3);
+        // This frame's attribution, for the next.
+        prev.clear();
+        prev.resize((geo.cells_per_side as usize).pow(2), u64::MAX);
+        prev_by_cluster.clear();
+        prev_by_cluster.resize((geo.cells_per_side as usize).pow(2), false);
+        prev_occ.clear();
+        prev_occ.resize((geo.cells_per_side as usize).pow(2), false);
+        let tau = spec.params.tau_fn;
+        for &cell in f.monitor.grid().touched() {
+            if let Some(slot) = prev_occ.get_mut(cell as usize) {
+                *slot = f.monitor.grid().probability(cell) > tau
+                    && f.monitor.grid().flags(cell) & pmon_monitor::grid::FLAG_STATIC == 0;
+            }
+        }
+        for &cell in f.monitor.grid().touched() {
+            if let (Some(m), Some(slot)) = (f.monitor.cell_attributed_to(cell), prev.get_mut(cell as usize)) {
+                *slot = f.objects.get(m as usize).map_or(u64::MAX, |x| x.id);
+                if let Some(v) = prev_by_cluster.get_mut(cell as usize) {
+                    *v = f.monitor.grid().flags(cell) & pmon_monitor::grid::FLAG_EXPLAINED == 0;
+                }
+            }
+        }
+        prev_pose = Some(pose);
+        Ok(())
+    })?;
+    for v in runs.values() {
+        if v.4 {
+            *out.entry(format!("{} frames in first-other runs", v.0)).or_default() += v.5;
+        }
+    }
+    Ok(out)
+}
+
 fn print_drift(group: &str, samples: &DriftSamples) {
     // The categories whose names start with `prefix` (or, with `None`, those of neither counting prefix), and the
     // number of samples of one category under one key.
@@ -1027,7 +1261,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
             let h = if std::env::var_os("HELD").is_some() { Some(held(scene, r)?) } else { None };
             let d = if std::env::var_os("DRIFT").is_some() { Some(drift(scene, r)?) } else { None };
-            Ok::<_, String>((res, c, h, d))
+            let id = if std::env::var_os("IDENT").is_some() { Some(ident(scene, r)?) } else { None };
+            Ok::<_, String>((res, c, h, d, id))
         })
         .collect::<Result<_, _>>()?;
     let mut fa_total = (0u64, 0u64);
@@ -1036,7 +1271,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // `HELD=1`: per row group (false alarms, paper, hard, towards, transient), the streak buckets summed.
     let mut held_by_group: BTreeMap<String, [[u64; 2]; 5]> = BTreeMap::new();
     let mut drift_by_group: BTreeMap<String, DriftSamples> = BTreeMap::new();
-    for (r, (res, c, h, d)) in chosen.iter().zip(&results) {
+    let mut ident_by_group: BTreeMap<String, BTreeMap<String, u64>> = BTreeMap::new();
+    for (r, (res, c, h, d, id)) in chosen.iter().zip(&results) {
+        if let Some(id) = id {
+            let g = ident_by_group.entry(label(r).split(" @ ").next().unwrap_or_default().to_string()).or_default();
+            for (k, v) in id {
+                *g.entry(k.clone()).or_default() += v;
+            }
+        }
         let m = &res.metrics;
         let l = label(r);
         if l.starts_with("false_alarms") {
@@ -1111,6 +1353,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     for (group, d) in &drift_by_group {
         print_drift(group, d);
+    }
+    for (group, d) in &ident_by_group {
+        for (k, v) in d {
+            println!("IDENT {group} {k}: {v}");
+        }
     }
     if correlated {
         for (curve, (k, n)) in &fa_by_curve {

@@ -319,6 +319,34 @@ impl Monitor {
         &self.visibility
     }
 
+    /// Diagnostics (`attribution_diag`, `IDENT=1`): the cells of the last frame's conflict cluster `k` (its index
+    /// in the report's clusters); empty for an unknown index.
+    #[doc(hidden)]
+    #[must_use]
+    pub fn last_cluster_cells(&self, k: usize) -> &[u32] {
+        self.cluster_cells(k)
+    }
+
+    /// Diagnostics (`attribution_diag`, `IDENT=1`): the object (index in the last frame's object list) an occupied
+    /// cell's evidence went to in the last frame: the object that took the conflict cluster holding it, else the
+    /// object owning it (in whose region it lies deepest); `None` for a free cell, a cell of known scenery, or a
+    /// cell that is not occupied.
+    #[doc(hidden)]
+    #[must_use]
+    pub fn cell_attributed_to(&self, cell: u32) -> Option<u32> {
+        if self.grid.probability(cell) <= self.params.tau_fn {
+            return None;
+        }
+        let flags = self.grid.flags(cell);
+        if flags & FLAG_STATIC != 0 {
+            return None;
+        }
+        if flags & FLAG_EXPLAINED != 0 {
+            return self.owner.get(cell as usize).copied();
+        }
+        Self::cluster_of(&self.cluster_spans, &self.queue, cell).and_then(|k| self.clusters.get(k)?.object)
+    }
+
     /// The region `A_o` the sensor checks use for an object, `None` for an invalid state.
     #[must_use]
     pub fn region_of(&self, o: &ObjectState) -> Option<Region> {
