@@ -468,6 +468,11 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
         );
     }
 
+    let changed = changed_keys(opts);
+    if !changed.is_empty() {
+        notes.push(format!("params keys changed from the defaults in every case: {}", changed.join(", ")));
+    }
+
     // Real data first: a malformed file fails the run before anything slow happens.
     let real = if opts.real_data { real_sequences(opts, &mut notes)? } else { RealSequences::default() };
     let syn64 = Sequence::synthetic(&SyntheticSpec::BEAMS_64);
@@ -697,10 +702,10 @@ fn median_u32(v: &mut [u32]) -> u32 {
     v.get(v.len() / 2).copied().unwrap_or(0)
 }
 
-fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, BenchError> {
-    let mut p = params(def.cell_size_m, def.grid_size_m);
-    p.seen_over = opts.seen_over;
-    p.face_in_front = opts.face_in_front;
+/// The params keys of the options (`--seen-over`, `--no-jump-from-returns`, ...) applied to `p`.
+fn apply_keys(p: &mut MonitorParams, opts: &BenchOptions) {
+    p.seen_over |= opts.seen_over;
+    p.face_in_front |= opts.face_in_front;
     p.jump_from_returns |= opts.jump_from_returns || opts.jump_first_return;
     p.jump_first_return |= opts.jump_first_return;
     if opts.no_jump_first_return {
@@ -710,14 +715,44 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         p.jump_from_returns = false;
         p.jump_first_return = false;
     }
-    p.seen_body = opts.seen_body;
-    p.memory_gate = opts.memory_gate;
+    p.seen_body |= opts.seen_body;
+    p.memory_gate |= opts.memory_gate;
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
     }
     if opts.no_roi_graze {
         p.roi_graze_fraction = 0.0;
     }
+}
+
+/// The params keys the options change from the defaults, as `key = value` (empty when none does), so that a report
+/// says what it measured.
+fn changed_keys(opts: &BenchOptions) -> Vec<String> {
+    let d = MonitorParams::PAPER;
+    let mut p = d;
+    apply_keys(&mut p, opts);
+    let mut out = Vec::new();
+    for (key, default, value) in [
+        ("seen_over", d.seen_over, p.seen_over),
+        ("face_in_front", d.face_in_front, p.face_in_front),
+        ("jump_from_returns", d.jump_from_returns, p.jump_from_returns),
+        ("jump_first_return", d.jump_first_return, p.jump_first_return),
+        ("seen_body", d.seen_body, p.seen_body),
+        ("memory_gate", d.memory_gate, p.memory_gate),
+    ] {
+        if default != value {
+            out.push(format!("{key} = {value}"));
+        }
+    }
+    if d.roi_graze_fraction.to_bits() != p.roi_graze_fraction.to_bits() {
+        out.push(format!("roi_graze_fraction = {}", p.roi_graze_fraction));
+    }
+    out
+}
+
+fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, BenchError> {
+    let mut p = params(def.cell_size_m, def.grid_size_m);
+    apply_keys(&mut p, opts);
     if def.calibrated {
         p.plausibility_mode = pmon_monitor::PlausibilityMode::Calibrated;
     }

@@ -210,3 +210,23 @@ fn columns_run_the_same_frames_and_say_so() {
     assert!(columns.notes.iter().any(|n| n.starts_with("--columns")), "{:?}", columns.notes);
     assert!(!records.notes.iter().any(|n| n.starts_with("--columns")), "{:?}", records.notes);
 }
+
+/// A report says which params keys its options changed from the defaults: none by default (`--jump-from-returns`,
+/// the default since issue #10, changes nothing), both jump keys with `--no-jump-from-returns`, and only the
+/// first-return key with `--no-jump-first-return`.
+#[test]
+fn params_keys_changed_from_the_defaults_are_named_in_the_notes() {
+    let only = vec!["objects-30/no-cloud".to_string()];
+    let keys = |opts: BenchOptions| -> Option<String> {
+        let report = run_bench(&BenchOptions { only: only.clone(), ..opts }).unwrap();
+        report.notes.iter().find(|n| n.starts_with("params keys changed")).cloned()
+    };
+    assert_eq!(keys(quick()), None);
+    assert_eq!(keys(BenchOptions { jump_from_returns: true, jump_first_return: true, ..quick() }), None);
+    let off = keys(BenchOptions { no_jump_from_returns: true, ..quick() }).unwrap();
+    assert!(off.ends_with("jump_from_returns = false, jump_first_return = false"), "{off}");
+    let sums = keys(BenchOptions { no_jump_first_return: true, ..quick() }).unwrap();
+    assert!(sums.ends_with(": jump_first_return = false"), "{sums}");
+    let over = keys(BenchOptions { seen_over: true, no_roi_graze: true, ..quick() }).unwrap();
+    assert!(over.ends_with(": seen_over = true, roi_graze_fraction = 0"), "{over}");
+}
