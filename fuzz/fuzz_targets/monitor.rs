@@ -3,7 +3,8 @@
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
 //! and without the params keys `seen_over`, `face_in_front`, `roi_graze_fraction` (with a region of interest) and
 //! `jump_from_returns`, with or without uncertainties on the objects and a turned sensor, and with or without
-//! `seen_body` and `memory_gate`, and with `jump_from_returns`, with or without `jump_first_return`.
+//! `seen_body` and `memory_gate`, and with `jump_from_returns`, with or without `jump_first_return` (without it, with
+//! or without `front_cluster`).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -76,6 +77,9 @@ fuzz_target!(|data: &[u8]| {
     // And its last bit, with `jump_from_returns`, each cell's first return for step 9 (`jump_first_return`, which
     // needs `jump_from_returns`).
     let jump_first_return = jump_from_returns && data.first().is_some_and(|b| b & 0x01 != 0);
+    // Without `jump_from_returns` the same bit gives a box its free cluster of its shape in front of it
+    // (`front_cluster`).
+    let front_cluster = !jump_from_returns && data.first().is_some_and(|b| b & 0x01 != 0);
     let half_plane: &[[f32; 2]] = &[[-20.0, -20.0], [0.0, -20.0], [0.0, 20.0], [-20.0, 20.0]];
     let polygons = [half_plane];
     let roi: &[&[[f32; 2]]] = if graze { &polygons } else { &[] };
@@ -89,6 +93,7 @@ fuzz_target!(|data: &[u8]| {
         jump_first_return,
         seen_body,
         memory_gate,
+        front_cluster,
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,
         ..MonitorParams::default()

@@ -26,6 +26,7 @@ class Params:
     jump_first_return: bool
     seen_body: bool
     memory_gate: bool
+    front_cluster: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

@@ -161,6 +161,10 @@ pub struct BenchOptions {
     /// Check with the params key `memory_gate` on (evidence beyond `conflict_association_m` of a box is never its:
     /// step 8 and the occluder rule bounded; docs/attribution.md). Off: the default parameters.
     pub memory_gate: bool,
+    /// Check with the params key `front_cluster` on (a free cluster in front of a confirmed box whose confirming
+    /// evidence runs on beyond it goes to it; docs/attribution.md, "One box displaced 2 m in a single sweep"). Off:
+    /// the default parameters.
+    pub front_cluster: bool,
     /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
     /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
     /// "The grazing rule"). Since the rule is the default (issue #10), the default parameters have it on already.
@@ -192,6 +196,7 @@ impl Default for BenchOptions {
             no_jump_first_return: false,
             seen_body: false,
             memory_gate: false,
+            front_cluster: false,
             roi_graze: false,
             no_roi_graze: false,
         }
@@ -717,6 +722,7 @@ fn apply_keys(p: &mut MonitorParams, opts: &BenchOptions) {
     }
     p.seen_body |= opts.seen_body;
     p.memory_gate |= opts.memory_gate;
+    p.front_cluster |= opts.front_cluster;
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
     }
@@ -739,6 +745,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("jump_first_return", d.jump_first_return, p.jump_first_return),
         ("seen_body", d.seen_body, p.seen_body),
         ("memory_gate", d.memory_gate, p.memory_gate),
+        ("front_cluster", d.front_cluster, p.front_cluster),
     ] {
         if default != value {
             out.push(format!("{key} = {value}"));

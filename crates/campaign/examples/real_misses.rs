@@ -19,6 +19,10 @@
 //! are the default since issue #10: `NOJUMP=1` checks without both, `NOFIRST=1` without the first return.
 //! `DETAIL=1` (with `ONE_BOX=1 HISTORY=1`) prints, for each clean box flagged beside a displaced one, where both stand
 //! and the cluster that flagged it.
+//! `FRONT=1` checks with the params key `front_cluster` (a free cluster in front of a confirmed box, fitting it, goes
+//! to it when the evidence confirming the box runs on beyond it). `WHERE=1` adds to each miss's cause where the clean
+//! box's own returns went (to itself, a neighbour's region, a neighbour's cluster, a free cluster, or nowhere) and
+//! whose cells confirm it in its displaced region (its own clean returns, a neighbour's box, scenery).
 //! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
 //! `SPILL=occupied` checks with `SpillOverFit::Occupied` (spill-over fitted over occupied cells only, the default
 //! before issue #10's clean-box round; the default now is every return).
@@ -52,6 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             && std::env::var_os("NOFIRST").is_none(),
         seen_body: std::env::var_os("BODY").is_some(),
         memory_gate: std::env::var_os("MEMGATE").is_some(),
+        front_cluster: std::env::var_os("FRONT").is_some(),
         ..base
     };
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();
@@ -334,7 +339,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                     println!("   rays: {}", out.join(" | "));
                 }
-                *causes.entry(key).or_default() += 1;
+                if std::env::var_os("WHERE").is_some() {
+                    let k2 = where_went(&monitor, &geometry, &params, f, i, &cells, &moved_region, separable);
+                    if std::env::var("PMON_DEBUG").is_ok() {
+                        println!("   where: {k2}");
+                    }
+                    *causes.entry(format!("{key} || {k2}")).or_default() += 1;
+                } else {
+                    *causes.entry(key).or_default() += 1;
+                }
             }
             if let Some(w) = writer.as_mut() {
                 w.write_frame(f)?;
@@ -355,6 +368,73 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("{n:>5}  {k}");
     }
     Ok(())
+}
+
+/// `WHERE=1`: where the clean box's own returns went once it is displaced (each occupied cell of them: to the box
+/// itself, explained by a neighbour's region, in a cluster taken by a neighbour, in a free cluster, or known
+/// scenery / not occupied), and, for a box still confirmed, whose returns confirm it in its displaced region (cells
+/// it owns there: its own clean returns, inside a neighbour's labelled box, or in no labelled box: scenery).
+#[allow(clippy::too_many_arguments)]
+fn where_went(
+    monitor: &Monitor,
+    geometry: &pmon_monitor::GridGeometry,
+    params: &MonitorParams,
+    f: &pmon_recording::RecordedFrame,
+    i: usize,
+    own_cells: &[u32],
+    moved_region: &pmon_monitor::Region,
+    separable: bool,
+) -> String {
+    let _ = separable;
+    let occupied = |c: u32| monitor.grid().probability(c) > params.tau_fn;
+    let (mut to_self, mut to_nb, mut nb_cluster, mut free, mut none) = (0, 0, 0, 0, 0);
+    for &c in own_cells {
+        if !occupied(c) {
+            none += 1;
+            continue;
+        }
+        let explained = monitor.grid().flags(c) & pmon_monitor::grid::FLAG_EXPLAINED != 0;
+        match monitor.cell_attributed_to(c) {
+            Some(o) if o as usize == i => to_self += 1,
+            Some(_) if explained => to_nb += 1,
+            Some(_) => nb_cluster += 1,
+            None if explained => none += 1,
+            None => free += 1,
+        }
+    }
+    let mut own_out = String::new();
+    for (n, name) in
+        [(to_self, "self"), (to_nb, "nb-region"), (nb_cluster, "nb-cluster"), (free, "free"), (none, "none")]
+    {
+        if n > 0 {
+            own_out.push_str(&format!("{name}{n} "));
+        }
+    }
+    // Cells the displaced box owns (in its grown region), by where they stand.
+    let boxes: Vec<OrientedRect> = f
+        .objects
+        .iter()
+        .map(|o| OrientedRect::new(o.x_m, o.y_m, o.heading_rad, 0.5 * o.length_m, 0.5 * o.width_m))
+        .collect();
+    let (mut c_own, mut c_nb, mut c_scen) = (0, 0, 0);
+    let half = 0.5 * params.cell_size_m;
+    for c in 0..geometry.cell_count() as u32 {
+        if !occupied(c) || monitor.cell_attributed_to(c) != Some(i as u32) {
+            continue;
+        }
+        let (x, y) = geometry.cell_center(c);
+        if !moved_region.grown.overlaps_square(x, y, half) {
+            continue;
+        }
+        if own_cells.contains(&c) {
+            c_own += 1;
+        } else if boxes.iter().enumerate().any(|(j, b)| j != i && b.overlaps_square(x, y, half)) {
+            c_nb += 1;
+        } else {
+            c_scen += 1;
+        }
+    }
+    format!("own returns: {}| owned in displaced region: own{c_own} nb{c_nb} scenery{c_scen}", own_out)
 }
 
 fn entry(fp: &OrientedRect, origin: [f32; 2], ux: f32, uy: f32) -> f32 {

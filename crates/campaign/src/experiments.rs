@@ -183,7 +183,7 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 9] = [
+const LATE_PARAMS_KEYS: [&str; 10] = [
     "spill_over_fit",
     "seen_over",
     "face_in_front",
@@ -193,6 +193,7 @@ const LATE_PARAMS_KEYS: [&str; 9] = [
     "seen_body",
     "memory_gate",
     "jump_first_return",
+    "front_cluster",
 ];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].

@@ -131,6 +131,11 @@ enum Command {
         /// never its (step 8 and the occluder rule bounded; docs/attribution.md).
         #[arg(long)]
         memory_gate: bool,
+        /// Check with the params key `front_cluster` on: a free cluster in front of a confirmed box, fitting it and
+        /// outweighing its own cells, goes to it when the evidence confirming the box runs on beyond it
+        /// (docs/attribution.md, "One box displaced 2 m in a single sweep").
+        #[arg(long)]
+        front_cluster: bool,
         /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
         /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
         /// outside it (docs/datasets.md, "The grazing rule"). The default since issue #10.
@@ -248,6 +253,7 @@ fn main() -> ExitCode {
             no_jump_first_return,
             seen_body,
             memory_gate,
+            front_cluster,
             roi_graze,
             no_roi_graze,
         } => {
@@ -273,6 +279,7 @@ fn main() -> ExitCode {
                 no_jump_first_return,
                 seen_body,
                 memory_gate,
+                front_cluster,
                 roi_graze,
                 no_roi_graze,
             };

@@ -306,6 +306,17 @@ pub struct MonitorParams {
     /// 26 m in front of it once and was held displaced for 80 frames (docs/attribution.md, "Evidence beyond the
     /// gate"). Costs a distance per cell looked at by step 8 and one cluster distance per such box.
     pub memory_gate: bool,
+    /// Off by default. A single-frame rule for a box displaced away from its returns and confirmed by scenery
+    /// (docs/attribution.md, "One box displaced 2 m in a single sweep"): a free conflict cluster left after
+    /// spill-over (in the region of interest or not) goes to a *confirmed* box without a cluster when (1) it stands
+    /// on the box's line of sight, in front of it, within `conflict_association_m` of its grown region, (2) it fits
+    /// the box (as step 3's fit test) and holds at least as many cells as the occupied cells the box owns, and (3)
+    /// the evidence that confirms the box is a piece of something larger than the box: the hit cells it owns in its grown region, with the hit cells 8-adjacent to them that no
+    /// object explains or that are known scenery (the cluster's own cells left out), span more than the box's
+    /// length or width plus the fit test's slack. The box is then a `position_error` with that cluster. Costs one
+    /// sight test per confirmed box near a free cluster, and one walk over the region's cells (and their 3 x 3
+    /// blocks) for a box the first two tests pass.
+    pub front_cluster: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -398,6 +409,7 @@ impl MonitorParams {
         jump_first_return: true,
         seen_body: false,
         memory_gate: false,
+        front_cluster: false,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {

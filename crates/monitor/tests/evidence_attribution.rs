@@ -926,3 +926,45 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
         }
     }
 }
+
+/// A free cluster in front of a confirmed box goes to it when the evidence that confirms the box is a piece of
+/// something larger than it (params key `front_cluster`, off by default; docs/attribution.md, "One box displaced
+/// 2 m in a single sweep"). A car reported 2 m further away than it stands, in one sweep (no history): its rear face
+/// is a free cluster 1.6 m in front of its displaced region, and the region's far corner covers the end of a wall
+/// that runs on for 7 m behind it. The wall's cells confirm the box (it owns them) and the rear face alone fits the
+/// car, but the wall with it does not, so spill-over refuses it: without the key the box is `consistent`, with it a
+/// `position_error` with the rear face. The clean car, reported where it stands with an unlabelled object of its
+/// size 2 m in front of it, stays `consistent` with the key: its own evidence ends within its box.
+#[test]
+fn a_box_confirmed_by_scenery_takes_the_cluster_of_its_shape_in_front_of_it() {
+    let truth = object(1, 15.0, 0.0, 0.0, 4.5, 1.8);
+    let mut pts = visible_face_points(&truth, 0.05);
+    // The wall: along x at y = 1.45, from x = 18 to 25 (the displaced region reaches y = 1.3 and x = 19.65).
+    let mut x = 18.0f32;
+    while x <= 25.0 {
+        for z in [0.5f32, 1.0, 1.5] {
+            pts.push([x, 1.45, z]);
+        }
+        x += 0.05;
+    }
+    pts.extend(ground_points(45.0));
+    let mut reported = truth;
+    reported.x_m += 2.0;
+    for front_cluster in [false, true] {
+        let mut m = Monitor::new(MonitorParams { front_cluster, ..MonitorParams::default() }).unwrap();
+        let r = run(&mut m, &[reported], &pts);
+        let want = if front_cluster { SensorVerdict::PositionError } else { SensorVerdict::Consistent };
+        assert_eq!(r[0].sensor.verdict, want, "key {front_cluster}: {:?}", r[0].sensor);
+        if front_cluster {
+            // The offset points from the rear face back to the reported box: about +2 m plus half the car along x.
+            assert!(r[0].sensor.offset_m[0] > 1.5 && r[0].sensor.offset_m[0] < 5.0, "{:?}", r[0].sensor.offset_m);
+        }
+        // The clean car, an unlabelled object of about its width 2 m in front of it.
+        let crate_box = object(9, 10.2, 0.0, 0.0, 0.6, 1.8);
+        let mut clean_pts = visible_face_points(&truth, 0.05);
+        clean_pts.extend(visible_face_points(&crate_box, 0.05));
+        clean_pts.extend(ground_points(45.0));
+        let r = run(&mut m, &[truth], &clean_pts);
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "key {front_cluster}, clean: {:?}", r[0].sensor);
+    }
+}

@@ -61,18 +61,21 @@ fn check_allocates_nothing_after_construction() {
     // last frame's boxes jump), and with both (the rasterizer's instantiation that keeps sums and tall bits), and
     // with the free-space test's rays on the body only (`seen_body`: a walk over the visibility map's bins), and
     // with evidence bounded by the gate (`memory_gate`), and with step 9 from each cell's first return
-    // (`jump_first_return`, with and without the grazing rule).
-    for (seen_over, face_in_front, roi_graze_fraction, jump, seen_body, memory_gate) in [
-        (false, false, 0.0, (false, false), false, false),
-        (true, false, 0.0, (false, false), false, false),
-        (false, true, 0.0, (false, false), false, false),
-        (false, false, 0.5, (false, false), false, false),
-        (false, false, 0.0, (true, false), false, false),
-        (false, false, 0.5, (true, false), false, false),
-        (false, false, 0.0, (false, false), true, false),
-        (false, false, 0.0, (false, false), false, true),
-        (false, false, 0.0, (true, true), false, false),
-        (false, false, 0.5, (true, true), false, false),
+    // (`jump_first_return`, with and without the grazing rule), and with a free cluster in front of a confirmed box
+    // offered to it (`front_cluster`).
+    for (seen_over, face_in_front, roi_graze_fraction, jump, seen_body, memory_gate, front_cluster) in [
+        (false, false, 0.0, (false, false), false, false, false),
+        (true, false, 0.0, (false, false), false, false, false),
+        (false, true, 0.0, (false, false), false, false, false),
+        (false, false, 0.5, (false, false), false, false, false),
+        (false, false, 0.0, (true, false), false, false, false),
+        (false, false, 0.5, (true, false), false, false, false),
+        (false, false, 0.0, (false, false), true, false, false),
+        (false, false, 0.0, (false, false), false, true, false),
+        (false, false, 0.0, (true, true), false, false, false),
+        (false, false, 0.5, (true, true), false, false, false),
+        (false, false, 0.0, (false, false), false, false, true),
+        (false, false, 0.5, (true, true), false, false, true),
     ] {
         let (jump_from_returns, jump_first_return) = jump;
         let params = MonitorParams {
@@ -85,6 +88,7 @@ fn check_allocates_nothing_after_construction() {
             jump_first_return,
             seen_body,
             memory_gate,
+            front_cluster,
             ..MonitorParams::default()
         };
         let mut monitor = Monitor::new(params).unwrap();

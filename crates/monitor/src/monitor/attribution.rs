@@ -464,6 +464,91 @@ impl Monitor {
                 self.give(k, j);
             }
         }
+        if self.params.front_cluster {
+            self.front_clusters();
+        }
+    }
+
+    /// With `front_cluster`: a free cluster left after spill-over goes to the nearest confirmed box without a
+    /// cluster that stands behind it on the sensor's line of sight, within the gate, that it fits, that holds at
+    /// least as many cells as the occupied cells the box owns, and whose confirming evidence is a piece of
+    /// something larger than the box ([`Monitor::own_evidence_runs_on`]): the box
+    /// claims to stand behind evidence of its own size and is confirmed only by scenery (docs/attribution.md, "One
+    /// box displaced 2 m in a single sweep"). Bounded: the clusters times the boxes within the gate of each.
+    fn front_clusters(&mut self) {
+        let gate = self.params.conflict_association_m;
+        for k in 0..self.clusters.len() {
+            let Some((cb, centroid, cells)) =
+                self.clusters.get(k).filter(|c| c.object.is_none()).map(|c| (c.bounds_m, c.centroid_m, c.cells))
+            else {
+                continue;
+            };
+            let mut best: Option<(f32, usize)> = None;
+            let (lo, hi) = self.x_window(cb, gate);
+            for m in lo..hi {
+                let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
+                let Some(&(rb, bits)) = self.candidates.get(j) else { continue };
+                let wanted = CANDIDATE_REGION | CANDIDATE_CONFIRMED;
+                if bits & wanted != wanted || self.far_apart(cb, rb, gate) {
+                    continue;
+                }
+                let Some(s) = self.scratch.get(j).filter(|s| s.cluster.is_none()) else { continue };
+                let Some(region) = s.region else { continue };
+                if !self.behind(&region.footprint, centroid) {
+                    continue;
+                }
+                let Some(d) = self.cluster_distance(k, &region.grown, gate) else { continue };
+                // At least as many cells as the occupied cells the box owns (its shape's evidence in front of it
+                // outweighs what its region holds), fitting it, and the evidence that confirms it runs on beyond it.
+                if (cells as f32) < s.own_sum[2]
+                    || !self.evidence_fits(j, &region, k, false)
+                    || !self.own_evidence_runs_on(j, &region, k)
+                {
+                    continue;
+                }
+                if best.is_none_or(|(bd, bj)| d.total_cmp(&bd).then(j.cmp(&bj)).is_lt()) {
+                    best = Some((d, j));
+                }
+            }
+            if let Some((_, j)) = best {
+                self.give(k, j);
+            }
+        }
+    }
+
+    /// With `front_cluster`: true when the evidence that confirms object `j` runs on beyond its region: a hit cell it
+    /// owns in its grown region is 8-adjacent to a hit cell outside the region that no object explains or that is
+    /// known scenery (cluster `k`'s cells left out): the region's edge cuts through it, so it is a piece of
+    /// something that continues past where the box could stand. Bounded: one walk over the region's cells and the
+    /// 3 x 3 block of each owned one.
+    fn own_evidence_runs_on(&self, j: usize, region: &Region, k: usize) -> bool {
+        let geometry = self.grid.geometry;
+        let half = 0.5 * geometry.cell_size_m;
+        let (grid, owner) = (&self.grid, &self.owner);
+        let cb = self.clusters.get(k).map_or([0.0; 4], |c| c.bounds_m);
+        let in_k = |idx: u32, x: f32, y: f32| {
+            x >= cb[0] && x <= cb[2] && y >= cb[1] && y <= cb[3] && self.cluster_cells(k).contains(&idx)
+        };
+        let Some(range) = geometry.cell_range(region.grown.aabb()) else { return false };
+        let mut runs_on = false;
+        geometry.for_each_cell_overlapping(&region.grown, range, |idx, _, _| {
+            if runs_on
+                || grid.hits(idx) == 0
+                || grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED
+                || owner.get(idx as usize).is_none_or(|&o| o as usize != j)
+            {
+                return;
+            }
+            runs_on = geometry.block3x3(idx).any(|c| {
+                let flags = grid.flags(c);
+                let (x, y) = geometry.cell_center(c);
+                grid.hits(c) > 0
+                    && (flags & FLAG_EXPLAINED == 0 || flags & FLAG_STATIC != 0)
+                    && !region.grown.overlaps_square(x, y, half)
+                    && !in_k(c, x, y)
+            });
+        });
+        runs_on
     }
 
     /// The one-to-one assignment of step 3: the candidate pairs fall into groups (connected components of the
