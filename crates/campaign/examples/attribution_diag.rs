@@ -436,9 +436,7 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 5], String> {
             v.2 = false;
         }
         for (i, r) in f.reports.iter().enumerate() {
-            let injected = f.injections.iter().any(|x| x.index as usize == i);
-            let alarm = pmon_campaign::in_scope(r.sensor.verdict)
-                && matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+            let (injected, alarm) = injected_and_alarm(f, i, r);
             let (Some(truth), Some(o)) = (f.clean.objects.get(i), f.objects.get(i)) else { continue };
             if injected && alarm && f.confirmed.get(i).copied().unwrap_or(false) {
                 // A verifiable error found with an offset beyond the gate (plus a metre for the box and the cluster's
@@ -455,10 +453,7 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 5], String> {
             }
             let e = streaks.entry(o.id).or_insert((0, false, false));
             if e.0 == 0 {
-                let truth_region = f.clean_monitor.region_of(truth);
-                e.1 = r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c))).is_some_and(|c| {
-                    !truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
-                });
+                e.1 = foreign_cluster(f, truth, r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c))));
             }
             e.0 += 1;
             e.2 = true;
@@ -525,9 +520,7 @@ fn drift(scene: &Scene, run: &PlannedRun) -> Result<DriftSamples, String> {
         }
         let yaw = f.clean.world_from_ego.yaw_rad as f32;
         for (i, r) in f.reports.iter().enumerate() {
-            let injected = f.injections.iter().any(|x| x.index as usize == i);
-            let alarm = pmon_campaign::in_scope(r.sensor.verdict)
-                && matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+            let (injected, alarm) = injected_and_alarm(f, i, r);
             let (Some(truth), Some(o)) = (f.clean.objects.get(i), f.objects.get(i)) else { continue };
             if !alarm || (injected && !f.confirmed.get(i).copied().unwrap_or(false)) {
                 continue;
@@ -535,18 +528,8 @@ fn drift(scene: &Scene, run: &PlannedRun) -> Result<DriftSamples, String> {
             let c = r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c)));
             let e = runs.entry(o.id).or_insert((None, f.k, "", false));
             if e.2.is_empty() {
-                let truth_region = f.clean_monitor.region_of(truth);
-                let foreign = c.is_some_and(|c| {
-                    !truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
-                });
                 e.1 = f.k;
-                e.2 = if injected {
-                    "true"
-                } else if foreign {
-                    "clean-foreign"
-                } else {
-                    "clean-other"
-                };
+                e.2 = run_kind(injected, foreign_cluster(f, truth, c));
                 // Frames since the track was last confirmed by its own evidence when its run began.
                 let gap = last_own.get(&o.id).map_or(u64::MAX, |&k| (f.k - k) as u64);
                 let bucket = match gap {
@@ -696,9 +679,7 @@ fn ident(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Strin
         let geo = f.monitor.grid().geometry;
         let pose = f.clean.world_from_ego;
         for (i, r) in f.reports.iter().enumerate() {
-            let injected = f.injections.iter().any(|x| x.index as usize == i);
-            let alarm = pmon_campaign::in_scope(r.sensor.verdict)
-                && matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+            let (injected, alarm) = injected_and_alarm(f, i, r);
             let (Some(truth), Some(o)) = (f.clean.objects.get(i), f.objects.get(i)) else { continue };
             if !alarm || (injected && !f.confirmed.get(i).copied().unwrap_or(false)) {
                 continue;
@@ -707,17 +688,7 @@ fn ident(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Strin
             let c = ci.and_then(|c| f.clusters.get(c));
             let e = runs.entry(o.id).or_insert(("", false, false, false, false, 0));
             if e.0.is_empty() {
-                let truth_region = f.clean_monitor.region_of(truth);
-                let foreign = c.is_some_and(|c| {
-                    !truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5)
-                });
-                e.0 = if injected {
-                    "true"
-                } else if foreign {
-                    "clean-foreign"
-                } else {
-                    "clean-other"
-                };
+                e.0 = run_kind(injected, foreign_cluster(f, truth, c));
                 bump(&mut out, format!("{} runs", e.0));
             }
             e.3 = true;
@@ -950,6 +921,38 @@ fn print_drift(group: &str, samples: &DriftSamples) {
 
 /// `HELD=1 TRACK=ID`: one line per frame in which clean track `ID` is flagged: its box and true place, stated
 /// motion, the cluster it took and whose true place holds that cluster (with that object's box, verdict, cluster).
+/// Whether object `i` of the frame carries an injected error, and whether its sensor verdict (`r`) is an alarm in
+/// scope (a ghost or a position error).
+fn injected_and_alarm(f: &pmon_campaign::PairedFrame<'_>, i: usize, r: &pmon_monitor::ObjectReport) -> (bool, bool) {
+    let injected = f.injections.iter().any(|x| x.index as usize == i);
+    let alarm = pmon_campaign::in_scope(r.sensor.verdict)
+        && matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
+    (injected, alarm)
+}
+
+/// Whether the cluster a flagged box took is foreign: its centroid 0.5 m or more from the grown region of the
+/// object's true place (or the true place has no region).
+fn foreign_cluster(
+    f: &pmon_campaign::PairedFrame<'_>,
+    truth: &pmon_monitor::ObjectState,
+    c: Option<&pmon_monitor::ClusterReport>,
+) -> bool {
+    let truth_region = f.clean_monitor.region_of(truth);
+    c.is_some_and(|c| !truth_region.is_some_and(|g| g.grown.distance(c.centroid_m[0], c.centroid_m[1]) < 0.5))
+}
+
+/// The kind of a run of alarms, from its first frame: an injected error, or a clean track whose first cluster was
+/// foreign, or another clean track.
+fn run_kind(injected: bool, foreign: bool) -> &'static str {
+    if injected {
+        "true"
+    } else if foreign {
+        "clean-foreign"
+    } else {
+        "clean-other"
+    }
+}
+
 fn track_line(f: &pmon_campaign::PairedFrame<'_>, i: usize) {
     let (Some(r), Some(o), Some(t)) = (f.reports.get(i), f.objects.get(i), f.clean.objects.get(i)) else { return };
     let c = r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c)));
