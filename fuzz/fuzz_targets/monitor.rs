@@ -72,7 +72,8 @@ fuzz_target!(|data: &[u8]| {
     let with_uncertainty = data.first().is_some_and(|b| b & 0x08 != 0);
     // And its next bit the free-space test's rays on the body only (`seen_body`).
     let seen_body = data.first().is_some_and(|b| b & 0x04 != 0);
-    // And its next bit evidence bounded by the gate (`memory_gate`).
+    // And its next bit evidence bounded by the gate (`memory_gate`), and displaced offsets held over frames without
+    // an alarm for a second (`memory_hold_s`).
     let memory_gate = data.first().is_some_and(|b| b & 0x02 != 0);
     // And its last bit, with `jump_from_returns`, each cell's first return for step 9 (`jump_first_return`, which
     // needs `jump_from_returns`).
@@ -94,6 +95,7 @@ fuzz_target!(|data: &[u8]| {
         seen_body,
         memory_gate,
         front_cluster,
+        memory_hold_s: if memory_gate { 1.0 } else { 0.0 },
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,
         ..MonitorParams::default()

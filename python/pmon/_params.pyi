@@ -27,6 +27,7 @@ class Params:
     seen_body: bool
     memory_gate: bool
     front_cluster: bool
+    memory_hold_s: float
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

@@ -751,6 +751,9 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
             out.push(format!("{key} = {value}"));
         }
     }
+    if d.memory_hold_s.to_bits() != p.memory_hold_s.to_bits() {
+        out.push(format!("memory_hold_s = {}", p.memory_hold_s));
+    }
     if d.roi_graze_fraction.to_bits() != p.roi_graze_fraction.to_bits() {
         out.push(format!("roi_graze_fraction = {}", p.roi_graze_fraction));
     }

@@ -25,6 +25,9 @@
 //! offset". `IDENT=1` counts, for the same two kinds of alarm frames, whose evidence the cells of the cluster taken
 //! were in the previous frame (cluster identity over frames; `IDENT_DILATE=1`: a cell nobody had takes a labelled
 //! 8-neighbour's owner; `TRACK=ID` prints the track's frames); docs/attribution.md, "Cluster identity over frames".
+//! `MISSRUN=1` sorts each verifiable miss (and each error found) by the track's alarms before it in the run: in the
+//! previous frame, earlier only, never (docs/attribution.md, "Misses by the track's alarms before them"). `HOLD=S`
+//! runs with the params key `memory_hold_s = S` (docs/attribution.md, "Step 8 held over a gap").
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -923,6 +926,44 @@ fn print_drift(group: &str, samples: &DriftSamples) {
 /// motion, the cluster it took and whose true place holds that cluster (with that object's box, verdict, cluster).
 /// Whether object `i` of the frame carries an injected error, and whether its sensor verdict (`r`) is an alarm in
 /// scope (a ghost or a position error).
+/// `MISSRUN=1`: each verifiable miss (an injected error on an object confirmed when clean, no alarm) by the track's
+/// alarms before it in the run: flagged in the previous frame, flagged earlier only, or never flagged so far; and
+/// the same for the verifiable errors found. Multi-frame rules can only reach the first two kinds.
+fn miss_runs(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, String> {
+    let spec = &run.spec;
+    let mut out: BTreeMap<String, u64> = BTreeMap::new();
+    // Track id -> (last frame flagged).
+    let mut last: BTreeMap<u64, usize> = BTreeMap::new();
+    pmon_campaign::paired_frames(scene, spec, |f| {
+        for (i, r) in f.reports.iter().enumerate() {
+            let (injected, alarm) = injected_and_alarm(f, i, r);
+            let Some(o) = f.objects.get(i) else { continue };
+            if injected && f.confirmed.get(i).copied().unwrap_or(false) {
+                let before = match last.get(&o.id) {
+                    Some(&k) if k + 1 == f.k => "flagged in the previous frame",
+                    Some(_) => "flagged earlier only",
+                    None => "never flagged before",
+                };
+                let what = if alarm { "found" } else { "MISS" };
+                *out.entry(format!("{what:<5} {before}")).or_default() += 1;
+                if !alarm {
+                    *out.entry(format!(
+                        "  {what:<5} {before}: {:?} own {}",
+                        r.sensor.verdict,
+                        u8::from(r.sensor.eta_own >= spec.params.tau_tp)
+                    ))
+                    .or_default() += 1;
+                }
+            }
+            if alarm {
+                last.insert(o.id, f.k);
+            }
+        }
+        Ok(())
+    })?;
+    Ok(out)
+}
+
 fn injected_and_alarm(f: &pmon_campaign::PairedFrame<'_>, i: usize, r: &pmon_monitor::ObjectReport) -> (bool, bool) {
     let injected = f.injections.iter().any(|x| x.index as usize == i);
     let alarm = pmon_campaign::in_scope(r.sensor.verdict)
@@ -1245,6 +1286,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.memory_gate |= std::env::var_os("MEMGATE").is_some();
             // `FRONT=1`: a free cluster in front of a confirmed box confirmed by scenery (`front_cluster`).
             r.spec.params.front_cluster |= std::env::var_os("FRONT").is_some();
+            // `HOLD=S`: a track flagged as displaced keeps its offset S seconds after its last alarm for step 8
+            // (the params key `memory_hold_s`).
+            if let Some(s) = std::env::var("HOLD").ok().and_then(|v| v.parse().ok()) {
+                r.spec.params.memory_hold_s = s;
+            }
             // `FIRST=1`: step 9's returns' mean from each cell's first return (the params key `jump_first_return`,
             // the default since issue #10; `NOFIRST=1`: the sums of all the returns).
             r.spec.params.jump_first_return |= std::env::var_os("FIRST").is_some();
@@ -1263,7 +1309,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|r| {
             let scene = scenes.get(r.spec.scene).ok_or("no scene")?;
             let res = run_one(scene, &r.spec)?;
-            let c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
+            let mut c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
+            if std::env::var_os("MISSRUN").is_some() {
+                c.extend(miss_runs(scene, r)?);
+            }
             let h = if std::env::var_os("HELD").is_some() { Some(held(scene, r)?) } else { None };
             let d = if std::env::var_os("DRIFT").is_some() { Some(drift(scene, r)?) } else { None };
             let id = if std::env::var_os("IDENT").is_some() { Some(ident(scene, r)?) } else { None };

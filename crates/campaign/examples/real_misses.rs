@@ -24,6 +24,7 @@
 //! box's own returns went (to itself, a neighbour's region, a neighbour's cluster, a free cluster, or nowhere) and
 //! whose cells confirm it in its displaced region (its own clean returns, a neighbour's box, scenery).
 //! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
+//! `HOLD=S` checks with the params key `memory_hold_s = S` (a displaced offset held over frames without an alarm).
 //! `SPILL=occupied` checks with `SpillOverFit::Occupied` (spill-over fitted over occupied cells only, the default
 //! before issue #10's clean-box round; the default now is every return).
 use std::collections::BTreeMap;
@@ -57,6 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         seen_body: std::env::var_os("BODY").is_some(),
         memory_gate: std::env::var_os("MEMGATE").is_some(),
         front_cluster: std::env::var_os("FRONT").is_some(),
+        memory_hold_s: std::env::var("HOLD").ok().and_then(|v| v.parse().ok()).unwrap_or(base.memory_hold_s),
         ..base
     };
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();

@@ -29,13 +29,35 @@ struct Entry {
     seq: u32,
     t_s: f64,
     offset_world_m: [f32; 2],
-    kind: EvidenceKind,
+    /// `None` for an entry that keeps a held offset only.
+    kind: Option<EvidenceKind>,
     /// The object's reported centre (world frame, metres), its velocity over ground as the object list stated it
     /// (world axes, m/s), and the number of occupied cells of its own evidence: where the evidence of an object
     /// that moves as it says should stand in the next frame, and how much of it there was.
     motion: Option<Motion>,
     /// The id appeared more than once in its frame: its entry is not used.
     duplicate: bool,
+    /// A displaced offset found by alarms (world axes), kept beside the evidence (params key `memory_hold_s`).
+    hold: Option<Hold>,
+}
+
+/// A displaced offset found by alarms, and when: kept over frames without an alarm (the params key
+/// `memory_hold_s`) so that step 8 can still find the track's evidence where it puts it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Hold {
+    /// From the object's centre to its displaced evidence, metres: world axes in the memory, the current ego frame's
+    /// axes once recalled.
+    pub(crate) offset_m: [f32; 2],
+    /// The time of the last alarm that found the offset.
+    pub(crate) alarm_t_s: f64,
+    /// When the run of alarms in consecutive frames that ended at `alarm_t_s` began.
+    pub(crate) run_start_t_s: f64,
+}
+
+impl Hold {
+    fn is_finite(&self) -> bool {
+        self.offset_m.iter().all(|v| v.is_finite()) && self.alarm_t_s.is_finite() && self.run_start_t_s.is_finite()
+    }
 }
 
 /// A track's reported centre and velocity (world frame) and how many occupied cells its own evidence held, in the
@@ -83,7 +105,19 @@ impl EvidenceMemory {
         let e = self.prev.get(i)?;
         let dt = t_s - e.t_s;
         (!e.duplicate && dt > 0.0 && dt <= max_dt_s && yaw_rad.is_finite())
-            .then(|| (e.kind, rotate(e.offset_world_m, -yaw_rad)))
+            .then(|| e.kind.map(|k| (k, rotate(e.offset_world_m, -yaw_rad))))
+            .flatten()
+    }
+
+    /// The displaced offset track `id` keeps (current ego frame's axes), under the same conditions as
+    /// [`EvidenceMemory::recall`]: found by an alarm in the previous frame, or held since (`memory_hold_s`).
+    pub(crate) fn recall_hold(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<Hold> {
+        let i = self.prev.binary_search_by_key(&id, |e| e.id).ok()?;
+        let e = self.prev.get(i)?;
+        let dt = t_s - e.t_s;
+        let h = e.hold?;
+        (!e.duplicate && dt > 0.0 && dt <= max_dt_s && yaw_rad.is_finite())
+            .then(|| Hold { offset_m: rotate(h.offset_m, -yaw_rad), ..h })
     }
 
     /// Where track `id`'s centre should stand now (current ego frame, metres) if it moved as the previous frame's
@@ -122,6 +156,7 @@ impl EvidenceMemory {
 
     /// Records track `id`'s evidence offset (ego frame) in the frame being recorded. Non-finite values and
     /// entries beyond the capacity are not recorded.
+    #[cfg(test)]
     pub(crate) fn record(
         &mut self,
         id: u64,
@@ -131,8 +166,30 @@ impl EvidenceMemory {
         (kind, offset_ego_m): (EvidenceKind, [f32; 2]),
         motion: Option<Motion>,
     ) {
-        let offset_world_m = rotate(offset_ego_m, yaw_rad);
-        if !(t_s.is_finite() && offset_world_m.iter().all(|v| v.is_finite())) || self.next.len() >= self.next.capacity()
+        self.record_with_hold(id, seq, t_s, yaw_rad, Some((kind, offset_ego_m)), motion, None);
+    }
+
+    /// [`EvidenceMemory::record`] of the evidence, if any, and of a displaced offset found by alarms (`hold`, ego
+    /// frame), if any. Nothing is recorded without either.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn record_with_hold(
+        &mut self,
+        id: u64,
+        seq: usize,
+        t_s: f64,
+        yaw_rad: f64,
+        evidence: Option<(EvidenceKind, [f32; 2])>,
+        motion: Option<Motion>,
+        hold: Option<Hold>,
+    ) {
+        let hold = hold.map(|h| Hold { offset_m: rotate(h.offset_m, yaw_rad), ..h }).filter(Hold::is_finite);
+        let (kind, offset_world_m) = match evidence {
+            Some((kind, offset_ego_m)) => (Some(kind), rotate(offset_ego_m, yaw_rad)),
+            None => (None, [0.0; 2]),
+        };
+        if !(t_s.is_finite() && offset_world_m.iter().all(|v| v.is_finite()))
+            || (kind.is_none() && hold.is_none())
+            || self.next.len() >= self.next.capacity()
         {
             return;
         }
@@ -146,7 +203,7 @@ impl EvidenceMemory {
             returns_offset_world_m: m.returns_offset_world_m.filter(|r| r.iter().all(|v| v.is_finite())),
             ..m
         });
-        self.next.push(Entry { id, seq, t_s, offset_world_m, kind, motion, duplicate: false });
+        self.next.push(Entry { id, seq, t_s, offset_world_m, kind, motion, duplicate: false, hold });
     }
 
     /// Ends the frame: its records become the memory the next frame recalls.
@@ -186,6 +243,27 @@ mod tests {
         assert!(m.recall(7, 1.0, 0.0, 0.5).is_none(), "zero time step");
         assert!(m.recall(7, 1.6, 0.0, 0.5).is_none(), "too old");
         assert!(m.recall(8, 1.1, 0.0, 0.5).is_none(), "unknown id");
+    }
+
+    #[test]
+    fn a_held_offset_is_kept_beside_the_evidence_and_alone() {
+        let mut m = EvidenceMemory::new(4);
+        let hold = Hold { offset_m: [2.0, 0.0], alarm_t_s: 1.0, run_start_t_s: 0.9 };
+        m.begin();
+        // Beside own evidence, and alone (no evidence this frame), the ego turned by 90 degrees.
+        m.record_with_hold(7, 0, 1.1, 0.0, Some((EvidenceKind::Own, [0.1, 0.0])), None, Some(hold));
+        m.record_with_hold(8, 1, 1.1, core::f64::consts::FRAC_PI_2, None, None, Some(hold));
+        m.record_with_hold(9, 2, 1.1, 0.0, None, None, None);
+        m.record_with_hold(10, 3, 1.1, 0.0, None, None, Some(Hold { alarm_t_s: f64::NAN, ..hold }));
+        m.commit();
+        assert_eq!(m.recall(7, 1.2, 0.0, 0.5), Some((EvidenceKind::Own, [0.1, 0.0])));
+        assert_eq!(m.recall_hold(7, 1.2, 0.0, 0.5), Some(hold));
+        assert_eq!(m.recall(8, 1.2, 0.0, 0.5), None, "a held offset alone is no evidence");
+        let h = m.recall_hold(8, 1.2, 0.0, 0.5).unwrap();
+        assert!(h.offset_m[0].abs() < 1e-6 && (h.offset_m[1] - 2.0).abs() < 1e-6, "turned with the ego: {h:?}");
+        assert!(m.recall_hold(9, 1.2, 0.0, 0.5).is_none() && m.recall(9, 1.2, 0.0, 0.5).is_none(), "nothing kept");
+        assert!(m.recall_hold(10, 1.2, 0.0, 0.5).is_none(), "a NaN time is never recorded");
+        assert!(m.recall_hold(7, 1.8, 0.0, 0.5).is_none(), "too old");
     }
 
     #[test]

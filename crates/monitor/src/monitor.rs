@@ -2,7 +2,7 @@
 
 use alloc::vec::Vec;
 
-use crate::evidence_memory::{EvidenceKind, EvidenceMemory, Motion};
+use crate::evidence_memory::{EvidenceKind, EvidenceMemory, Hold, Motion};
 use crate::frame::{ColumnCloud, Frame, Isometry3, ObjectState, PointCloud, PointColumns, Uncertainty};
 use crate::grid::{
     GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_RETURN_IN_ROI, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE,
@@ -117,6 +117,9 @@ struct ObjectScratch {
     sight: Option<FootprintSight>,
     /// The track's evidence in the previous frame: kind and offset from the centre (ego frame, metres).
     recalled: Option<(EvidenceKind, [f32; 2])>,
+    /// The displaced offset the track keeps: found by an alarm in the previous frame, or held since
+    /// (`memory_hold_s`; ego frame).
+    hold: Option<Hold>,
     /// Sum of the centres of the occupied cells the object owns, and their number.
     own_sum: [f32; 3],
     /// With `jump_from_returns`: the sum of the returns in those cells, and their number.
@@ -545,12 +548,19 @@ impl Monitor {
             self.valid.push(object_is_valid(o, &self.params));
             let recalled =
                 self.memory.recall(o.id, frame.timestamp_s, frame.world_from_ego.yaw_rad, self.params.max_time_step_s);
+            let hold = self.memory.recall_hold(
+                o.id,
+                frame.timestamp_s,
+                frame.world_from_ego.yaw_rad,
+                self.params.max_time_step_s,
+            );
             self.scratch.push(ObjectScratch {
                 region: None,
                 cluster: None,
                 eta_own: 0.0,
                 sight: None,
                 recalled,
+                hold,
                 own_sum: [0.0; 3],
                 own_returns: [0.0; 3],
                 followed: u32::MAX,
@@ -1173,6 +1183,41 @@ impl Monitor {
                     }
                     _ => None,
                 };
+                // The displaced offset kept for step 8 (`memory_hold_s`): the one this frame's alarm found (its run
+                // of alarms in consecutive frames goes on when the track was flagged in the previous frame), or the
+                // one kept so far, until `memory_hold_s` after the alarm that found it, and only when alarms found it
+                // in at least two frames in a row (a clean track flagged once by a neighbour's evidence keeps none).
+                let hold = match evidence {
+                    Some((EvidenceKind::Displaced, at)) if s.verdict == SensorVerdict::PositionError => {
+                        let flagged_before = matches!(scratch.recalled, Some((EvidenceKind::Displaced, _)));
+                        let run_start_t_s = match scratch.hold {
+                            Some(h) if flagged_before => h.run_start_t_s,
+                            _ => frame.timestamp_s,
+                        };
+                        Some(Hold {
+                            offset_m: [at[0] - centre[0], at[1] - centre[1]],
+                            alarm_t_s: frame.timestamp_s,
+                            run_start_t_s,
+                        })
+                    }
+                    _ => scratch.hold.filter(|h| {
+                        h.alarm_t_s > h.run_start_t_s && frame.timestamp_s - h.alarm_t_s <= self.params.memory_hold_s
+                    }),
+                };
+                let hold = hold.filter(|_| self.params.memory_hold_s > 0.0);
+                if evidence.is_none() {
+                    if let Some(h) = hold {
+                        self.memory.record_with_hold(
+                            report.id,
+                            j,
+                            frame.timestamp_s,
+                            frame.world_from_ego.yaw_rad,
+                            None,
+                            None,
+                            Some(h),
+                        );
+                    }
+                }
                 if let Some((kind, at)) = evidence {
                     let id = report.id;
                     let offset = [at[0] - centre[0], at[1] - centre[1]];
@@ -1196,7 +1241,15 @@ impl Monitor {
                             returns_offset_world_m,
                         }
                     });
-                    self.memory.record(id, j, frame.timestamp_s, frame.world_from_ego.yaw_rad, (kind, offset), motion);
+                    self.memory.record_with_hold(
+                        id,
+                        j,
+                        frame.timestamp_s,
+                        frame.world_from_ego.yaw_rad,
+                        Some((kind, offset)),
+                        motion,
+                        hold,
+                    );
                 }
             }
             let Some(report) = self.reports.get_mut(j) else { continue };

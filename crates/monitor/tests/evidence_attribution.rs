@@ -262,6 +262,59 @@ fn displaced_evidence_in_a_neighbours_margin_still_follows_its_track() {
     assert_ne!(r[1].sensor.verdict, SensorVerdict::PositionError, "without the memory: {:?}", r[1].sensor);
 }
 
+/// Step 8 after a gap (params key `memory_hold_s`): a track found displaced in two frames in a row, then not flagged
+/// for a frame (its box stepped onto an unlabelled post's returns, 2 m beside its line of sight, and is confirmed by
+/// them), then hidden behind its own evidence again, which a neighbour's wide margin now explains. With the key the
+/// offset found by the alarms is held over the gap and step 8 finds the evidence where it puts it
+/// (`position_error`); without the key, once the hold has run out, or after a single alarm (a run of one is not
+/// held), the offset lived one frame and the box is called occluded.
+#[test]
+fn displaced_evidence_in_a_neighbours_margin_is_followed_over_a_gap_while_the_offset_is_held() {
+    let truth = object(2, 14.0, 0.0, 0.0, 0.6, 0.6);
+    let reported = pmon_monitor::ObjectState { x_m: 15.5, ..truth };
+    // The gap: the box beside its line of sight, on a post nobody listed.
+    let on_post = pmon_monitor::ObjectState { y_m: 2.0, ..reported };
+    let post = object(90, 15.5, 2.0, 0.0, 0.3, 0.3);
+    let wide =
+        pmon_monitor::Uncertainty { x_m: 0.3, y_m: 0.3, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 };
+    let neighbour = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(1, 13.9, 0.8, 0.0, 0.6, 0.6) };
+    let mut first = visible_face_points(&truth, 0.05);
+    first.extend(ground_points(45.0));
+    let mut gap = first.clone();
+    gap.extend(visible_face_points(&post, 0.05));
+    let mut third = first.clone();
+    third.extend(visible_face_points(&neighbour, 0.05));
+    let occluded = SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded);
+    // (memory_hold_s, frames flagged before the gap, time of the third frame, flagged then)
+    for (hold, alarms, third_t, flagged) in
+        [(1.0, 2, 0.3, true), (1.0, 2, 0.8, true), (0.0, 2, 0.3, false), (1.0, 2, 1.4, false), (1.0, 1, 0.3, false)]
+    {
+        let what = format!("hold {hold}, {alarms} alarms, third frame at {third_t}");
+        let params = MonitorParams { memory_hold_s: hold, ..MonitorParams::default() };
+        let mut m = Monitor::new(params).unwrap();
+        let mut t = 0.0;
+        for _ in 0..alarms {
+            let r = check_at(&mut m, t, &[reported], &first, Pose2::default());
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "{what}, at {t}: {:?}", r[0].sensor);
+            t += 0.1;
+        }
+        // The gap, as many frames as it takes to reach the third frame's time.
+        while t < third_t - 0.05 {
+            let r = check_at(&mut m, t, &[on_post], &gap, Pose2::default());
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{what}, gap at {t}: {:?}", r[0].sensor);
+            t += 0.1;
+        }
+        let r = check_at(&mut m, third_t, &[neighbour, reported], &third, Pose2::default());
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{what}, neighbour: {:?}", r[0].sensor);
+        if flagged {
+            assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "{what}: {:?}", r[1].sensor);
+            assert!(r[1].sensor.offset_m[0] > 0.5, "from its evidence back to the box: {:?}", r[1].sensor.offset_m);
+        } else {
+            assert_eq!(r[1].sensor.verdict, occluded, "{what}: {:?}", r[1].sensor);
+        }
+    }
+}
+
 /// Two pedestrians walking through each other (their true boxes overlap: one blob of evidence), both reported
 /// 1.5 m further away: both are position errors. The one that does not get the blob in the one-to-one assignment
 /// shares it (its box and the other's stand in one place); before, it was called occluded behind the blob.

@@ -62,7 +62,7 @@ fn check_allocates_nothing_after_construction() {
     // with the free-space test's rays on the body only (`seen_body`: a walk over the visibility map's bins), and
     // with evidence bounded by the gate (`memory_gate`), and with step 9 from each cell's first return
     // (`jump_first_return`, with and without the grazing rule), and with a free cluster in front of a confirmed box
-    // offered to it (`front_cluster`).
+    // offered to it (`front_cluster`). The last case also keeps displaced offsets over frames (`memory_hold_s`).
     for (seen_over, face_in_front, roi_graze_fraction, jump, seen_body, memory_gate, front_cluster) in [
         (false, false, 0.0, (false, false), false, false, false),
         (true, false, 0.0, (false, false), false, false, false),
@@ -89,6 +89,7 @@ fn check_allocates_nothing_after_construction() {
             seen_body,
             memory_gate,
             front_cluster,
+            memory_hold_s: if front_cluster && jump_first_return { 1.0 } else { 0.0 },
             ..MonitorParams::default()
         };
         let mut monitor = Monitor::new(params).unwrap();
