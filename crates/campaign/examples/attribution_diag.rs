@@ -922,10 +922,6 @@ fn print_drift(group: &str, samples: &DriftSamples) {
     }
 }
 
-/// `HELD=1 TRACK=ID`: one line per frame in which clean track `ID` is flagged: its box and true place, stated
-/// motion, the cluster it took and whose true place holds that cluster (with that object's box, verdict, cluster).
-/// Whether object `i` of the frame carries an injected error, and whether its sensor verdict (`r`) is an alarm in
-/// scope (a ghost or a position error).
 /// `MISSRUN=1`: each verifiable miss (an injected error on an object confirmed when clean, no alarm) by the track's
 /// alarms before it in the run: flagged in the previous frame, flagged earlier only, or never flagged so far; and
 /// the same for the verifiable errors found. Multi-frame rules can only reach the first two kinds.
@@ -964,6 +960,10 @@ fn miss_runs(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, S
     Ok(out)
 }
 
+/// `HELD=1 TRACK=ID`: one line per frame in which clean track `ID` is flagged: its box and true place, stated
+/// motion, the cluster it took and whose true place holds that cluster (with that object's box, verdict, cluster).
+/// Whether object `i` of the frame carries an injected error, and whether its sensor verdict (`r`) is an alarm in
+/// scope (a ghost or a position error).
 fn injected_and_alarm(f: &pmon_campaign::PairedFrame<'_>, i: usize, r: &pmon_monitor::ObjectReport) -> (bool, bool) {
     let injected = f.injections.iter().any(|x| x.index as usize == i);
     let alarm = pmon_campaign::in_scope(r.sensor.verdict)

@@ -100,24 +100,40 @@ impl EvidenceMemory {
 
     /// The previous frame's evidence of track `id`, as `(kind, offset from the object's centre in the current ego
     /// frame)`, if that frame was `0 < t_s - t_prev <= max_dt_s` ago and the id was unique in it.
+    #[cfg(test)]
     pub(crate) fn recall(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<(EvidenceKind, [f32; 2])> {
-        let i = self.prev.binary_search_by_key(&id, |e| e.id).ok()?;
-        let e = self.prev.get(i)?;
-        let dt = t_s - e.t_s;
-        (!e.duplicate && dt > 0.0 && dt <= max_dt_s && yaw_rad.is_finite())
-            .then(|| e.kind.map(|k| (k, rotate(e.offset_world_m, -yaw_rad))))
-            .flatten()
+        self.recall_with_hold(id, t_s, yaw_rad, max_dt_s).0
     }
 
-    /// The displaced offset track `id` keeps (current ego frame's axes), under the same conditions as
-    /// [`EvidenceMemory::recall`]: found by an alarm in the previous frame, or held since (`memory_hold_s`).
+    /// [`EvidenceMemory::recall`], and the displaced offset track `id` keeps (current ego frame's axes) under the same
+    /// conditions: found by an alarm in the previous frame, or held since (`memory_hold_s`). One look-up for both.
+    pub(crate) fn recall_with_hold(
+        &self,
+        id: u64,
+        t_s: f64,
+        yaw_rad: f64,
+        max_dt_s: f64,
+    ) -> (Option<(EvidenceKind, [f32; 2])>, Option<Hold>) {
+        let Some(e) = self.recallable(id, t_s, yaw_rad, max_dt_s) else { return (None, None) };
+        (
+            e.kind.map(|k| (k, rotate(e.offset_world_m, -yaw_rad))),
+            e.hold.map(|h| Hold { offset_m: rotate(h.offset_m, -yaw_rad), ..h }),
+        )
+    }
+
+    /// The held offset alone ([`EvidenceMemory::recall_with_hold`]).
+    #[cfg(test)]
     pub(crate) fn recall_hold(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<Hold> {
+        self.recall_with_hold(id, t_s, yaw_rad, max_dt_s).1
+    }
+
+    /// The previous frame's entry of track `id`, if that frame was `0 < t_s - t_prev <= max_dt_s` ago, the id was
+    /// unique in it and the ego yaw is finite.
+    fn recallable(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<&Entry> {
         let i = self.prev.binary_search_by_key(&id, |e| e.id).ok()?;
         let e = self.prev.get(i)?;
         let dt = t_s - e.t_s;
-        let h = e.hold?;
-        (!e.duplicate && dt > 0.0 && dt <= max_dt_s && yaw_rad.is_finite())
-            .then(|| Hold { offset_m: rotate(h.offset_m, -yaw_rad), ..h })
+        (!e.duplicate && dt > 0.0 && dt <= max_dt_s && yaw_rad.is_finite()).then_some(e)
     }
 
     /// Where track `id`'s centre should stand now (current ego frame, metres) if it moved as the previous frame's

@@ -546,9 +546,7 @@ impl Monitor {
         self.reports.clear();
         for o in frame.objects {
             self.valid.push(object_is_valid(o, &self.params));
-            let recalled =
-                self.memory.recall(o.id, frame.timestamp_s, frame.world_from_ego.yaw_rad, self.params.max_time_step_s);
-            let hold = self.memory.recall_hold(
+            let (recalled, hold) = self.memory.recall_with_hold(
                 o.id,
                 frame.timestamp_s,
                 frame.world_from_ego.yaw_rad,
@@ -1205,24 +1203,9 @@ impl Monitor {
                     }),
                 };
                 let hold = hold.filter(|_| self.params.memory_hold_s > 0.0);
-                if evidence.is_none() {
-                    if let Some(h) = hold {
-                        self.memory.record_with_hold(
-                            report.id,
-                            j,
-                            frame.timestamp_s,
-                            frame.world_from_ego.yaw_rad,
-                            None,
-                            None,
-                            Some(h),
-                        );
-                    }
-                }
-                if let Some((kind, at)) = evidence {
-                    let id = report.id;
-                    let offset = [at[0] - centre[0], at[1] - centre[1]];
-                    // Where a confirmed track should stand next frame: its centre and stated velocity, world frame.
-                    let motion = (kind == EvidenceKind::Own).then(|| frame.objects.get(j)).flatten().map(|o| {
+                // Where a confirmed track should stand next frame: its centre and stated velocity, world frame.
+                let motion =
+                    matches!(evidence, Some((EvidenceKind::Own, _))).then(|| frame.objects.get(j)).flatten().map(|o| {
                         let pose = &frame.world_from_ego;
                         let (x, y) = pose.transform_point(f64::from(centre[0]), f64::from(centre[1]));
                         let heading = f64::from(o.heading_rad) + pose.yaw_rad;
@@ -1241,16 +1224,16 @@ impl Monitor {
                             returns_offset_world_m,
                         }
                     });
-                    self.memory.record_with_hold(
-                        id,
-                        j,
-                        frame.timestamp_s,
-                        frame.world_from_ego.yaw_rad,
-                        Some((kind, offset)),
-                        motion,
-                        hold,
-                    );
-                }
+                // The evidence and the held offset, either or both (nothing is recorded without either).
+                self.memory.record_with_hold(
+                    report.id,
+                    j,
+                    frame.timestamp_s,
+                    frame.world_from_ego.yaw_rad,
+                    evidence.map(|(kind, at)| (kind, [at[0] - centre[0], at[1] - centre[1]])),
+                    motion,
+                    hold,
+                );
             }
             let Some(report) = self.reports.get_mut(j) else { continue };
             if let Some(m) = self.motion.get(j) {

@@ -243,8 +243,7 @@ fn displaced_evidence_in_a_neighbours_margin_still_follows_its_track() {
     let truth = object(2, 14.0, 0.0, 0.0, 0.6, 0.6);
     let mut reported = truth;
     reported.x_m += 1.5;
-    let wide =
-        pmon_monitor::Uncertainty { x_m: 0.3, y_m: 0.3, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 };
+    let wide = sigma(0.3);
     let neighbour = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(1, 13.9, 0.8, 0.0, 0.6, 0.6) };
     let mut first = visible_face_points(&truth, 0.05);
     first.extend(ground_points(45.0));
@@ -275,8 +274,7 @@ fn displaced_evidence_in_a_neighbours_margin_is_followed_over_a_gap_while_the_of
     // The gap: the box beside its line of sight, on a post nobody listed.
     let on_post = pmon_monitor::ObjectState { y_m: 2.0, ..reported };
     let post = object(90, 15.5, 2.0, 0.0, 0.3, 0.3);
-    let wide =
-        pmon_monitor::Uncertainty { x_m: 0.3, y_m: 0.3, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 };
+    let wide = sigma(0.3);
     let neighbour = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(1, 13.9, 0.8, 0.0, 0.6, 0.6) };
     let mut first = visible_face_points(&truth, 0.05);
     first.extend(ground_points(45.0));
@@ -934,8 +932,7 @@ fn rays_that_pass_beside_the_body_and_end_on_a_post_behind_it_prove_nothing() {
 /// within the gate).
 #[test]
 fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
-    let wide =
-        pmon_monitor::Uncertainty { x_m: 0.3, y_m: 0.3, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 };
+    let wide = sigma(0.3);
     // The post (0.3 m square, unlisted) and the hidden pedestrian on its bearing, 20 m behind it.
     let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
     let bearing = 0.5f32.atan2(10.15);

@@ -888,10 +888,11 @@ impl Monitor {
     }
 
     /// For a track whose evidence stood apart from it last frame (remembered as displaced), or that keeps an offset
-    /// alarms found over a gap (`memory_hold_s`; only where it puts the evidence in front of the box): the centre of the occupied cells outside its region, within
-    /// `conflict_association_m / 2` of where its offset puts that evidence now, that another object explains only through its margin (cell centre outside that object's box), if any. Such
-    /// evidence is no conflict, so no cluster carries it, but no other object stands on it. Bounded: the cells
-    /// of a square of side `conflict_association_m` around the expected place.
+    /// alarms found over a gap (`memory_hold_s`; only where it puts the evidence in front of the box): the centre of
+    /// the occupied cells outside its region, within `conflict_association_m / 2` of where its offset puts that
+    /// evidence now, that another object explains only through its margin (cell centre outside that object's box),
+    /// if any. Such evidence is no conflict, so no cluster carries it, but no other object stands on it. Bounded: the
+    /// cells of a square of side `conflict_association_m` around the expected place.
     pub(super) fn followed_evidence(&self, j: usize, region: &Region) -> Option<[f32; 2]> {
         let s = self.scratch.get(j)?;
         // The offset of the previous frame's alarm, or one held since (`memory_hold_s`): a held one only where it
