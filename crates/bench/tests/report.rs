@@ -231,3 +231,33 @@ fn params_keys_changed_from_the_defaults_are_named_in_the_notes() {
     let over = keys(BenchOptions { seen_over: true, no_roi_graze: true, ..quick() }).unwrap();
     assert!(over.ends_with(": seen_over = true, roi_graze_fraction = 0"), "{over}");
 }
+
+#[test]
+fn each_frame_of_the_cycle_is_timed_alone_and_the_machine_beside_it() {
+    // synthetic-32 cycles through 6 frames: 12 iterations check each twice; objects-30 has no cloud.
+    let only = vec!["synthetic-32".into(), "objects-30/no-cloud".into()];
+    let report = run_bench(&BenchOptions { iterations: 12, max_seconds_per_case: 100.0, only, ..quick() }).unwrap();
+    let c = report.cases.iter().find(|c| c.name == "synthetic-32/0.5m").unwrap();
+    assert_eq!(c.samples, 12);
+    let frames: Vec<usize> = c.per_frame.iter().map(|f| f.frame).collect();
+    assert_eq!(frames, [0, 1, 2, 3, 4, 5]);
+    assert!(c.per_frame.iter().all(|f| f.samples == 2), "{:?}", c.per_frame);
+    // Every frame's own figures lie within the case's: the samples are the case's, split by frame.
+    for f in &c.per_frame {
+        let t = f.sensor_checks;
+        assert!(t.median_us > 0.0 && t.max_us <= c.sensor_checks.max_us, "{f:?}");
+        assert!(f.clusters > 0, "{f:?}");
+    }
+    let heaviest = c.per_frame.iter().map(|f| f.sensor_checks.max_us).fold(0.0, f64::max);
+    assert_eq!(heaviest, c.sensor_checks.max_us);
+    let j = c.jitter_reference.expect("a case with a cloud has the machine's reference");
+    assert!(j.median_us > 0.0 && j.p99_us >= j.median_us);
+    let no_cloud = report.cases.iter().find(|c| c.name == "objects-30/no-cloud").unwrap();
+    assert_eq!(no_cloud.jitter_reference, None);
+    let table = report.to_table();
+    assert!(table.contains("per frame of the cycle") && table.contains("machine"), "{table}");
+    let goal = report.goals.iter().find(|g| g.goal == "synthetic-32/0.5m: sensor checks p99 <= 1.5x median").unwrap();
+    assert!(goal.measured.contains("heaviest frame") && goal.measured.contains("on this machine"), "{goal:?}");
+    let back: BenchReport = serde_json::from_str(&serde_json::to_string(&report).unwrap()).unwrap();
+    assert_eq!(back.cases[0].per_frame.len(), report.cases[0].per_frame.len());
+}

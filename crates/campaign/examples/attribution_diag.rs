@@ -960,8 +960,6 @@ fn miss_runs(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, S
     Ok(out)
 }
 
-/// `HELD=1 TRACK=ID`: one line per frame in which clean track `ID` is flagged: its box and true place, stated
-/// motion, the cluster it took and whose true place holds that cluster (with that object's box, verdict, cluster).
 /// Whether object `i` of the frame carries an injected error, and whether its sensor verdict (`r`) is an alarm in
 /// scope (a ghost or a position error).
 fn injected_and_alarm(f: &pmon_campaign::PairedFrame<'_>, i: usize, r: &pmon_monitor::ObjectReport) -> (bool, bool) {

@@ -1328,11 +1328,12 @@ mod tests {
     /// cannot change the answer) gives the answer of its whole sight (`placement_hidden_by_full_sight`), for the
     /// eight placements of every object and for random shifts and turns of each footprint, on random clumps of
     /// returns (some under the objects, some beside them, some far) at three ghost fractions; both answers and both
-    /// early exits occur.
+    /// early exits occur. Where `open_view` holds, every cell of every placement's whole sight is visible (so no
+    /// placement is hidden, whatever the fraction).
     #[test]
     fn a_placement_decided_early_equals_its_whole_sight() {
         let mut rng = Rng(0x2545_F491_4F6C_DD1D);
-        let (mut hidden, mut seen, mut early) = (0usize, 0usize, 0usize);
+        let (mut hidden, mut seen, mut early, mut opened) = (0usize, 0usize, 0usize, 0usize);
         for cell_size_m in [0.5f32, 0.2] {
             let mut monitor = Monitor::new(MonitorParams { cell_size_m, ..MonitorParams::default() }).unwrap();
             for frame_no in 0..12 {
@@ -1405,6 +1406,15 @@ mod tests {
                                 fp.half_width,
                             ));
                         }
+                        // The open-view bound: where it holds, every cell of every placement's walk is visible.
+                        if monitor.open_view(&region, margin) {
+                            opened += 1;
+                            for moved in attribution::placements(&region) {
+                                let sight = monitor.sight_at(j, &moved, margin);
+                                assert_eq!(sight.visible, sight.total, "frame {frame_no}, object {j}, {moved:?}");
+                                assert!(!monitor.placement_hidden_by_full_sight(j, &moved, margin));
+                            }
+                        }
                         for moved in &moves {
                             let fast = monitor.placement_hidden(j, moved, margin);
                             let full = monitor.placement_hidden_by_full_sight(j, moved, margin);
@@ -1424,6 +1434,9 @@ mod tests {
                 monitor.params.ghost_visible_fraction = MonitorParams::default().ghost_visible_fraction;
             }
         }
-        assert!(hidden > 100 && seen > 100 && early > 100, "hidden {hidden}, seen {seen}, decided early {early}");
+        assert!(
+            hidden > 100 && seen > 100 && early > 100 && opened > 20,
+            "hidden {hidden}, seen {seen}, decided early {early}, open view {opened}"
+        );
     }
 }

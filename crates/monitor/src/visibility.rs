@@ -87,6 +87,10 @@ pub(crate) const fn key(r2_bits: u32, cell: u32) -> u64 {
     ((cell as u64) << 32) | r2_bits as u64
 }
 
+/// Most bins [`VisibilityMap::box_seen_empty`] looks at per quadrant (beyond them it answers false): 128 of the
+/// default 720, a box about 60 degrees wide.
+pub const OPEN_VIEW_MAX_BINS: usize = 128;
+
 /// The unit direction of a diamond angle (the inverse of [`diamond_angle`], normalised), for `a` in `[0, 4)`.
 fn diamond_direction(a: f32) -> [f32; 2] {
     let (dx, dy) = if a < 1.0 {
@@ -258,6 +262,74 @@ impl VisibilityMap {
         (sight, clearance)
     }
 
+    /// True only when every position of the axis-aligned box `[x0, y0, x1, y1]` (ego frame) is seen empty with
+    /// room to spare: [`VisibilityMap::sight_with_clearance`] of any point in it (or within a millimetre of it),
+    /// whatever that look-up's own rounding, is `Visible` with no obstacle in its bin or one more than `margin`
+    /// beyond it. A conservative bound for the ghost test ([`crate::Monitor`]'s `hidden_within_margin`): false
+    /// whenever it cannot be told cheaply, i.e. when the box holds the sensor, spans more than
+    /// [`OPEN_VIEW_MAX_BINS`] bins in a quadrant, or a bin its directions cross (one more on each side, for
+    /// rounding) holds no return beyond the box or an obstacle within `margin` (and 0.1 mm) of its far corner.
+    #[must_use]
+    pub fn box_seen_empty(&self, b: [f32; 4], margin: f32) -> bool {
+        // Slack for the rounding of the positions the look-ups are given (nearest points of shifted boxes).
+        const SLACK_M: f64 = 1e-3;
+        if self.bins.is_empty() || !(b.iter().all(|v| v.is_finite()) && margin.is_finite()) {
+            return false;
+        }
+        let (ox, oy) = (f64::from(self.origin[0]), f64::from(self.origin[1]));
+        let (x0, x1) = (f64::from(b[0]) - ox - SLACK_M, f64::from(b[2]) - ox + SLACK_M);
+        let (y0, y1) = (f64::from(b[1]) - oy - SLACK_M, f64::from(b[3]) - oy + SLACK_M);
+        let straddles = |a0: f64, a1: f64| a0 <= 0.0 && a1 >= 0.0;
+        if straddles(x0, x1) && straddles(y0, y1) {
+            return false;
+        }
+        // The farthest squared range in the box, with room for the look-ups' rounding of `dx^2 + dy^2`.
+        let (fx, fy) = (x0.abs().max(x1.abs()), y0.abs().max(y1.abs()));
+        let r2_up = (fx * fx + fy * fy) * (1.0 + 1e-5);
+        // The diamond angle is monotonic within a closed quadrant (the look-ups' `dy >= 0` and `dx >= 0` decide
+        // it): the box is cut at the axes it crosses, each part's edge on an axis taken a hair inside the part's
+        // quadrant (the angle's limit there: 0 or 4 on the positive x axis, 1, 2 or 3 on the others).
+        const HAIR: f64 = 1e-20;
+        let xs: &[(f64, f64)] = if straddles(x0, x1) { &[(x0, -HAIR), (0.0, x1)] } else { &[(x0, x1)] };
+        let ys: &[(f64, f64)] = if straddles(y0, y1) { &[(y0, -HAIR), (0.0, y1)] } else { &[(y0, y1)] };
+        xs.iter()
+            .all(|&(a0, a1)| ys.iter().all(|&(c0, c1)| self.quadrant_box_seen_empty([a0, c0, a1, c1], r2_up, margin)))
+    }
+
+    /// [`VisibilityMap::box_seen_empty`] of a box (relative to the origin, already widened) within one closed
+    /// quadrant, with the squared range bound `r2_up` of the whole box.
+    fn quadrant_box_seen_empty(&self, q: [f64; 4], r2_up: f64, margin: f32) -> bool {
+        let n = self.bins.len();
+        // Within one quadrant the extremes of the angle are at corners; a bin more on each side covers the
+        // look-ups' rounding (a few ulps against a bin of 4 / n).
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        #[allow(clippy::cast_possible_truncation)]
+        for (x, y) in [(q[0], q[1]), (q[0], q[3]), (q[2], q[1]), (q[2], q[3])] {
+            let d = diamond_angle(x as f32, y as f32);
+            lo = lo.min(d);
+            hi = hi.max(d);
+        }
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let (b_lo, b_hi) = (
+            ((lo * self.bins_per_unit) as usize).saturating_sub(1),
+            ((hi * self.bins_per_unit) as usize).saturating_add(1).min(n.saturating_sub(1)),
+        );
+        if b_hi.saturating_sub(b_lo) > OPEN_VIEW_MAX_BINS {
+            return false;
+        }
+        let r_up = libm::sqrt(r2_up);
+        let Some(bins) = self.bins.get(b_lo..=b_hi) else { return false };
+        bins.iter().all(|bin| {
+            let near = f64::from(bin.nearest_obstacle_r2());
+            f64::from(bin.farthest_return_r2) >= r2_up
+                && if bin.nearest_obstacle_cell() == NO_CELL {
+                    near > r2_up
+                } else {
+                    libm::sqrt(near) - r_up > f64::from(margin) + 1e-4
+                }
+        })
+    }
+
     /// What the sensor saw of a position, its squared range from the sensor and its bin (`None` outside the map).
     #[inline(always)]
     fn look(&self, x: f32, y: f32) -> (Sight, f32, Option<Bin>) {
@@ -373,6 +445,85 @@ mod tests {
         let mut map = VisibilityMap::new(1);
         map.add_binned(&[0; 64], &[0.0; 64], &[[u32::MAX, 5]; 64]);
         assert_eq!(map.bins[0], Bin::EMPTY, "no obstacle never wins");
+    }
+
+    /// `box_seen_empty` is sound: wherever it answers true, every point of the box and of a half-millimetre rim
+    /// around it (its corners, its edges, points on the axes through the origin, random points) is `Visible` with
+    /// no obstacle in its bin or one more than the margin beyond it. On random maps of walls and open ground, with
+    /// boxes near and far, across the axes and holding the origin; both answers occur, and boxes that straddle an
+    /// axis are answered true too (the cut at the axes, not a refusal).
+    #[test]
+    fn a_box_seen_empty_is_seen_empty_at_every_point() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut yes, mut no, mut yes_straddling) = (0usize, 0usize, 0usize);
+        for round in 0..300 {
+            let bins = [720u32, 360, 64, 4096][round % 4];
+            let mut v = VisibilityMap::new(bins);
+            let origin = if round % 3 == 0 { [0.0, 0.0] } else { [next() * 4.0 - 2.0, next() * 4.0 - 2.0] };
+            v.reset(origin);
+            // Open ground out to 30-60 m all round, and a few walls (obstacles) at random places.
+            let reach = 30.0 + next() * 30.0;
+            for k in 0..4000 {
+                let a = k as f32 / 4000.0 * core::f32::consts::TAU;
+                let r = reach * (0.9 + 0.1 * next());
+                v.add_return(origin[0] + r * libm::cosf(a), origin[1] + r * libm::sinf(a), false, NO_CELL);
+            }
+            for _ in 0..(round % 7) {
+                let (cx, cy) = (next() * 60.0 - 30.0, next() * 60.0 - 30.0);
+                for _ in 0..40 {
+                    v.add_return(cx + next() * 2.0 - 1.0, cy + next() * 2.0 - 1.0, true, 7);
+                }
+            }
+            for _ in 0..40 {
+                let (w, h) = (0.2 + next() * 6.0, 0.2 + next() * 6.0);
+                let (x, y) = if next() < 0.3 {
+                    // Across an axis through the origin (or round the origin itself).
+                    (origin[0] - next() * w, origin[1] + next() * 30.0 - 15.0)
+                } else {
+                    (next() * 60.0 - 30.0, next() * 60.0 - 30.0)
+                };
+                let (x, y) = if next() < 0.5 { (x, y) } else { (y, x) };
+                let b = [x, y, x + w, y + h];
+                let margin = next() * 1.2;
+                if !v.box_seen_empty(b, margin) {
+                    no += 1;
+                    continue;
+                }
+                yes += 1;
+                let straddles = |lo: f32, hi: f32, o: f32| lo <= o && hi >= o;
+                if straddles(b[0], b[2], origin[0]) || straddles(b[1], b[3], origin[1]) {
+                    yes_straddling += 1;
+                }
+                let rim = 5e-4;
+                let (x0, y0, x1, y1) = (b[0] - rim, b[1] - rim, b[2] + rim, b[3] + rim);
+                let mut points = vec![(x0, y0), (x0, y1), (x1, y0), (x1, y1), (origin[0], y0), (origin[0], y1)];
+                points.extend([(x0, origin[1]), (x1, origin[1]), (origin[0], origin[1])]);
+                for _ in 0..200 {
+                    points.push((x0 + next() * (x1 - x0), y0 + next() * (y1 - y0)));
+                }
+                for (px, py) in points {
+                    if !(x0 <= px && px <= x1 && y0 <= py && py <= y1) {
+                        continue;
+                    }
+                    let (sight, clearance) = v.sight_with_clearance(px, py);
+                    assert_eq!(sight, Sight::Visible, "round {round}, box {b:?}, point ({px}, {py})");
+                    assert!(
+                        clearance.is_none_or(|c| c > margin),
+                        "round {round}, box {b:?}, ({px}, {py}): {clearance:?}"
+                    );
+                }
+            }
+        }
+        assert!(
+            yes > 500 && no > 500 && yes_straddling > 20,
+            "true {yes}, false {no}, true across an axis {yes_straddling}"
+        );
     }
 
     /// `sight_with_clearance` gives `sight` and `clearance`'s distance, bit for bit, at random positions of random
