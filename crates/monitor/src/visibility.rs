@@ -91,6 +91,14 @@ pub(crate) const fn key(r2_bits: u32, cell: u32) -> u64 {
 /// default 720, a box about 60 degrees wide.
 pub const OPEN_VIEW_MAX_BINS: usize = 128;
 
+/// The slack [`VisibilityMap::box_seen_empty`] (and the ghost test's cell range around it) allows around a box for
+/// the rounding of the positions looked up in it: 1 mm plus 1e-5 of the box's largest coordinate (the nearest
+/// points of shifted boxes stray by a few f32 ulps of their coordinates: under 1e-5 m at 50 m, about 2 mm at 5 km).
+#[must_use]
+pub fn open_view_slack_m(b: [f32; 4]) -> f32 {
+    1e-3 + 1e-5 * b.iter().fold(0.0f32, |m, v| m.max(v.abs()))
+}
+
 /// The unit direction of a diamond angle (the inverse of [`diamond_angle`], normalised), for `a` in `[0, 4)`.
 fn diamond_direction(a: f32) -> [f32; 2] {
     let (dx, dy) = if a < 1.0 {
@@ -271,14 +279,15 @@ impl VisibilityMap {
     /// rounding) holds no return beyond the box or an obstacle within `margin` (and 0.1 mm) of its far corner.
     #[must_use]
     pub fn box_seen_empty(&self, b: [f32; 4], margin: f32) -> bool {
-        // Slack for the rounding of the positions the look-ups are given (nearest points of shifted boxes).
-        const SLACK_M: f64 = 1e-3;
         if self.bins.is_empty() || !(b.iter().all(|v| v.is_finite()) && margin.is_finite()) {
             return false;
         }
+        // Slack for the rounding of the positions the look-ups are given (nearest points of shifted boxes): a
+        // millimetre, and more for boxes kilometres out, where an f32 ulp is a millimetre (`open_view_slack_m`).
+        let slack = f64::from(open_view_slack_m(b));
         let (ox, oy) = (f64::from(self.origin[0]), f64::from(self.origin[1]));
-        let (x0, x1) = (f64::from(b[0]) - ox - SLACK_M, f64::from(b[2]) - ox + SLACK_M);
-        let (y0, y1) = (f64::from(b[1]) - oy - SLACK_M, f64::from(b[3]) - oy + SLACK_M);
+        let (x0, x1) = (f64::from(b[0]) - ox - slack, f64::from(b[2]) - ox + slack);
+        let (y0, y1) = (f64::from(b[1]) - oy - slack, f64::from(b[3]) - oy + slack);
         let straddles = |a0: f64, a1: f64| a0 <= 0.0 && a1 >= 0.0;
         if straddles(x0, x1) && straddles(y0, y1) {
             return false;

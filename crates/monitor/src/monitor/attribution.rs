@@ -410,6 +410,13 @@ impl Monitor {
                 if bits & (CANDIDATE_DISPLACED | CANDIDATE_STAYED) != 0 && s.followed == k as u32 {
                     continue;
                 }
+                // A cluster that cannot fit the box gives no pair. Its distance is still needed while the object's
+                // sight is not yet computed (whether this pair computes it, once per frame, depends on it); once
+                // it is, the pair has no effect at all and is skipped before the distance (the same pairs and
+                // sights as testing every pair in full).
+                if s.sight.is_some() && !self.bounds_may_fit(&region, k) {
+                    continue;
+                }
                 let Some(d) = self.cluster_distance(k, &region.grown, gate) else { continue };
                 // The whole gate for an object the sensor contradicts, or one that claims to stand behind the
                 // evidence on its own line of sight (displaced away from it; its place is then hidden, often also
@@ -445,6 +452,10 @@ impl Monitor {
                     continue;
                 }
                 let Some(region) = self.scratch.get(j).and_then(|s| s.region) else { continue };
+                // Both fit tests below start with the bounds test: a cluster wider than the box never spills over.
+                if !self.bounds_may_fit(&region, k) {
+                    continue;
+                }
                 let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
                 let ok = if confirmed {
                     self.cluster_touches_own_evidence(j, k)
@@ -894,7 +905,7 @@ impl Monitor {
     /// True only when no placement of [`Monitor::hidden_within_margin`] can be hidden, told from the grown region
     /// as a whole: every place the placements' walks look at lies in the grown region (each placement is the
     /// footprint shifted by at most its margins, and each look-up takes the placement's point nearest a cell
-    /// centre), so when no cell of the region's range (a millimetre wider) holds occupied evidence (no cell is
+    /// centre), so when no cell of the region's range (a millimetre or so wider) holds occupied evidence (no cell is
     /// `foreign`) and the visibility map sees every point of the region's bounding box empty with more than
     /// `margin` to spare ([`crate::visibility::VisibilityMap::box_seen_empty`]), every cell of every placement's
     /// walk is visible: the visible fraction is 1, and `ghost_visible_fraction` is at most 1. False when it cannot
@@ -904,8 +915,9 @@ impl Monitor {
     pub(super) fn open_view(&self, region: &Region, margin: f32) -> bool {
         let geometry = self.grid.geometry;
         let g = region.grown.aabb();
-        // A millimetre wider: the placements' boxes are within the grown one up to their rounding.
-        let c = 1e-3;
+        // A little wider: the placements' boxes are within the grown one up to their rounding (the slack the
+        // visibility test allows too).
+        let c = crate::visibility::open_view_slack_m(g);
         let Some((ix0, iy0, ix1, iy1)) = geometry.cell_range_clipped([g[0] - c, g[1] - c, g[2] + c, g[3] + c]) else {
             return false;
         };
@@ -1197,6 +1209,19 @@ impl Monitor {
         })
     }
 
+    /// [`Monitor::evidence_fits`]' first test, on cluster `k`'s bounds alone: two of its cells as far apart as its
+    /// bounding box is wide cannot both lie in a box whose diagonal is shorter (walls and hedges fail it without
+    /// a look at their cells). False means `evidence_fits` is false, with or without the object's own evidence.
+    #[inline]
+    pub(super) fn bounds_may_fit(&self, region: &Region, k: usize) -> bool {
+        let fp = &region.footprint;
+        let slack = core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
+        self.clusters.get(k).map(|c| c.bounds_m).is_none_or(|b| {
+            let diagonal = libm::hypotf(2.0 * fp.half_length + slack, 2.0 * fp.half_width + slack);
+            (b[2] - b[0]).max(b[3] - b[1]) <= diagonal
+        })
+    }
+
     /// Could cluster `k` (with object `j`'s own occupied evidence, when `with_own`) be the evidence of `j`'s box
     /// moved somewhere? True when its extent along and across the box, over cell centres, is at most the box's
     /// length and width plus one cell diagonal (a cell centre is within half a diagonal of every point of the
@@ -1206,13 +1231,8 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let fp = &region.footprint;
         let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
-        // First on the cluster's bounds: two of its cells as far apart as its bounding box is wide cannot both lie
-        // in a box whose diagonal is shorter (this skips walls and hedges without a look at their cells).
-        if let Some(b) = self.clusters.get(k).map(|c| c.bounds_m) {
-            let diagonal = libm::hypotf(2.0 * fp.half_length + slack, 2.0 * fp.half_width + slack);
-            if (b[2] - b[0]).max(b[3] - b[1]) > diagonal {
-                return false;
-            }
+        if !self.bounds_may_fit(region, k) {
+            return false;
         }
         let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
         let mut add = |x: f32, y: f32| {
