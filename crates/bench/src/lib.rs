@@ -249,6 +249,12 @@ pub struct Timing {
 }
 
 impl Timing {
+    /// The p99 over the median (the worst-case goal's ratio; a zero median counts as 1e-9 us).
+    #[must_use]
+    pub fn p99_over_median(&self) -> f64 {
+        self.p99_us / self.median_us.max(1e-9)
+    }
+
     /// Median and nearest-rank percentiles of samples in microseconds, rounded to nanoseconds (all zero for no
     /// sample).
     #[must_use]
@@ -725,6 +731,11 @@ fn us(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e6
 }
 
+/// The values of the iterations that checked frame `k` of the cycle (`frame_of`: each iteration's frame).
+fn of_frame<T: Copy>(values: &[T], frame_of: &[usize], k: usize) -> Vec<T> {
+    values.iter().zip(frame_of).filter(|(_, f)| **f == k).map(|(x, _)| *x).collect()
+}
+
 fn median_u32(v: &mut [u32]) -> u32 {
     v.sort_unstable();
     v.get(v.len() / 2).copied().unwrap_or(0)
@@ -894,12 +905,8 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let per_frame: Vec<FrameTiming> = if n > 1 {
         (0..n)
             .map(|k| {
-                let picked = |v: &[f64]| -> Vec<f64> {
-                    v.iter().zip(&frame_of).filter(|(_, f)| **f == k).map(|(x, _)| *x).collect()
-                };
-                let mut c: Vec<u32> =
-                    clusters.iter().zip(&frame_of).filter(|(_, f)| **f == k).map(|(x, _)| *x).collect();
-                let own = picked(&sensor);
+                let mut c = of_frame(&clusters, &frame_of, k);
+                let own = of_frame(&sensor, &frame_of, k);
                 FrameTiming {
                     frame: k,
                     clusters: median_u32(&mut c),
@@ -1073,7 +1080,7 @@ fn goals(cases: &[CaseReport]) -> Vec<GoalResult> {
             });
         // And how much is the machine: a fixed work of the same median, timed as often.
         let machine = c.jitter_reference.map_or(String::new(), |j| {
-            format!("; a fixed work of that median on this machine: p99 {:.2}x", j.p99_us / j.median_us.max(1e-9))
+            format!("; a fixed work of that median on this machine: p99 {:.2}x", j.p99_over_median())
         });
         out.push(GoalResult {
             goal: format!("{}: sensor checks p99 <= 1.5x median", c.name),
@@ -1081,7 +1088,7 @@ fn goals(cases: &[CaseReport]) -> Vec<GoalResult> {
                 "median {:.1} us, p99 {:.1} us ({:.2}x), max {:.1} us{heaviest}{machine}",
                 t.median_us,
                 t.p99_us,
-                t.p99_us / t.median_us.max(1e-9),
+                t.p99_over_median(),
                 t.max_us
             ),
             met: t.p99_us <= 1.5 * t.median_us,
@@ -1215,8 +1222,8 @@ impl BenchReport {
                 t.median_us,
                 t.p99_us,
                 t.max_us,
-                t.p99_us / t.median_us.max(1e-9),
-                c.jitter_reference.map_or("-".to_string(), |j| format!("{:.2}x", j.p99_us / j.median_us.max(1e-9))),
+                t.p99_over_median(),
+                c.jitter_reference.map_or("-".to_string(), |j| format!("{:.2}x", j.p99_over_median())),
                 span(&c.plausibility),
                 span(&c.total),
                 c.samples
@@ -1247,7 +1254,7 @@ impl BenchReport {
                         t.median_us,
                         t.p99_us,
                         t.max_us,
-                        t.p99_us / t.median_us.max(1e-9),
+                        t.p99_over_median(),
                         f.samples
                     );
                 }

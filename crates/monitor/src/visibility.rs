@@ -456,6 +456,16 @@ mod tests {
         assert_eq!(map.bins[0], Bin::EMPTY, "no obstacle never wins");
     }
 
+    /// A seeded xorshift stream of numbers in `[0, 1)` (24 bits each), for the random maps of these tests.
+    fn unit_draws(mut state: u64) -> impl FnMut() -> f32 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
     /// `box_seen_empty` is sound: wherever it answers true, every point of the box and of a half-millimetre rim
     /// around it (its corners, its edges, points on the axes through the origin, random points) is `Visible` with
     /// no obstacle in its bin or one more than the margin beyond it. On random maps of walls and open ground, with
@@ -463,13 +473,7 @@ mod tests {
     /// axis are answered true too (the cut at the axes, not a refusal).
     #[test]
     fn a_box_seen_empty_is_seen_empty_at_every_point() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = unit_draws(0x9E37_79B9_7F4A_7C15);
         let (mut yes, mut no, mut yes_straddling) = (0usize, 0usize, 0usize);
         for round in 0..300 {
             let bins = [720u32, 360, 64, 4096][round % 4];
@@ -539,13 +543,7 @@ mod tests {
     /// maps (also empty bins, obstacle-free bins and positions at the origin).
     #[test]
     fn sight_with_clearance_equals_sight_and_clearance() {
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = unit_draws(0x2545_F491_4F6C_DD1D);
         for round in 0..50 {
             let mut v = VisibilityMap::new(16 + round * 13);
             v.reset([next() * 4.0 - 2.0, next() * 4.0 - 2.0]);

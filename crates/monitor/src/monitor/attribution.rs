@@ -1209,13 +1209,21 @@ impl Monitor {
         })
     }
 
+    /// The slack of the fit tests ([`Monitor::evidence_fits`], [`Monitor::spill_fits`]) beyond a box's length and
+    /// width: one cell diagonal (a cell centre is within half a diagonal of every point of its cell) and twice the
+    /// safety margin (LiDAR noise).
+    #[inline]
+    fn fit_slack(&self) -> f32 {
+        core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 2.0 * self.params.safety_margin_m
+    }
+
     /// [`Monitor::evidence_fits`]' first test, on cluster `k`'s bounds alone: two of its cells as far apart as its
     /// bounding box is wide cannot both lie in a box whose diagonal is shorter (walls and hedges fail it without
     /// a look at their cells). False means `evidence_fits` is false, with or without the object's own evidence.
     #[inline]
     pub(super) fn bounds_may_fit(&self, region: &Region, k: usize) -> bool {
         let fp = &region.footprint;
-        let slack = core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
+        let slack = self.fit_slack();
         self.clusters.get(k).map(|c| c.bounds_m).is_none_or(|b| {
             let diagonal = libm::hypotf(2.0 * fp.half_length + slack, 2.0 * fp.half_width + slack);
             (b[2] - b[0]).max(b[3] - b[1]) <= diagonal
@@ -1228,12 +1236,12 @@ impl Monitor {
     /// cell) and twice the safety margin (LiDAR noise). A wall, a hedge or two objects side by side do not fit
     /// a pedestrian.
     pub(super) fn evidence_fits(&self, j: usize, region: &Region, k: usize, with_own: bool) -> bool {
-        let geometry = self.grid.geometry;
-        let fp = &region.footprint;
-        let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
         if !self.bounds_may_fit(region, k) {
             return false;
         }
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = self.fit_slack();
         let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
         let mut add = |x: f32, y: f32| {
             let (u, v) = fp.local(x, y);
@@ -1276,7 +1284,7 @@ impl Monitor {
         }
         let geometry = self.grid.geometry;
         let fp = &region.footprint;
-        let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
+        let slack = self.fit_slack();
         let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
         let mut add = |x: f32, y: f32| {
             let (u, v) = fp.local(x, y);
