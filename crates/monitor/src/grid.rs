@@ -78,8 +78,8 @@ pub(crate) fn bits_below(cells: &[u32; 64], bound: u32) -> u64 {
     bits_where(cells, |c| c < bound)
 }
 
-/// Bit j set when `cells[j] == cell`.
-#[inline(always)]
+/// Bit j set when `cells[j] == cell` (the first points of new cells before round branches; the tests' reference).
+#[cfg(test)]
 fn bits_equal(cells: &[u32; 64], cell: u32) -> u64 {
     bits_where(cells, |c| c == cell)
 }
@@ -446,6 +446,11 @@ pub struct OccupancyGrid {
     /// 0 + y, 1, 0]`, the sums of that one return), not the sum of all its returns (the params key
     /// `jump_first_return`).
     first_only: bool,
+    /// Per block of the rasterize loop ([`OccupancyGrid::add_runs`]): entry `t` is the first point (in the block)
+    /// of the `t`-th cell new in the block, which [`OccupancyGrid::set_first_returns`] reads.
+    block_first: [u8; 64],
+    /// The length of the touched list when the block's runs began ([`OccupancyGrid::add_runs`]).
+    block_from: usize,
     /// Empty unless [`OccupancyGrid::with_tall`]: one bit per cell, set when a return of the frame in the cell
     /// stands higher than `tall_above_m` (any return of the sweep, in the band or not, ego footprint or not; the
     /// grazing rule's `ground_z_m + roi_graze_height_m`). The reset clears the words when `tall_any` (a bit was set
@@ -494,6 +499,8 @@ impl OccupancyGrid {
             returns: Vec::new(),
             sums: Vec::new(),
             first_only: false,
+            block_first: [0; 64],
+            block_from: 0,
             tall_bits: Vec::new(),
             tall_above_m: f32::INFINITY,
             tall_any: false,
@@ -605,27 +612,21 @@ impl OccupancyGrid {
     /// [`OccupancyGrid::add_hits_with_returns`]) joined the touched list from position `from` on: each cell new
     /// in the block gets its first return, the x and y `xy(j)` of its first point `j` in the block (a cell new in
     /// the block had no hit before it, so its first point in the block is its first of the frame). Nothing
-    /// otherwise. Costs a vector compare of the block's cells per new cell (the mask of its points, the first set
-    /// bit its first point). Not inlined into the loops (`#[inline]` only): the default loop's instructions were
-    /// lowest this way (inlined, or its work out of line behind an inlined test, the loop without the key took
-    /// up to 1.0 or 1.4 % more; docs/performance.md).
+    /// otherwise. The first point of each new cell is the one [`OccupancyGrid::add_runs`] kept as the cell joined
+    /// the touched list (until round branches: a vector compare of the block's cells per new cell, the mask of
+    /// its points, the first set bit its first point; tested against that in `first_points_kept_by_the_runs`).
+    /// Not inlined into the loops (`#[inline]` only): the default loop's instructions were lowest this way
+    /// (inlined, or its work out of line behind an inlined test, the loop without the key took up to 1.0 or
+    /// 1.4 % more; docs/performance.md).
     #[inline]
-    pub(crate) fn set_first_returns(
-        &mut self,
-        cells: &[u32; 64],
-        from: usize,
-        mut xy: impl FnMut(usize) -> (f32, f32),
-    ) {
+    pub(crate) fn set_first_returns(&mut self, from: usize, mut xy: impl FnMut(usize) -> (f32, f32)) {
         if !self.first_only || from >= self.touched_len {
             return;
         }
         for k in from..self.touched_len {
             let Some(&c) = self.touched.get(k) else { break };
-            let points = bits_equal(cells, c);
-            if points == 0 {
-                continue;
-            }
-            let (x, y) = xy((points.trailing_zeros() & 63) as usize);
+            let Some(&first) = self.block_first.get(k - from) else { break };
+            let (x, y) = xy(usize::from(first));
             if let Some(e) = self.sums.get_mut(c as usize) {
                 *e = [0.0; 4];
                 add_return(e, x, y);
@@ -849,6 +850,7 @@ impl OccupancyGrid {
         mut runs: u64,
         mut then: impl FnMut(&mut Self, u32, u32, u32),
     ) {
+        self.block_from = self.touched_len;
         while runs != 0 {
             let j = runs.trailing_zeros();
             runs &= runs - 1;
@@ -859,7 +861,7 @@ impl OccupancyGrid {
             if let Some(&c) = cells.get(j as usize) {
                 // At most 64 points: the truncation is exact.
                 #[allow(clippy::cast_possible_truncation)]
-                if self.add_run(c, (j + 1 - start) as u8) {
+                if self.add_run_from(c, (j + 1 - start) as u8, start as u8) {
                     then(self, c, start, j);
                 }
             }
@@ -870,10 +872,21 @@ impl OccupancyGrid {
     /// (outside the grid, or a new cell while the touched list is full).
     #[inline(always)]
     fn add_run(&mut self, index: u32, n: u8) -> bool {
+        self.add_run_from(index, n, 0)
+    }
+
+    /// [`OccupancyGrid::add_run`] for a run of a block of the rasterize loop ([`OccupancyGrid::add_runs`]) that
+    /// starts at point `start` of the block: a cell new in the block keeps `start`, its first point in the block
+    /// (the runs come in point order), in `block_first` at its place among the block's new cells.
+    #[inline(always)]
+    fn add_run_from(&mut self, index: u32, n: u8, start: u8) -> bool {
         let Some(h) = self.hits.get_mut(index as usize) else { return false };
         if *h == 0 {
             let Some(slot) = self.touched.get_mut(self.touched_len) else { return false };
             *slot = index;
+            if let Some(first) = self.block_first.get_mut(self.touched_len.wrapping_sub(self.block_from) & 63) {
+                *first = start;
+            }
             self.touched_len += 1;
             if let Some(v) = self.returns.get_mut(index as usize) {
                 *v = NO_RETURNS;
@@ -1024,6 +1037,45 @@ mod tests {
                 let end = j == 63 || cells[j] != cells[j + 1];
                 proptest::prop_assert_eq!(ends >> j & 1 == 1, end, "end bit {}", j);
                 proptest::prop_assert_eq!(in_grid >> j & 1 == 1, (cells[j] as usize) < count, "grid bit {}", j);
+            }
+        }
+
+        /// The first points `add_runs` keeps for the cells new in a block are their first points in it (the first
+        /// set bit of `bits_equal`, the computation they replace): blocks of few distinct cells (runs, a cell
+        /// coming back after others), `NO_CELL` and cells beyond the grid, cells already touched in earlier
+        /// blocks, and a touched list that fills up (a new cell that cannot join gets no first return).
+        #[test]
+        fn first_points_kept_by_the_runs(
+            seed in proptest::prelude::any::<u64>(),
+            room in proptest::prop_oneof![1usize..40, proptest::strategy::Just(400usize)],
+        ) {
+            let mut state = seed | 1;
+            let mut next = move || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                state
+            };
+            let geometry = GridGeometry::new(20, 0.5);
+            let mut grid = OccupancyGrid::new(geometry, 0.7, room).with_first_returns();
+            for _block in 0..6 {
+                let spread = 1 + next() % 60;
+                let cells: [u32; 64] = core::array::from_fn(|_| match next() % 9 {
+                    0 => crate::visibility::NO_CELL,
+                    1 => 400 + (next() % 5) as u32,
+                    _ => (next() % spread) as u32 * 7 % 400,
+                });
+                let from = grid.touched_len();
+                let was: Vec<bool> = cells.iter().map(|&c| grid.hits(c) > 0).collect();
+                grid.add_hits_with_returns(&cells, None, None);
+                grid.set_first_returns(from, |j| (j as f32, 100.0 + j as f32));
+                for k in from..grid.touched_len() {
+                    let c = grid.touched[k];
+                    let first = bits_equal(&cells, c).trailing_zeros() as usize;
+                    proptest::prop_assert!(first < 64 && !was[first]);
+                    let want = [first as f32, 100.0 + first as f32, 1.0, 0.0];
+                    proptest::prop_assert_eq!(grid.sums[c as usize].map(f32::to_bits), want.map(f32::to_bits));
+                }
             }
         }
 

@@ -253,6 +253,32 @@ const fn edge_slot(c: u32) -> usize {
     (c & 0xFFFF) as usize
 }
 
+/// Which of a block's points (at most 64: `cells`, the cells the rasterizer recorded for them) lie in a cell the
+/// prefilter `map` marks: bit `i` for point `i`. The block's bytes of the map are read first (a load each, no
+/// bounds test: a 16-bit index into 65,536 bytes; `NO_CELL` reads byte 0xFFFF), then packed eight at a time: a
+/// map byte is 0 or 1, and the product of eight such bytes (as one little-endian `u64`) with `0x0102_0408_1020_4080`
+/// holds byte `i` in bit `56 + i` (no two of the 64 partial products meet in a bit). The scans of
+/// `roi_by_returns` and `roi_by_amount` (the grazing rule) go through it.
+#[inline]
+fn marked_points(map: &[u8; EDGE_MAP], cells: &[u32]) -> u64 {
+    let mut bytes = [0u8; 64];
+    if let Ok(block) = <&[u32; 64]>::try_from(cells) {
+        for (b, &cell) in bytes.iter_mut().zip(block) {
+            *b = map.get(edge_slot(cell)).copied().unwrap_or(0);
+        }
+    } else {
+        for (b, &cell) in bytes.iter_mut().zip(cells) {
+            *b = map.get(edge_slot(cell)).copied().unwrap_or(0);
+        }
+    }
+    let mut marked = 0u64;
+    for (k, eight) in bytes.chunks_exact(8).enumerate() {
+        let word = u64::from_le_bytes(<[u8; 8]>::try_from(eight).unwrap_or([0; 8]));
+        marked |= (word.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * k);
+    }
+    marked
+}
+
 impl Monitor {
     /// Validates the parameters and allocates every buffer.
     ///
@@ -765,11 +791,14 @@ impl Monitor {
     /// visited, joins the queue (while it has room) and is marked visited.
     #[inline(always)]
     fn visit_conflict(&mut self, nb: u32, tau: f32) {
-        if self.grid.hits(nb) == 0
-            || self.grid.probability(nb) <= tau
-            || self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) != 0
-            || self.queue.len() >= self.queue.capacity()
-        {
+        // The three cell tests with `&`, not `&&`: one branch on their outcome instead of three, each as hard to
+        // predict as the next (`p > tau` negates the `p <= tau` written before: `P` and the validated `tau_fn`
+        // are never NaN).
+        let hits = self.grid.hits(nb);
+        let joins = (hits != 0)
+            & (self.grid.probability_of_hits(hits) > tau)
+            & (self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) == 0);
+        if !joins || self.queue.len() >= self.queue.capacity() {
             return;
         }
         self.grid.set_flags(nb, FLAG_VISITED);
@@ -951,7 +980,8 @@ impl Monitor {
         }
         let tau = self.params.tau_fn;
         for &c in self.grid.touched() {
-            if self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED || self.grid.probability(c) <= tau
+            if (self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED)
+                | (self.grid.probability(c) <= tau)
             {
                 continue;
             }
@@ -980,16 +1010,7 @@ impl Monitor {
             // per point, and no bounds test: a 16-bit index into 65,536 bytes; `NO_CELL` reads byte 0xFFFF), then
             // those points alone, each checked against its cell's flags (exact also where cells share a byte).
             for (block_index, cells) in self.point_cells.chunks(64).enumerate() {
-                let mut marked = 0u64;
-                if let Ok(block) = <&[u32; 64]>::try_from(cells) {
-                    for (i, &cell) in block.iter().enumerate() {
-                        marked |= u64::from(map.get(edge_slot(cell)).copied().unwrap_or(0)) << i;
-                    }
-                } else {
-                    for (i, &cell) in cells.iter().enumerate() {
-                        marked |= u64::from(map.get(edge_slot(cell)).copied().unwrap_or(0)) << i;
-                    }
-                }
+                let mut marked = marked_points(map, cells);
                 while marked != 0 {
                     let i = marked.trailing_zeros() as usize;
                     marked &= marked - 1;
@@ -1252,6 +1273,30 @@ mod tests {
     use crate::geometry::OrientedRect;
 
     use super::roi::tests::Rng;
+
+    /// `marked_points` sets bit `i` exactly when point `i`'s byte of the prefilter is set, for full and partial
+    /// blocks, with `NO_CELL` and cells sharing a byte, on maps from empty to full.
+    #[test]
+    fn marked_points_is_the_prefilter_bit_by_bit() {
+        let mut rng = Rng(0x5EED_0BAD_CAFE_F00D);
+        let mut map = alloc::boxed::Box::new([0u8; EDGE_MAP]);
+        for case in 0..2000u64 {
+            let density = [0u64, 1, 10, 50, 100][(case % 5) as usize];
+            for b in map.iter_mut() {
+                *b = u8::from(rng.below(100) < density);
+            }
+            let len = if case % 3 == 0 { 1 + rng.below(64) as usize } else { 64 };
+            let cells: Vec<u32> =
+                (0..len).map(|_| if rng.below(4) == 0 { NO_CELL } else { rng.below(250_000) as u32 }).collect();
+            let mut want = 0u64;
+            for (i, &c) in cells.iter().enumerate() {
+                if map.get((c & 0xFFFF) as usize).is_some_and(|&b| b != 0) {
+                    want |= 1 << i;
+                }
+            }
+            assert_eq!(marked_points(&map, &cells), want, "case {case}");
+        }
+    }
 
     /// The returns of the ROI's edge cells found through the recorded cells and the bit set of marked cells (the
     /// optimised path) give the same clusters, reports and cell flags as the straightforward pass over the sweep

@@ -420,7 +420,7 @@ impl Block {
         let in_band = grid.add_hits_with_returns(&self.cells, Some((&self.near_keys, &self.z)), xy);
         // First returns come with the loop without `SUMS` (`blocks_for`): the loops with it do not look.
         if !SUMS {
-            grid.set_first_returns(&self.cells, from, |j| k.xy(points.point(j)));
+            grid.set_first_returns(from, |j| k.xy(points.point(j)));
         }
         // Most blocks hold no tall return (`NO_CELL` has every bit set: the `and` of the block's entries is `NO_CELL`
         // exactly when none is a cell); in the others, the tall points as a mask, then those alone.

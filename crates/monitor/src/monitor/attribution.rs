@@ -402,7 +402,8 @@ impl Monitor {
             for m in lo..hi {
                 let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
                 let Some(&(rb, bits)) = self.candidates.get(j) else { continue };
-                if bits & CANDIDATE_CONFIRMED != 0 || self.far_apart(cb, rb, gate) {
+                // `|`: both tests are cheap and pure, and one branch is easier to predict than two.
+                if (bits & CANDIDATE_CONFIRMED != 0) | self.far_apart(cb, rb, gate) {
                     continue;
                 }
                 let Some(s) = self.scratch.get(j) else { continue };
@@ -661,15 +662,20 @@ impl Monitor {
         for j in 0..self.scratch.len() {
             let Some(s) = self.scratch.get(j).copied() else { continue };
             let Some(region) = s.region.filter(|_| s.cluster.is_none() && s.eta_own < tau_tp) else { continue };
+            // The tests below are pure: the cheap one on the bounds first (it rejects almost every pair), then the
+            // other object's region, then the rest in their order.
+            let aabb = region.grown.aabb();
             for k in 0..self.clusters.len() {
                 let Some((m, centroid, bounds)) =
                     self.clusters.get(k).and_then(|c| c.object.map(|m| (m as usize, c.centroid_m, c.bounds_m)))
                 else {
                     continue;
                 };
+                if self.far_apart(bounds, aabb, gate) {
+                    continue;
+                }
                 let Some(other) = self.scratch.get(m).and_then(|o| o.region).filter(|_| m != j) else { continue };
-                if self.far_apart(bounds, region.grown.aabb(), gate)
-                    || !footprints_touch(&region.footprint, &other.footprint, tol)
+                if !footprints_touch(&region.footprint, &other.footprint, tol)
                     || self.cluster_distance(k, &region.grown, gate).is_none()
                     || !self.evidence_fits(j, &region, k, false)
                 {
@@ -1347,22 +1353,28 @@ fn footprints_touch(a: &crate::geometry::OrientedRect, b: &crate::geometry::Orie
 }
 
 /// The smallest `hypotf(offsets(x, y)) - half_diagonal` (at least 0) over the cell centres `(x, y)`, stopping at 0:
-/// the straightforward minimum, except that a centre whose lower bound cannot lower the minimum found so far gets no
-/// `hypotf`. The bound: `hypotf(a, b) >= max(|a|, |b|)` within its rounding (a few units in the last place), so
-/// `max(|a|, |b|) * (1 - 2^-16)` is below it, and `(bound - half_diagonal).max(0.0)` below the centre's term
-/// (subtraction rounds monotonically): such a centre leaves the minimum as it is (same bits; tested against the
-/// straightforward loop).
+/// the straightforward minimum, except that `hypotf` is called only for a centre whose legs' squared sum (in `f64`:
+/// each square of an `f32` is exact there, the sum rounds once) is strictly below the smallest sum so far. The
+/// others cannot lower the minimum: `hypotf(a, b)` is `sqrtf` of that `f64` sum rounded to `f32` (or, for legs
+/// 2^25 apart and more, the longer leg, which is what that gives too), so it does not decrease as the sum grows;
+/// and `(h - half_diagonal).max(0.0)` does not decrease as `h` grows. Same bits as the straightforward loop (tested
+/// against it, also on huge and tiny coordinates). Legs whose sum is NaN take the straightforward path.
 pub(super) fn nearest_distance(
     centres: impl Iterator<Item = (f32, f32)>,
     half_diagonal: f32,
     offsets: impl Fn(f32, f32) -> (f32, f32),
 ) -> f32 {
-    const BELOW: f32 = 1.0 - 1.0 / 65536.0;
     let mut d = f32::INFINITY;
+    let mut smallest = f64::INFINITY;
     for (x, y) in centres {
         let (a, b) = offsets(x, y);
-        if (a.abs().max(b.abs()) * BELOW - half_diagonal).max(0.0) >= d {
+        let (a64, b64) = (f64::from(a), f64::from(b));
+        let sum = a64 * a64 + b64 * b64;
+        if sum >= smallest {
             continue;
+        }
+        if sum < smallest {
+            smallest = sum;
         }
         d = d.min((libm::hypotf(a, b) - half_diagonal).max(0.0));
         if d <= 0.0 {
@@ -1504,6 +1516,52 @@ mod tests {
         d
     }
 
+    /// What `nearest_distance` rests on: `hypotf` does not decrease as its legs' `f64` squared sum grows. Pairs of
+    /// legs drawn near each other (sums close or equal), with ratios up to and beyond 2^25 (where `hypotf` returns
+    /// the longer leg), with legs whose square is a tie of `f32` rounding (`4097 * 2^e`: 25 significant bits),
+    /// and over scales from 1e-6 to 1e6.
+    #[test]
+    fn hypotf_does_not_decrease_as_the_squared_sum_grows() {
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut unit = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let sum = |a: f32, b: f32| f64::from(a) * f64::from(a) + f64::from(b) * f64::from(b);
+        let mut compared = 0u32;
+        for case in 0..400_000u32 {
+            let scale = [1e-6f32, 1e-3, 1.0, 30.0, 1e3, 1e6][(case % 6) as usize];
+            let a = match case / 6 % 3 {
+                0 => unit() * scale,
+                1 => 4097.0 * scale.log2().round().exp2() * [1.0f32, 0.5, 2.0][(case % 3) as usize],
+                _ => (1.0 + unit() * 1e-6) * scale,
+            };
+            let b = match case / 18 % 4 {
+                0 => unit() * scale,
+                1 => a * (unit() * 2f32.powi(-24)),
+                2 => a * 2f32.powi(-25 - (case % 4) as i32),
+                _ => 0.0,
+            };
+            // A neighbour: one or two units in the last place away in either leg, or the legs swapped.
+            let step = |v: f32, k: u32| f32::from_bits(v.to_bits().saturating_add(k % 3).saturating_sub(k / 3 % 2));
+            let (c, d) = if case % 5 == 0 { (b, a) } else { (step(a, case / 7), step(b, case / 11)) };
+            let (s0, s1) = (sum(a, b), sum(c, d));
+            let (h0, h1) = (libm::hypotf(a, b), libm::hypotf(c, d));
+            if s0 < s1 {
+                assert!(h0 <= h1, "legs {a:e} {b:e} (sum {s0:e}, hypotf {h0:e}) vs {c:e} {d:e} ({s1:e}, {h1:e})");
+                compared += 1;
+            } else if s1 < s0 {
+                assert!(h1 <= h0, "legs {c:e} {d:e} (sum {s1:e}, hypotf {h1:e}) vs {a:e} {b:e} ({s0:e}, {h0:e})");
+                compared += 1;
+            } else {
+                assert_eq!(h0.to_bits(), h1.to_bits(), "equal sums, legs {a:e} {b:e} and {c:e} {d:e}");
+            }
+        }
+        assert!(compared > 100_000);
+    }
+
     /// `nearest_distance` equals the straightforward loop bit for bit, to rectangles and to points, on random
     /// clusters of cell centres (near, touching and far, cells of 0.1 to 1 m, also huge and tiny coordinates).
     #[test]
@@ -1542,14 +1600,13 @@ mod tests {
             let got = nearest_distance(centres.iter().copied(), hd, |x, y| (x - p[0], y - p[1]));
             let want = nearest_distance_reference(&centres, hd, |x, y| libm::hypotf(x - p[0], y - p[1]));
             assert_eq!(got.to_bits(), want.to_bits(), "case {case}: point {p:?}");
-            // The bound does skip: some centre's bound is at least the minimum of those before it.
-            let mut best = f32::INFINITY;
+            // The test does skip: some centre's squared sum is not below the smallest of those before it.
+            let mut smallest = f64::INFINITY;
             for &(x, y) in &centres {
-                let (a, b) = (x - p[0], y - p[1]);
-                if (a.abs().max(b.abs()) * (1.0 - 1.0 / 65536.0) - hd).max(0.0) >= best {
-                    skipped_some = true;
-                }
-                best = best.min((libm::hypotf(a, b) - hd).max(0.0));
+                let (a, b) = (f64::from(x - p[0]), f64::from(y - p[1]));
+                let sum = a * a + b * b;
+                skipped_some |= sum >= smallest;
+                smallest = smallest.min(sum);
             }
         }
         assert!(skipped_some);

@@ -49,10 +49,7 @@ impl Monitor {
                 // The recorded cells, 64 at a time through the prefilter (as `roi_by_returns`), every return of a
                 // marked cell tested.
                 for (block_index, cells) in self.point_cells.chunks(64).enumerate() {
-                    let mut marked = 0u64;
-                    for (i, &cell) in cells.iter().enumerate() {
-                        marked |= u64::from(map.get(edge_slot(cell)).copied().unwrap_or(0)) << i;
-                    }
+                    let mut marked = marked_points(map, cells);
                     while marked != 0 {
                         let i = marked.trailing_zeros() as usize;
                         marked &= marked - 1;

@@ -79,7 +79,8 @@ pub(super) fn polygon_box(poly: &[[f32; 2]]) -> [f32; 4] {
 /// True when `(x, y)` lies within `margin` of the box (false for NaN).
 #[inline]
 fn near_box(b: &[f32; 4], x: f32, y: f32, margin: f32) -> bool {
-    x >= b[0] - margin && x <= b[2] + margin && y >= b[1] - margin && y <= b[3] + margin
+    // `&`: four cheap comparisons, one branch on their outcome.
+    (x >= b[0] - margin) & (x <= b[2] + margin) & (y >= b[1] - margin) & (y <= b[3] + margin)
 }
 
 /// [`RoiSide`] of the cell centred at `(x, y)`, against every polygon; each polygon's bounding box first (most
@@ -274,8 +275,8 @@ impl RoiIndex {
             }
             let (inside, d2) = group.iter().fold((false, f32::INFINITY), |(inside, best), e| {
                 let (x0, x1) = (e.from[0].min(e.to[0]), e.from[0].max(e.to[0]));
-                if x1 < lo || x0 > hi {
-                    let crosses = x0 > hi && ((e.to[1] > y) != (e.from[1] > y));
+                if (x1 < lo) | (x0 > hi) {
+                    let crosses = (x0 > hi) & ((e.to[1] > y) != (e.from[1] > y));
                     return (inside != crosses, best);
                 }
                 let (dx, dy) = offset_from_segment(e.from, e.to, x, y);
@@ -356,7 +357,7 @@ pub(super) mod tests {
         pub(in crate::monitor) fn range(&mut self, lo: f32, hi: f32) -> f32 {
             lo + (hi - lo) * ((self.next() >> 40) as f32 / (1u64 << 24) as f32)
         }
-        fn below(&mut self, n: u64) -> u64 {
+        pub(in crate::monitor) fn below(&mut self, n: u64) -> u64 {
             self.next() % n.max(1)
         }
     }
