@@ -890,7 +890,7 @@ impl Monitor {
                 if !in_roi || graze {
                     let hits = if graze { u32::from(self.grid.hits(c)) } else { 0 };
                     all_hits += hits;
-                    match self.roi.cell_side(frame.roi_in_ego, c, x, y) {
+                    match self.roi.cell_side(frame.roi_in_ego, c) {
                         RoiSide::Inside => {
                             in_roi = true;
                             inside_hits += hits;

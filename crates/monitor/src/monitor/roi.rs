@@ -34,7 +34,8 @@
 //! `half_diagonal^2`. An edge that begins more than that to the right of the point crosses the ray exactly when
 //! its ends lie on either side of the point's `y` (the computed crossing lies to the right of the point), which
 //! is the first half of `edge_crosses_ray`; its distance again changes no comparison. So these edges need no
-//! division. Tested with the rest: every cell of random grids and polygons, and edges placed at half a cell
+//! division. (An entry keeps its edge's `x` extent and that first half at its row's centres, computed once as the
+//! index is built: the same values, not recomputed for every cell of the row.) Tested with the rest: every cell of random grids and polygons, and edges placed at half a cell
 //! diagonal (and a few units in the last place beside it) from cell centres. ([`RoiIndex::contains`] tests every
 //! edge of the row: its calls are few, and the same skip made it no cheaper.)
 
@@ -59,7 +60,7 @@ pub(super) enum RoiSide {
 /// indexed by rows.
 pub(super) const ROI_BOXES: usize = 512;
 
-/// How many (edge, row) entries the row index of a frame holds (memory reserved at construction: 20 bytes each).
+/// How many (edge, row) entries the row index of a frame holds (memory reserved at construction: 32 bytes each).
 /// Argoverse 2 frames need a few thousand; a frame that needs more is answered by the reference functions.
 pub(super) const ROI_EDGES: usize = 1 << 15;
 
@@ -113,15 +114,21 @@ pub(super) fn roi_contains(roi: &[&[[f32; 2]]], boxes: &[[f32; 4]], x: f32, y: f
     })
 }
 
-/// One polygon edge in one row: the edge from `from` to `to` as `polygon_edges` gives it, and its polygon.
+/// One polygon edge in one row: the edge from `from` to `to` as `polygon_edges` gives it, and its polygon; with
+/// what [`RoiIndex::cell_side`] reads of it for every cell of the row, computed once as the entry is made: its `x`
+/// extent `[min, max]` and whether its ends lie on either side of the row's cell centres (`(to.y > y) != (from.y >
+/// y)` at the centres' `y`, `GridGeometry::cell_center_axis(row)`, the test `edge_crosses_ray` begins with).
 #[derive(Clone, Copy, Debug)]
 struct Entry {
     from: [f32; 2],
     to: [f32; 2],
+    x_extent: [f32; 2],
     polygon: u32,
+    straddles_centres: bool,
 }
 
-const NO_ENTRY: Entry = Entry { from: [0.0; 2], to: [0.0; 2], polygon: 0 };
+const NO_ENTRY: Entry =
+    Entry { from: [0.0; 2], to: [0.0; 2], x_extent: [0.0; 2], polygon: 0, straddles_centres: false };
 
 /// The frame's region-of-interest polygons, their bounding boxes and their edges by grid row (see the module
 /// documentation). Built once per frame by [`RoiIndex::build`]; no allocation after [`RoiIndex::new`].
@@ -226,10 +233,15 @@ impl RoiIndex {
         for (k, poly) in roi.iter().enumerate() {
             for (from, to) in polygon_edges(poly) {
                 let Some((r0, r1)) = self.rows(from, to, reach) else { continue };
+                let x_extent = [from[0].min(to[0]), from[0].max(to[0])];
                 for r in r0..=r1 {
+                    // `r` is below `cells_per_side` (`rows`): the cast is exact.
+                    #[allow(clippy::cast_possible_truncation)]
+                    let y = self.geometry.cell_center_axis(r as u32);
+                    let straddles_centres = (to[1] > y) != (from[1] > y);
                     let Some(cursor) = self.row_start.get_mut(r) else { continue };
                     if let Some(e) = self.entries.get_mut(*cursor as usize) {
-                        *e = Entry { from, to, polygon: k as u32 };
+                        *e = Entry { from, to, x_extent, polygon: k as u32, straddles_centres };
                     }
                     *cursor += 1;
                 }
@@ -259,8 +271,10 @@ impl RoiIndex {
         self.row_entries(cell).chunk_by(|a, b| a.polygon == b.polygon).map(|g| (g.first().map_or(0, |e| e.polygon), g))
     }
 
-    /// [`roi_cell_side`] of cell `cell`, centred at `(x, y)` (its `GridGeometry::cell_center`).
-    pub(super) fn cell_side(&self, roi: &[&[[f32; 2]]], cell: u32, x: f32, y: f32) -> RoiSide {
+    /// [`roi_cell_side`] of cell `cell` at its centre (`GridGeometry::cell_center`, whose `y` the entries of its
+    /// row were made for).
+    pub(super) fn cell_side(&self, roi: &[&[[f32; 2]]], cell: u32) -> RoiSide {
+        let (x, y) = self.geometry.cell_center(cell);
         if !self.indexed {
             return roi_cell_side(roi, &self.boxes, x, y, self.half_diagonal);
         }
@@ -274,9 +288,9 @@ impl RoiIndex {
                 continue;
             }
             let (inside, d2) = group.iter().fold((false, f32::INFINITY), |(inside, best), e| {
-                let (x0, x1) = (e.from[0].min(e.to[0]), e.from[0].max(e.to[0]));
+                let [x0, x1] = e.x_extent;
                 if (x1 < lo) | (x0 > hi) {
-                    let crosses = (x0 > hi) & ((e.to[1] > y) != (e.from[1] > y));
+                    let crosses = (x0 > hi) & e.straddles_centres;
                     return (inside != crosses, best);
                 }
                 let (dx, dy) = offset_from_segment(e.from, e.to, x, y);
@@ -324,7 +338,7 @@ pub fn roi_index_mismatch(
     let hd = core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
     for cell in 0..u32::try_from(geometry.cell_count()).unwrap_or(u32::MAX) {
         let (x, y) = geometry.cell_center(cell);
-        let (got, want) = (index.cell_side(roi, cell, x, y), roi_cell_side(roi, &index.boxes, x, y, hd));
+        let (got, want) = (index.cell_side(roi, cell), roi_cell_side(roi, &index.boxes, x, y, hd));
         if got != want {
             return (index.indexed, Some(alloc::format!("cell {cell} at ({x}, {y}): {got:?}, reference {want:?}")));
         }
