@@ -608,8 +608,8 @@ impl OccupancyGrid {
         }
     }
 
-    /// With [`OccupancyGrid::with_first_returns`], after the hits of a block of 64 points (`cells`, as for
-    /// [`OccupancyGrid::add_hits_with_returns`]) joined the touched list from position `from` on: each cell new
+    /// With [`OccupancyGrid::with_first_returns`], right after the hits of a block of 64 points joined the touched
+    /// list ([`OccupancyGrid::add_hits_with_returns`], from position `block_from` on): each cell new
     /// in the block gets its first return, the x and y `xy(j)` of its first point `j` in the block (a cell new in
     /// the block had no hit before it, so its first point in the block is its first of the frame). Nothing
     /// otherwise. The first point of each new cell is the one [`OccupancyGrid::add_runs`] kept as the cell joined
@@ -619,7 +619,8 @@ impl OccupancyGrid {
     /// (inlined, or its work out of line behind an inlined test, the loop without the key took up to 1.0 or
     /// 1.4 % more; docs/performance.md).
     #[inline]
-    pub(crate) fn set_first_returns(&mut self, from: usize, mut xy: impl FnMut(usize) -> (f32, f32)) {
+    pub(crate) fn set_first_returns(&mut self, mut xy: impl FnMut(usize) -> (f32, f32)) {
+        let from = self.block_from;
         if !self.first_only || from >= self.touched_len {
             return;
         }
@@ -634,8 +635,8 @@ impl OccupancyGrid {
         }
     }
 
-    /// The number of cells touched so far this frame.
-    #[inline(always)]
+    /// The number of cells touched so far this frame (the tests'; the rasterize loop reads `block_from`).
+    #[cfg(test)]
     pub(crate) fn touched_len(&self) -> usize {
         self.touched_len
     }
@@ -861,7 +862,7 @@ impl OccupancyGrid {
             if let Some(&c) = cells.get(j as usize) {
                 // At most 64 points: the truncation is exact.
                 #[allow(clippy::cast_possible_truncation)]
-                if self.add_run_from(c, (j + 1 - start) as u8, start as u8) {
+                if self.add_run_from::<true>(c, (j + 1 - start) as u8, start as u8) {
                     then(self, c, start, j);
                 }
             }
@@ -872,20 +873,23 @@ impl OccupancyGrid {
     /// (outside the grid, or a new cell while the touched list is full).
     #[inline(always)]
     fn add_run(&mut self, index: u32, n: u8) -> bool {
-        self.add_run_from(index, n, 0)
+        self.add_run_from::<false>(index, n, 0)
     }
 
-    /// [`OccupancyGrid::add_run`] for a run of a block of the rasterize loop ([`OccupancyGrid::add_runs`]) that
-    /// starts at point `start` of the block: a cell new in the block keeps `start`, its first point in the block
-    /// (the runs come in point order), in `block_first` at its place among the block's new cells.
+    /// [`OccupancyGrid::add_run`]; with `KEEP`, for a run of a block of the rasterize loop
+    /// ([`OccupancyGrid::add_runs`]) that starts at point `start` of the block: a cell new in the block keeps
+    /// `start`, its first point in the block (the runs come in point order), in `block_first` at its place among
+    /// the block's new cells.
     #[inline(always)]
-    fn add_run_from(&mut self, index: u32, n: u8, start: u8) -> bool {
+    fn add_run_from<const KEEP: bool>(&mut self, index: u32, n: u8, start: u8) -> bool {
         let Some(h) = self.hits.get_mut(index as usize) else { return false };
         if *h == 0 {
             let Some(slot) = self.touched.get_mut(self.touched_len) else { return false };
             *slot = index;
-            if let Some(first) = self.block_first.get_mut(self.touched_len.wrapping_sub(self.block_from) & 63) {
-                *first = start;
+            if KEEP {
+                if let Some(first) = self.block_first.get_mut(self.touched_len.wrapping_sub(self.block_from) & 63) {
+                    *first = start;
+                }
             }
             self.touched_len += 1;
             if let Some(v) = self.returns.get_mut(index as usize) {
@@ -1068,7 +1072,7 @@ mod tests {
                 let from = grid.touched_len();
                 let was: Vec<bool> = cells.iter().map(|&c| grid.hits(c) > 0).collect();
                 grid.add_hits_with_returns(&cells, None, None);
-                grid.set_first_returns(from, |j| (j as f32, 100.0 + j as f32));
+                grid.set_first_returns(|j| (j as f32, 100.0 + j as f32));
                 for k in from..grid.touched_len() {
                     let c = grid.touched[k];
                     let first = bits_equal(&cells, c).trailing_zeros() as usize;

@@ -1355,10 +1355,13 @@ fn footprints_touch(a: &crate::geometry::OrientedRect, b: &crate::geometry::Orie
 /// The smallest `hypotf(offsets(x, y)) - half_diagonal` (at least 0) over the cell centres `(x, y)`, stopping at 0:
 /// the straightforward minimum, except that `hypotf` is called only for a centre whose legs' squared sum (in `f64`:
 /// each square of an `f32` is exact there, the sum rounds once) is strictly below the smallest sum so far. The
-/// others cannot lower the minimum: `hypotf(a, b)` is `sqrtf` of that `f64` sum rounded to `f32` (or, for legs
-/// 2^25 apart and more, the longer leg, which is what that gives too), so it does not decrease as the sum grows;
-/// and `(h - half_diagonal).max(0.0)` does not decrease as `h` grows. Same bits as the straightforward loop (tested
-/// against it, also on huge and tiny coordinates). Legs whose sum is NaN take the straightforward path.
+/// others cannot lower the minimum: in each of its branches `hypotf` (libm) is a function of that sum that does
+/// not decrease as it grows (`sqrtf` of it rounded to `f32`; scaled by exact powers of two 2^90 for huge or tiny
+/// legs; the longer leg for legs 2^25 apart and more, which is what `sqrtf` gives there too), and
+/// `(h - half_diagonal).max(0.0)` does not decrease as `h` grows. Same bits as the straightforward loop (tested
+/// against it, also on huge and tiny coordinates). Legs whose sum is NaN take the straightforward path, which the
+/// bound used until round branches could skip; no caller passes NaN legs (`outside_offsets` clamps with
+/// `max(0.0)`; a NaN point makes every centre's leg NaN, from the first centre on, as before).
 pub(super) fn nearest_distance(
     centres: impl Iterator<Item = (f32, f32)>,
     half_diagonal: f32,
@@ -1532,7 +1535,10 @@ mod tests {
         let sum = |a: f32, b: f32| f64::from(a) * f64::from(a) + f64::from(b) * f64::from(b);
         let mut compared = 0u32;
         for case in 0..400_000u32 {
-            let scale = [1e-6f32, 1e-3, 1.0, 30.0, 1e3, 1e6][(case % 6) as usize];
+            // Scales reach the branches that scale by 2^90 (legs beyond 2^60 or below 2^-60), subnormal squares
+            // and sums beyond `f32::MAX`.
+            let scale = [1e-6f32, 1e-3, 1.0, 30.0, 1e3, 1e6, 1e-40, 1e-25, 1e19, 1e25, 1e30, 1.2e18, 8.7e-19]
+                [(case % 13) as usize];
             let a = match case / 6 % 3 {
                 0 => unit() * scale,
                 1 => 4097.0 * scale.log2().round().exp2() * [1.0f32, 0.5, 2.0][(case % 3) as usize],
