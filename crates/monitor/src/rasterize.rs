@@ -411,6 +411,7 @@ impl Block {
         grid: &mut OccupancyGrid,
         visibility: &mut VisibilityMap,
     ) -> u32 {
+        let from = grid.touched_len();
         visibility.add_binned(&self.bins, &self.far_r2, &self.near_keys);
         // A point with a cell is an obstacle return in the grid: its key pair's first half is its squared range's bits.
         let xy = if SUMS { Some((&self.x, &self.y)) } else { None };
@@ -419,7 +420,7 @@ impl Block {
         let in_band = grid.add_hits_with_returns(&self.cells, Some((&self.near_keys, &self.z)), xy);
         // First returns come with the loop without `SUMS` (`blocks_for`): the loops with it do not look.
         if !SUMS {
-            grid.set_first_returns(|j| k.xy(points.point(j)));
+            grid.set_first_returns(from, |j| k.xy(points.point(j)));
         }
         // Most blocks hold no tall return (`NO_CELL` has every bit set: the `and` of the block's entries is `NO_CELL`
         // exactly when none is a cell); in the others, the tall points as a mask, then those alone.
