@@ -173,6 +173,9 @@ pub struct BenchOptions {
     /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10's measurement:
     /// docs/datasets.md, "Made the default"). Wins over `roi_graze`.
     pub no_roi_graze: bool,
+    /// Skip the machine's own jitter reference ([`jitter::reference`], timed after each case with a cloud, about as
+    /// long as the case itself): the `machine` column shows `-` and `jitter_reference` is `None`. Off: measured.
+    pub no_machine_reference: bool,
 }
 
 impl Default for BenchOptions {
@@ -200,6 +203,7 @@ impl Default for BenchOptions {
             front_cluster: false,
             roi_graze: false,
             no_roi_graze: false,
+            no_machine_reference: false,
         }
     }
 }
@@ -925,8 +929,11 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let sensor_over_native_floor =
         native_floor.filter(|f| f.median_us > 0.0).map(|f| sensor_checks.median_us / f.median_us);
     let geometry_cells = u64::from(p.grid_cells_per_side()) * u64::from(p.grid_cells_per_side());
-    let jitter_reference =
-        if seq.max_points() > 0 { jitter::reference(sensor_checks.median_us, samples) } else { None };
+    let jitter_reference = if seq.max_points() > 0 && !opts.no_machine_reference {
+        jitter::reference(sensor_checks.median_us, samples)
+    } else {
+        None
+    };
     Ok(CaseReport {
         name: def.name.clone(),
         description: seq.name.clone(),

@@ -26,6 +26,7 @@ fn quick() -> BenchOptions {
         front_cluster: false,
         roi_graze: false,
         no_roi_graze: false,
+        no_machine_reference: false,
     }
 }
 
@@ -260,4 +261,14 @@ fn each_frame_of_the_cycle_is_timed_alone_and_the_machine_beside_it() {
     assert!(goal.measured.contains("heaviest frame") && goal.measured.contains("on this machine"), "{goal:?}");
     let back: BenchReport = serde_json::from_str(&serde_json::to_string(&report).unwrap()).unwrap();
     assert_eq!(back.cases[0].per_frame.len(), report.cases[0].per_frame.len());
+    // Without the machine's reference: none in the report, `-` in its column, the rest as before.
+    let only = vec!["synthetic-32".into()];
+    let opts =
+        BenchOptions { iterations: 12, max_seconds_per_case: 100.0, only, no_machine_reference: true, ..quick() };
+    let report = run_bench(&opts).unwrap();
+    let c = report.cases.iter().find(|c| c.name == "synthetic-32/0.5m").unwrap();
+    assert_eq!((c.samples, c.jitter_reference), (12, None));
+    assert_eq!(c.per_frame.len(), 6);
+    let goal = report.goals.iter().find(|g| g.goal == "synthetic-32/0.5m: sensor checks p99 <= 1.5x median").unwrap();
+    assert!(goal.measured.contains("heaviest frame") && !goal.measured.contains("on this machine"), "{goal:?}");
 }

@@ -144,6 +144,10 @@ enum Command {
         /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10).
         #[arg(long, conflicts_with = "roi_graze")]
         no_roi_graze: bool,
+        /// Skip the machine's jitter reference (a fixed work of each case's median, timed after every case with a
+        /// cloud, about as long as the case): the run takes about half the time; the `machine` column shows `-`.
+        #[arg(long)]
+        no_machine_reference: bool,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -256,6 +260,7 @@ fn main() -> ExitCode {
             front_cluster,
             roi_graze,
             no_roi_graze,
+            no_machine_reference,
         } => {
             let opts = pmon_bench::BenchOptions {
                 iterations,
@@ -282,6 +287,7 @@ fn main() -> ExitCode {
                 front_cluster,
                 roi_graze,
                 no_roi_graze,
+                no_machine_reference,
             };
             if let Some(dir) = export_peers {
                 return match pmon_bench::peers::export_peers(&dir, &opts) {
