@@ -1018,6 +1018,7 @@ impl OccupancyGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::{unit_draws, xorshift_draws};
 
     proptest::proptest! {
         /// `run_masks` (two 32-bit halves) against its definition bit by bit, on blocks of few distinct cells (long
@@ -1027,11 +1028,9 @@ mod tests {
             seed in proptest::prelude::any::<u64>(),
             count in proptest::prop_oneof![0usize..10, 5usize..7, proptest::strategy::Just(u32::MAX as usize + 3)],
         ) {
-            let mut state = seed | 1;
+            let mut next = xorshift_draws(seed | 1);
             let cells: [u32; 64] = core::array::from_fn(|_| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
+                let state = next();
                 match state % 5 {
                     0 => crate::visibility::NO_CELL,
                     1 => u32::MAX - 1,
@@ -1055,13 +1054,7 @@ mod tests {
             seed in proptest::prelude::any::<u64>(),
             room in proptest::prop_oneof![1usize..40, proptest::strategy::Just(400usize)],
         ) {
-            let mut state = seed | 1;
-            let mut next = move || {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                state
-            };
+            let mut next = xorshift_draws(seed | 1);
             let geometry = GridGeometry::new(20, 0.5);
             let mut grid = OccupancyGrid::new(geometry, 0.7, room).with_first_returns();
             for _block in 0..6 {
@@ -1154,13 +1147,7 @@ mod tests {
 
     #[test]
     fn cell_walk_by_runs_equals_the_scan_of_every_cell() {
-        let mut state = 0x853c_49e6_748f_ea9b_u64;
-        let mut unit = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut unit = unit_draws(0x853c_49e6_748f_ea9b);
         let headings =
             [0.0, 1e-7, -1e-7, 0.009, 0.0101, 0.3, core::f32::consts::FRAC_PI_2, 1.5706, 1.5808, 3.1414, -2.2];
         let mut cells_seen = 0usize;
@@ -1207,13 +1194,7 @@ mod tests {
 
     #[test]
     fn hit_cells_of_a_region_are_the_scanned_cells_with_hits() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift_draws(0x2545_f491_4f6c_dd1d);
         for case in 0..400 {
             let (cells, cell_m) = [(200, 0.5), (333, 0.2), (64, 1.0), (65, 1.0), (7, 3.0)][case % 5];
             let g = GridGeometry::new(cells, cell_m);
@@ -1221,7 +1202,7 @@ mod tests {
             // Hits in about one cell in 4 (every cell in some cases), through both ways of adding them.
             let density = [4, 1, 50][case % 3];
             for c in 0..g.cell_count() as u32 {
-                if next() % density == 0 {
+                if next().is_multiple_of(density) {
                     if c % 2 == 0 {
                         let _ = grid.add_hit(c);
                     } else {

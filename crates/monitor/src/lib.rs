@@ -54,6 +54,8 @@ pub mod plausibility;
 mod rasterize;
 pub mod region;
 pub mod split;
+#[cfg(test)]
+mod test_support;
 pub mod theory;
 pub mod visibility;
 

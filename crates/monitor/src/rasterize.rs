@@ -1229,13 +1229,8 @@ mod tests {
             }
         }
         // A dense sweep of directions and scales.
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            f32::from_bits((state >> 32) as u32)
-        };
+        let mut draws = crate::test_support::xorshift_draws(0x2545_f491_4f6c_dd1d);
+        let mut next = || f32::from_bits((draws() >> 32) as u32);
         for _ in 0..200_000 {
             let (dx, dy) = (next(), next());
             let (a, b) = (diamond_angle(dx, dy), diamond_angle_select(dx, dy));

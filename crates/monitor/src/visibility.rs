@@ -428,6 +428,7 @@ impl VisibilityMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::unit_draws;
 
     /// `add_binned` keeps the nearest obstacle by the strict comparison of the ranges' bits, whatever the cells:
     /// equal ranges keep the bin's obstacle, and `u32::MAX` (no obstacle) never wins, not even over an empty bin;
@@ -454,16 +455,6 @@ mod tests {
         let mut map = VisibilityMap::new(1);
         map.add_binned(&[0; 64], &[0.0; 64], &[[u32::MAX, 5]; 64]);
         assert_eq!(map.bins[0], Bin::EMPTY, "no obstacle never wins");
-    }
-
-    /// A seeded xorshift stream of numbers in `[0, 1)` (24 bits each), for the random maps of these tests.
-    fn unit_draws(mut state: u64) -> impl FnMut() -> f32 {
-        move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        }
     }
 
     /// `box_seen_empty` is sound: wherever it answers true, every point of the box and of a half-millimetre rim

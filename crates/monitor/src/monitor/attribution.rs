@@ -1502,6 +1502,7 @@ pub(super) fn beyond_ellipse(fp: &crate::geometry::OrientedRect, d: [f32; 2], al
 mod tests {
     use super::*;
     use crate::geometry::OrientedRect;
+    use crate::test_support::unit_draws;
 
     /// The straightforward minimum `nearest_distance` skips `hypotf` in.
     fn nearest_distance_reference(
@@ -1525,13 +1526,7 @@ mod tests {
     /// and over scales from 1e-6 to 1e6.
     #[test]
     fn hypotf_does_not_decrease_as_the_squared_sum_grows() {
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut unit = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut unit = unit_draws(0x2545_F491_4F6C_DD1D);
         let sum = |a: f32, b: f32| f64::from(a) * f64::from(a) + f64::from(b) * f64::from(b);
         let mut compared = 0u32;
         for case in 0..400_000u32 {
@@ -1572,13 +1567,7 @@ mod tests {
     /// clusters of cell centres (near, touching and far, cells of 0.1 to 1 m, also huge and tiny coordinates).
     #[test]
     fn nearest_distance_skips_only_centres_that_cannot_lower_it() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut unit = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut unit = unit_draws(0x9E37_79B9_7F4A_7C15);
         let mut skipped_some = false;
         for case in 0..4000 {
             let cell = [0.1f32, 0.2, 0.5, 1.0][case % 4];

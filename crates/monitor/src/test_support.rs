@@ -1,0 +1,18 @@
+//! Helpers shared by the crate's unit tests.
+
+/// A seeded xorshift stream (shifts 13, 7, 17) of 64-bit numbers: the state after each step. A zero seed stays
+/// zero; callers seed it with an odd number or a constant.
+pub(crate) fn xorshift_draws(mut state: u64) -> impl FnMut() -> u64 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    }
+}
+
+/// The same stream as numbers in `[0, 1)` (its top 24 bits each), for the tests' random maps, clusters and legs.
+pub(crate) fn unit_draws(state: u64) -> impl FnMut() -> f32 {
+    let mut next = xorshift_draws(state);
+    move || (next() >> 40) as f32 / (1u64 << 24) as f32
+}
