@@ -784,6 +784,8 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("seen_body", d.seen_body, p.seen_body),
         ("memory_gate", d.memory_gate, p.memory_gate),
         ("front_cluster", d.front_cluster, p.front_cluster),
+        ("jump_evidence_at_prediction", d.jump_evidence_at_prediction, p.jump_evidence_at_prediction),
+        ("jump_coincident_boxes", d.jump_coincident_boxes, p.jump_coincident_boxes),
     ] {
         if default != value {
             out.push(format!("{key} = {value}"));

@@ -287,6 +287,22 @@ pub struct MonitorParams {
     /// per-return addition and no x and y from pass 1 (docs/attribution.md, "Step 9 from each cell's first
     /// return"). `false` sums every return (+9-18 % of the checks' instructions instead of +3-9 %).
     pub jump_first_return: bool,
+    /// On by default (issue #10; off before it). Has an effect only with `jump_from_returns`. Step 9's diagonal
+    /// test takes returns that stand where the prediction puts them (within `3 delta_safe`) as the evidence that
+    /// stayed, and the box's jump beyond the allowance's ellipse *from the prediction* as the displacement. `false`
+    /// also requires the box beyond the ellipse from where those returns put it: the returns' scatter (the `2
+    /// delta_safe` the allowance already holds for it) then counts twice, and a 1 m jump whose returns came 0.25 m
+    /// its way in the new sweep is left to the one-frame rules (docs/attribution.md, "Step 9: the evidence at the
+    /// prediction, boxes in one place"). Costs nothing (one test fewer).
+    pub jump_evidence_at_prediction: bool,
+    /// On by default (issue #10; off before it). Step 9 counts the occupied cells inside the grown region placed
+    /// at the track's predicted centre, leaving out cells that stand in another object's box: a neighbour that
+    /// moved onto the place is no evidence that the track's evidence stayed. A box reported where the track's
+    /// predicted box stands (centre and half extents within half a cell, axes within 10 degrees) is the same
+    /// place, not a neighbour: with this key its cells count (two labels on one car, one of them jumping away:
+    /// the evidence stayed with the other label). Step 3b's rule for boxes reported in one place, applied to step
+    /// 9. Costs a comparison per such cell, only for a box that jumped.
+    pub jump_coincident_boxes: bool,
     /// Off by default. The free-space test towards the sensor (a confirmed box whose rays pass through most of
     /// its footprint and end on its own evidence behind it) counts a ray only when it ends on the object's
     /// *body*: within the box's depth along the ray (plus `safety_margin_m`) of the nearest return of the
@@ -424,6 +440,8 @@ impl MonitorParams {
         face_in_front: false,
         jump_from_returns: true,
         jump_first_return: true,
+        jump_evidence_at_prediction: true,
+        jump_coincident_boxes: true,
         seen_body: false,
         memory_gate: false,
         front_cluster: false,
@@ -757,7 +775,11 @@ mod tests {
     fn step_9_from_first_returns_is_the_default_and_one_key_turns_it_off() {
         let d = MonitorParams::default();
         assert!(d.jump_from_returns && d.jump_first_return);
+        assert!(d.jump_evidence_at_prediction && d.jump_coincident_boxes);
         assert!(MonitorParams { jump_from_returns: false, ..d }.validate().is_ok());
+        assert!(MonitorParams { jump_evidence_at_prediction: false, jump_coincident_boxes: false, ..d }
+            .validate()
+            .is_ok());
         assert!(MonitorParams { jump_first_return: false, ..d }.validate().is_ok());
     }
 

@@ -1052,6 +1052,11 @@ impl Monitor {
         let moved = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..region.grown };
         let range = geometry.cell_range(moved.aabb())?;
         let tau = self.params.tau_fn;
+        // A box reported where the predicted box stands is the same place, not a neighbour that moved onto it
+        // (params key `jump_coincident_boxes`): its cells count.
+        let predicted_box = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..*fp };
+        let same_place = self.params.jump_coincident_boxes;
+        let half_cell = 0.5 * geometry.cell_size_m;
         let mut sum = [0.0f32; 3];
         let mut ret = [0.0f32; 3];
         geometry.for_each_cell_overlapping(&moved, range, |idx, x, y| {
@@ -1062,7 +1067,10 @@ impl Monitor {
             if self.grid.flags(idx) & FLAG_EXPLAINED != 0 {
                 let owner = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
                 if owner != j
-                    && self.scratch.get(owner).and_then(|o| o.region).is_some_and(|o| o.footprint.contains(x, y))
+                    && self.scratch.get(owner).and_then(|o| o.region).is_some_and(|o| {
+                        o.footprint.contains(x, y)
+                            && !(same_place && in_one_place(&o.footprint, &predicted_box, half_cell))
+                    })
                 {
                     return;
                 }
@@ -1091,9 +1099,11 @@ impl Monitor {
         let diagonal = |c: [f32; 2], r: [f32; 2]| {
             let from_prediction = [c[0] - (p[0] + r[0]), c[1] - (p[1] + r[1])];
             let from_box = [c[0] - (fp.cx + r[0]), c[1] - (fp.cy + r[1])];
+            // The box is beyond the ellipse from the prediction (tested above); without the params key
+            // `jump_evidence_at_prediction` also from where the returns put it (their scatter counted twice).
             (from_prediction[0] * from_prediction[0] + from_prediction[1] * from_prediction[1]
                 <= evidence_allow * evidence_allow
-                && beyond_ellipse(fp, from_box, returns_allow))
+                && (self.params.jump_evidence_at_prediction || beyond_ellipse(fp, from_box, returns_allow)))
             .then_some([c[0] - r[0], c[1] - r[1]])
         };
         let by_returns = returns_offset.filter(|_| ret[2] >= 1.0).and_then(|r| {
@@ -1498,11 +1508,54 @@ pub(super) fn beyond_ellipse(fp: &crate::geometry::OrientedRect, d: [f32; 2], al
     u * u * b2 + v * v * a2 > a2 * b2 || !(u.abs() <= allow[0] && v.abs() <= allow[1])
 }
 
+/// `true` when two boxes stand in one place: centres and half extents within `tol` of each other and axes within
+/// 10 degrees (a box turned by half a turn is the same box; so is a square one at any heading).
+pub(super) fn in_one_place(a: &crate::geometry::OrientedRect, b: &crate::geometry::OrientedRect, tol: f32) -> bool {
+    // |cos| of the angle between the two length axes, against cos(10 degrees).
+    const COS_10_DEG: f32 = 0.984_807_8;
+    let square = (a.half_length - a.half_width).abs() <= tol;
+    (a.cx - b.cx).abs() <= tol
+        && (a.cy - b.cy).abs() <= tol
+        && (a.half_length - b.half_length).abs() <= tol
+        && (a.half_width - b.half_width).abs() <= tol
+        && (square || (a.cos * b.cos + a.sin * b.sin).abs() >= COS_10_DEG)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::OrientedRect;
     use crate::test_support::unit_draws;
+
+    /// Boxes in one place (params key `jump_coincident_boxes`): within half a cell in centre and extents and 10
+    /// degrees in heading (or half a turn apart, or square), not beyond any of them.
+    #[test]
+    fn boxes_in_one_place_are_within_the_tolerance_of_each_other() {
+        let car = OrientedRect::new(10.0, 5.0, 0.3, 2.2, 0.9);
+        let tol = 0.25;
+        for same in [
+            car,
+            OrientedRect::new(10.2, 4.8, 0.3, 2.2, 0.9),
+            OrientedRect::new(10.0, 5.0, 0.3 + core::f32::consts::PI, 2.2, 0.9),
+            OrientedRect::new(10.0, 5.0, 0.3 + 0.17, 2.4, 0.7),
+        ] {
+            assert!(in_one_place(&same, &car, tol) && in_one_place(&car, &same, tol), "{same:?}");
+        }
+        for apart in [
+            OrientedRect::new(10.3, 5.0, 0.3, 2.2, 0.9),
+            OrientedRect::new(10.0, 4.7, 0.3, 2.2, 0.9),
+            OrientedRect::new(10.0, 5.0, 0.3 + 0.18, 2.2, 0.9),
+            OrientedRect::new(10.0, 5.0, 0.3, 2.5, 0.9),
+            OrientedRect::new(10.0, 5.0, 0.3, 2.2, 0.6),
+            OrientedRect::new(10.0, 5.0, 0.3 + core::f32::consts::FRAC_PI_2, 2.2, 0.9),
+        ] {
+            assert!(!in_one_place(&apart, &car, tol) && !in_one_place(&car, &apart, tol), "{apart:?}");
+        }
+        // A square box (a pedestrian) is in one place at any heading.
+        let ped = OrientedRect::new(3.0, 1.0, 0.0, 0.3, 0.3);
+        assert!(in_one_place(&OrientedRect::new(3.0, 1.0, 0.7, 0.3, 0.3), &ped, tol));
+        assert!(!in_one_place(&OrientedRect::new(f32::NAN, 1.0, 0.0, 0.3, 0.3), &ped, tol), "NaN is nowhere");
+    }
 
     /// The straightforward minimum `nearest_distance` skips `hypotf` in.
     fn nearest_distance_reference(
