@@ -24,6 +24,8 @@ class Params:
     face_in_front: bool
     jump_from_returns: bool
     jump_first_return: bool
+    jump_evidence_at_prediction: bool
+    jump_coincident_boxes: bool
     seen_body: bool
     memory_gate: bool
     front_cluster: bool
