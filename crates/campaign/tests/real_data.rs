@@ -214,6 +214,48 @@ fn one_box_displaced_at_a_time_is_measured_on_every_lidar_dataset() {
     assert!(sat.pmon.contains("one box displaced at a time"), "{}", sat.pmon);
 }
 
+/// One box displaced after a clean sweep (the previous sweep checked clean before each displaced box): measured
+/// where a frame follows another sweep within `max_time_step_s` (the two AV2 sweeps), at 1 m and 2 m, on fewer
+/// boxes than the single sweep (only the second sweep counts); KITTI's object frames and the nuScenes keyframe have
+/// no such sweep: no curve, and the table and the note say n/a rather than 0 %.
+#[test]
+#[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
+fn one_box_after_a_clean_sweep_is_measured_where_a_sweep_follows_another() {
+    let Some(r) = smoke() else { return };
+    let label = "sensor recall, boxes consistent on the clean frame (one box displaced after a clean sweep)";
+    let av2 = figure(r, "real_position_av2");
+    let after = curve(av2, label);
+    let single = curve(av2, "sensor recall, boxes consistent on the clean frame (one box displaced at a time)");
+    assert_eq!(after.points.iter().map(|p| p.x).collect::<Vec<_>>(), vec![1.0, 2.0], "{after:?}");
+    for p in &after.points {
+        let one = single.points.iter().find(|q| (q.x - p.x).abs() < 1e-9).expect("magnitude present").rate;
+        eprintln!("av2 {} m: after a clean sweep {:?}, single sweep {one:?}", p.x, p.rate);
+        assert!(p.rate.n > 0 && p.rate.n < one.n, "{:?} vs {one:?}", p.rate);
+    }
+    for key in ["nuscenes", "kitti"] {
+        let f = figure(r, &format!("real_position_{key}"));
+        assert!(f.curves.iter().all(|c| c.label != label), "{key}: a curve without a previous sweep");
+    }
+    let (_, headers, rows) = r.tables.iter().find(|t| t.0.starts_with("Real sensor: permanent position")).unwrap();
+    assert!(headers.last().is_some_and(|h| h.contains("one box displaced after a clean sweep")), "{headers:?}");
+    for row in rows {
+        let cell = row.last().unwrap();
+        assert_eq!(row.len(), headers.len(), "{row:?}");
+        if row[0].starts_with("Argoverse") {
+            assert!(cell.starts_with("1.0 m: ") && cell.contains("2.0 m: "), "{cell}");
+        } else {
+            assert_eq!(cell, "n/a (no previous sweep within max_time_step_s)", "{row:?}");
+        }
+    }
+    let note = r.notes.iter().find(|n| n.contains("recall over the boxes consistent on the clean frame: nuScenes"));
+    let note = note.unwrap_or_else(|| panic!("no note on the condition after a clean sweep: {:?}", r.notes));
+    assert_eq!(note.matches("boxes): n/a (no previous sweep within max_time_step_s)").count(), 2, "{note}");
+    assert!(note.contains("KITTI object frames (") && note.contains("(log 7fab2350)"), "{note}");
+    assert!(note.contains("boxes): 1.0 m: "), "{note}");
+    // Not a claim row (the README's generated table shows those).
+    assert!(r.claims.iter().all(|c| !c.pmon.contains("after a clean sweep")));
+}
+
 /// Distance from a point to a segment, metres.
 fn seg_dist(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
     let (dx, dy) = (b[0] - a[0], b[1] - a[1]);

@@ -9,7 +9,10 @@ use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, SensorVerdict};
 use rayon::prelude::*;
 
 use super::clean::{band_points, box_points, evidence_in, object_label, region_of, CleanSummary};
-use super::one_box::{OneBox, OneBoxRun};
+use super::one_box::{
+    after_sweep_cell, after_sweep_curve, after_sweep_text, OneBox, OneBoxRun, AFTER_CLEAN_SWEEP, AFTER_SWEEP_M,
+    NO_PREVIOUS_SWEEP,
+};
 use super::{
     add_metrics, fig_spec, fmt_rate, mix, rate_at, short_rate, FrameStep, RealDataOptions, RealDataResults, RunState,
     StateRecord, SATURATION_FROM_M,
@@ -41,6 +44,8 @@ pub(super) struct Saturation {
     from: Option<f64>,
     /// One box displaced at a time (boxes consistent on their clean frame): recall at 1 m and 2 m.
     one_box: [Option<OneBox>; 2],
+    /// The same after a clean sweep, at 1 m and 2 m (`None`: not run).
+    one_box_after_sweep: [Option<OneBox>; 2],
 }
 
 /// The frames of a sensor set, read one at a time and in order: each item one frame with a LiDAR sweep, or the
@@ -100,6 +105,8 @@ struct SetPass {
     /// Recall over the boxes consistent on the clean frame (every box displaced), `(k, n)` per magnitude.
     consistent: Vec<(u64, u64)>,
     one_box: Vec<OneBox>,
+    /// One box displaced after a clean sweep, at [`AFTER_SWEEP_M`] (`None`: not run).
+    one_box_after_sweep: [Option<OneBox>; 2],
     /// Boxes not detected at the largest magnitude, rows and causes.
     missed_rows: Vec<Vec<String>>,
     causes: BTreeMap<&'static str, u64>,
@@ -134,9 +141,9 @@ fn sensor_jobs(s: usize, seed: u64, opts: &RealDataOptions) -> Vec<SensorJob> {
 }
 
 /// Runs (each with its own monitor, a few MB) alive at once in a pass over a set's frames when the pass size is
-/// fixed ([`PassSize::Runs`], tests). The full sweeps have 242 runs per set (221 sensor runs, 20 one-box runs, the
-/// check without the ROI); `pmon evaluate` and `pmon reproduce` size their passes from a memory budget instead
-/// ([`PassSize::Budget`], [`pass_budget_bytes`]).
+/// fixed ([`PassSize::Runs`], tests). The full sweeps have 244 runs per set (221 sensor runs, 20 one-box runs, 2
+/// one-box runs after a clean sweep, the check without the ROI); `pmon evaluate` and `pmon reproduce` size their
+/// passes from a memory budget instead ([`PassSize::Budget`], [`pass_budget_bytes`]).
 #[cfg(test)]
 pub(super) const RUNS_PER_PASS: usize = 16;
 
@@ -199,6 +206,9 @@ enum Run {
     Sensor(usize, Box<RunState>),
     /// A one-box magnitude (index) with its state.
     OneBox(usize, Box<OneBoxRun>),
+    /// A one-box magnitude after a clean sweep (index into [`AFTER_SWEEP_M`]) with its state (it holds the
+    /// previous frame too, within [`RUN_BYTES`]).
+    OneBoxAfterSweep(usize, Box<OneBoxRun>),
     /// The clean frames once more without their ROI (`None`: no monitor, no comparison).
     WithoutRoi(Option<Box<Monitor>>),
 }
@@ -210,11 +220,14 @@ enum RunOut {
     WithoutRoi(Option<u64>),
 }
 
-/// Which runs, in order: the sensor runs, the one-box magnitudes, the check without the ROI.
+/// Which runs, in order: the sensor runs, the one-box magnitudes, the one-box magnitudes after a clean sweep, the
+/// check without the ROI.
 #[derive(Clone, Copy)]
 enum RunId {
     Sensor(usize),
     OneBox(usize),
+    /// Index into [`AFTER_SWEEP_M`] (a magnitude of the sweep).
+    OneBoxAfterSweep(usize),
     WithoutRoi,
 }
 
@@ -234,6 +247,13 @@ fn stream_set(
     let jobs = sensor_jobs(s, seed, opts);
     let mut ids: Vec<RunId> = (0..jobs.len()).map(RunId::Sensor).collect();
     ids.extend((0..mags.len()).map(RunId::OneBox));
+    ids.extend(
+        AFTER_SWEEP_M
+            .iter()
+            .enumerate()
+            .filter(|(_, &x)| mags.iter().any(|&y| (y - x).abs() < 1e-9))
+            .map(|(j, _)| RunId::OneBoxAfterSweep(j)),
+    );
     ids.push(RunId::WithoutRoi);
     let mut pass = SetPass {
         label: String::new(),
@@ -244,6 +264,7 @@ fn stream_set(
         half: vec![Metrics::default(); mags.len()],
         consistent: vec![(0, 0); mags.len()],
         one_box: vec![OneBox::default(); mags.len()],
+        one_box_after_sweep: [None; 2],
         missed_rows: Vec::new(),
         causes: BTreeMap::new(),
         clean_summary: CleanSummary::default(),
@@ -283,6 +304,10 @@ fn stream_set(
                         let mag = mags.get(m).copied().ok_or("internal: no such magnitude")?;
                         Run::OneBox(m, Box::new(OneBoxRun::new(&params, mag as f32)?))
                     }
+                    RunId::OneBoxAfterSweep(j) => {
+                        let mag = AFTER_SWEEP_M.get(j).copied().ok_or("internal: no such magnitude")?;
+                        Run::OneBoxAfterSweep(j, Box::new(OneBoxRun::after_clean_sweep(&params, mag as f32)?))
+                    }
                     RunId::WithoutRoi => Run::WithoutRoi(Monitor::new(params).ok().map(Box::new)),
                 })
             })
@@ -306,7 +331,7 @@ fn stream_set(
                         let details = jobs.get(*j).is_some_and(|x| x.details);
                         state.step(k, &df, details).map(RunOut::Sensor).map_err(|e| format!("{}: {e}", set.name))
                     }
-                    Run::OneBox(_, r) => r.step(k, &df).map(|()| RunOut::OneBox),
+                    Run::OneBox(_, r) | Run::OneBoxAfterSweep(_, r) => r.step(k, &df).map(|()| RunOut::OneBox),
                     Run::WithoutRoi(m) => Ok(RunOut::WithoutRoi(m.as_mut().and_then(|m| {
                         let mut frame = df.frame.clone();
                         frame.roi_in_ego.clear();
@@ -400,10 +425,18 @@ fn stream_set(
             return Err(format!("{}: the log gave {k} frames in one reading and {} in another", set.name, pass.frames));
         }
         for run in runs {
-            if let Run::OneBox(m, r) = run {
-                if let Some(x) = pass.one_box.get_mut(m) {
-                    *x = r.out;
+            match run {
+                Run::OneBox(m, r) => {
+                    if let Some(x) = pass.one_box.get_mut(m) {
+                        *x = r.out;
+                    }
                 }
+                Run::OneBoxAfterSweep(j, r) => {
+                    if let Some(x) = pass.one_box_after_sweep.get_mut(j) {
+                        *x = Some(r.out);
+                    }
+                }
+                Run::Sensor(..) | Run::WithoutRoi(_) => {}
             }
         }
         if p == 0 {
@@ -581,6 +614,9 @@ fn sensor_experiments_in_passes(
                 &|m| pass.one_box.get(m).map(OneBox::recall),
             ),
         ];
+        // After a clean sweep (1 m and 2 m): a curve only where some frame followed a sweep (not single keyframes).
+        let mut curves = curves;
+        curves.extend(after_sweep_curve(mags, &pass.one_box_after_sweep));
         let spec = fig_spec(
             format!("real_position_{}", set.key),
             format!("Permanent position errors away from the ego, real LiDAR: {} (sensor checks)", pass.label),
@@ -627,6 +663,7 @@ fn sensor_experiments_in_passes(
                 let m = mags.iter().position(|&y| (y - x).abs() < 1e-9)?;
                 pass.one_box.get(m).copied()
             }),
+            one_box_after_sweep: pass.one_box_after_sweep,
         });
         let highlights = [0.5, 1.0, 1.5, 2.0];
         let hl = |c: &Curve| {
@@ -690,6 +727,8 @@ fn sensor_experiments_in_passes(
             let c = causes.iter().map(|(k, n)| format!("{k} {n}")).collect::<Vec<_>>().join(", ");
             cause_notes.push(format!("{} {}", set.key, if c.is_empty() { "none" } else { &c }));
             row.push(if c.is_empty() { "none".into() } else { c });
+            // One box displaced after a clean sweep (a column added after the others).
+            row.push(after_sweep_cell(&pass.one_box_after_sweep));
         }
 
         // Clean frames.
@@ -719,6 +758,11 @@ fn sensor_experiments_in_passes(
             "verifiable recall > 90 % from",
             "precision, half the boxes displaced (seeds pooled)",
             "not detected at the largest error, by cause",
+            format!(
+                "recall, boxes consistent on the clean frame, {AFTER_CLEAN_SWEEP} (occluded; collateral alarms on \
+                 clean neighbours)"
+            )
+            .as_str(),
         ]
         .map(String::from)
         .to_vec(),
@@ -812,6 +856,23 @@ fn sensor_experiments_in_passes(
          clean frame."
             .into(),
     );
+    out.notes.push(format!(
+        "Real sensor, {AFTER_CLEAN_SWEEP}: a condition beside the single sweep, reported apart from the claims. Only \
+         frames whose previous frame of the log lies at most max_time_step_s earlier count: before each displaced \
+         box's check (a fresh track memory) that previous frame is checked clean, so the tracker was right one sweep \
+         ago and is wrong now. The boxes are those consistent on their clean frame (a fresh memory, as above); \
+         'collateral' counts clean neighbours flagged in those checks and not on the clean frame checked after the \
+         same sweep. Single keyframes (KITTI object frames, the nuScenes keyframe) have no previous sweep: \
+         {NO_PREVIOUS_SWEEP}."
+    ));
+    out.notes.push(format!(
+        "Real sensor, {AFTER_CLEAN_SWEEP}, recall over the boxes consistent on the clean frame: {}.",
+        saturation
+            .iter()
+            .map(|sat| format!("{}: {}", sat.label, after_sweep_text(&sat.one_box_after_sweep)))
+            .collect::<Vec<_>>()
+            .join("; ")
+    ));
     out.notes.push(format!(
         "Real sensor: the half-the-boxes runs repeat the same frames with {} different seeds (different halves) and \
          pool the counts; the samples share boxes, so their 95 % intervals are optimistic.",
@@ -988,11 +1049,12 @@ mod tests {
         let n = 60;
         let (counts, json) = results(COUNTED, n, PassSize::Runs(4), &readings);
         assert_eq!(counts, vec![n]);
-        // Held at once: one frame, whatever the length of the log.
+        // Held at once: one frame, whatever the length of the log (besides the copy of the frame before that each
+        // one-box run after a clean sweep keeps).
         assert_eq!(FRAMES_PEAK.load(Ordering::SeqCst), 1);
         assert_eq!(FRAMES_ALIVE.load(Ordering::SeqCst), 0);
-        // Runs: the clean run, per magnitude every box and 2 halves (7), 2 one-box runs, the check without the
-        // ROI: 10 runs, one reading of the log per 4 of them.
+        // Runs: the clean run, per magnitude every box and 2 halves (7), 2 one-box runs, 2 one-box runs after a
+        // clean sweep, the check without the ROI: 12 runs, one reading of the log per 4 of them.
         assert_eq!(readings.get(), 3);
         assert!(json.contains(&format!("{COUNTED} ({n} frames, {} boxes)", 2 * n)), "{json}");
         // All runs in one pass (one reading) give the same results: the passes change nothing but the memory.
@@ -1016,8 +1078,8 @@ mod tests {
         let (json, readings) = same("zq-budget-fits", PassSize::Budget(64 << 20));
         assert_eq!((json == reference, readings), (true, 1));
         // Nothing fits: the first pass (as many runs as threads) and then passes of as many runs as threads (the
-        // budget leaves room for none), each a reading: 10 runs.
+        // budget leaves room for none), each a reading: 12 runs.
         let (json, readings) = same("zq-budget-none", PassSize::Budget(0));
-        assert_eq!((json == reference, readings), (true, 1 + (10 - threads.min(10)).div_ceil(threads)));
+        assert_eq!((json == reference, readings), (true, 1 + (12 - threads.min(12)).div_ceil(threads)));
     }
 }
