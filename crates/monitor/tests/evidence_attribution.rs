@@ -442,7 +442,7 @@ mod guarantee {
 /// A street seen from an ego driving at 10 m/s: a parked car 28 m ahead (4.5 m long, its length along the ray), an
 /// unlabelled post just beyond it, and a pedestrian crossing at 1.5 m/s, two sweeps 0.1 s apart. Returns the objects in the ego frame at `t_s`
 /// (the car displaced by `car_error_m` away from the ego, the pedestrian by `ped_error_m`), the points and the pose.
-fn street_at(t_s: f32, car_error_m: f32, ped_error_m: f32) -> (Vec<pmon_monitor::ObjectState>, Vec<[f32; 3]>, Pose2) {
+fn street_at(t_s: f32, car_error_m: f32, ped_error_m: f32) -> Scene {
     let ego_x = 10.0 * t_s;
     let mut car = object(1, 30.0 - ego_x, 3.0, 0.05, 4.5, 1.8);
     let mut ped = object(2, 20.0 - ego_x, -4.0 + 1.5 * t_s, core::f32::consts::FRAC_PI_2, 0.6, 0.6);
@@ -478,6 +478,20 @@ fn check_at(
         static_in_ego: &[],
     };
     m.check(&frame).unwrap().objects.to_vec()
+}
+
+/// A scene of one sweep: the objects, the points (ego frame) and the pose, as [`street_at`] and [`post_at`] give it.
+type Scene = (Vec<pmon_monitor::ObjectState>, Vec<[f32; 3]>, Pose2);
+
+/// Step 9's two sweeps 0.1 s apart with one monitor: `first` at 0 s, where every object must be consistent (the
+/// clean sweep), then `second` at 0.1 s; returns the second sweep's reports.
+fn after_clean_sweep(params: MonitorParams, first: Scene, second: Scene) -> Vec<ObjectReport> {
+    let mut m = Monitor::new(params).unwrap();
+    let (objects, pts, pose) = first;
+    let r0 = check_at(&mut m, 0.0, &objects, &pts, pose);
+    assert!(r0.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent), "{r0:?}");
+    let (objects, pts, pose) = second;
+    check_at(&mut m, 0.1, &objects, &pts, pose)
 }
 
 /// Issue #10, evidence that follows its object: a car reported 2 m further away than it stands keeps most of its
@@ -548,12 +562,7 @@ fn a_box_that_jumps_1_m_from_returns_that_stayed_is_caught_by_their_mean() {
     let off = MonitorParams { jump_from_returns: false, jump_first_return: false, ..on };
     let off_first = MonitorParams { jump_from_returns: false, ..on };
     let verdicts = |params: MonitorParams, first: (f32, f32), second: (f32, f32)| {
-        let mut m = Monitor::new(params).unwrap();
-        let (objects, pts, pose) = street_at(0.0, first.0, first.1);
-        let r0 = check_at(&mut m, 0.0, &objects, &pts, pose);
-        assert!(r0.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent), "{r0:?}");
-        let (objects, pts, pose) = street_at(0.1, second.0, second.1);
-        check_at(&mut m, 0.1, &objects, &pts, pose)
+        after_clean_sweep(params, street_at(0.0, first.0, first.1), street_at(0.1, second.0, second.1))
     };
     // The jump of 1 m: confirmed by the cells, a position error by the returns.
     for params in [off, off_first] {
@@ -594,18 +603,13 @@ fn a_box_that_jumps_1_m_from_returns_that_stayed_is_caught_by_their_mean() {
 /// 25 m ahead and 4 m to the right, whose returns come from a 0.6 m x 0.6 m post at its centre (a box larger than
 /// its evidence, as labels of partly seen objects are), and the walking pedestrian of [`street_at`]. The box is
 /// reported off by `box_m` along and across itself, the pedestrian by `ped_m` along and across its own box.
-fn post_at(t_s: f32, box_m: [f32; 2], ped_m: [f32; 2]) -> (Vec<pmon_monitor::ObjectState>, Vec<[f32; 3]>, Pose2) {
+fn post_at(t_s: f32, box_m: [f32; 2], ped_m: [f32; 2]) -> Scene {
     post_shifted_at(t_s, box_m, ped_m, [0.0; 2])
 }
 
 /// [`post_at`] with the post's returns shifted by `post_m` along and across the box (the labelled box stays where
 /// [`post_at`] puts it): returns that came some way in a sweep.
-fn post_shifted_at(
-    t_s: f32,
-    box_m: [f32; 2],
-    ped_m: [f32; 2],
-    post_m: [f32; 2],
-) -> (Vec<pmon_monitor::ObjectState>, Vec<[f32; 3]>, Pose2) {
+fn post_shifted_at(t_s: f32, box_m: [f32; 2], ped_m: [f32; 2], post_m: [f32; 2]) -> Scene {
     let ego_x = 10.0 * t_s;
     let mut post = object(1, 25.0 - ego_x, -4.0, 0.4, 1.6, 1.6);
     post.class = pmon_monitor::ObjectClass::Unknown;
@@ -639,12 +643,7 @@ fn a_box_that_jumps_1_m_diagonally_from_returns_that_stayed_is_a_position_error(
     let on = MonitorParams::default();
     let off = MonitorParams { jump_from_returns: false, jump_first_return: false, ..on };
     let verdicts = |params: MonitorParams, first: ([f32; 2], [f32; 2]), second: ([f32; 2], [f32; 2])| {
-        let mut m = Monitor::new(params).unwrap();
-        let (objects, pts, pose) = post_at(0.0, first.0, first.1);
-        let r0 = check_at(&mut m, 0.0, &objects, &pts, pose);
-        assert!(r0.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent), "{first:?}: {r0:?}");
-        let (objects, pts, pose) = post_at(0.1, second.0, second.1);
-        check_at(&mut m, 0.1, &objects, &pts, pose)
+        after_clean_sweep(params, post_at(0.0, first.0, first.1), post_at(0.1, second.0, second.1))
     };
     let k = core::f32::consts::FRAC_1_SQRT_2;
     // Away from the sensor along the box and to either side (towards the sensor the free-space test of one sweep
@@ -696,12 +695,7 @@ fn a_box_that_jumps_1_m_diagonally_from_returns_at_its_prediction_is_a_position_
     let on = MonitorParams::default();
     let off = MonitorParams { jump_evidence_at_prediction: false, ..on };
     let verdicts = |params: MonitorParams, second: [f32; 2], post: [f32; 2]| {
-        let mut m = Monitor::new(params).unwrap();
-        let (objects, pts, pose) = post_at(0.0, [0.0; 2], [0.0; 2]);
-        let r0 = check_at(&mut m, 0.0, &objects, &pts, pose);
-        assert!(r0.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent), "{r0:?}");
-        let (objects, pts, pose) = post_shifted_at(0.1, second, [0.0; 2], post);
-        check_at(&mut m, 0.1, &objects, &pts, pose)
+        after_clean_sweep(params, post_at(0.0, [0.0; 2], [0.0; 2]), post_shifted_at(0.1, second, [0.0; 2], post))
     };
     let k = core::f32::consts::FRAC_1_SQRT_2;
     for d in [[k, k], [k, -k]] {
