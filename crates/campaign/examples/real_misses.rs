@@ -13,6 +13,8 @@
 //! labels; every check starts with a fresh track memory), as the experiment's one-box curve. With `ONE_BOX=1
 //! HISTORY=1`, only frames that follow another sweep are used, and the previous sweep, clean, is checked right before
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
+//! With `HISTORY=1` alone, every box is displaced at once as without it, but each displaced frame's check starts with
+//! a fresh track memory and a check of the previous sweep, clean (the paper's form at the onset of the error).
 //! `FACE=1` checks with the params key `face_in_front`, `BODY=1` with `seen_body` (the free-space test counts only
 //! rays that end on the body), `MEMGATE=1` with `memory_gate` (evidence beyond the gate is never a box's).
 //! `jump_from_returns` (step 9 from the returns) and `jump_first_return` (their mean from each cell's first return)
@@ -135,9 +137,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let idx = inj.iter().map(|x| x.index as usize).collect();
             variants.push((f, idx));
         }
-        // With HISTORY=1 (and ONE_BOX=1): only frames that follow another sweep of the log (at most the monitor's
-        // `max_time_step_s` earlier) are used, and each check of a displaced box is preceded by a check of that
-        // previous sweep, clean: the tracker was right one sweep ago and goes wrong now (the onset of the error).
+        // With HISTORY=1: only frames that follow another sweep of the log (at most the monitor's `max_time_step_s`
+        // earlier) are used, and each check of a displaced box (with ONE_BOX=1) or of the frame with every box
+        // displaced is preceded by a check of that previous sweep, clean: the tracker was right one sweep ago and goes
+        // wrong now (the onset of the error).
         let history = std::env::var("HISTORY").is_ok();
         let previous = k.checked_sub(1).and_then(|p| frames.get(p)).filter(|p| {
             let dt = df.frame.timestamp_s - p.frame.timestamp_s;
@@ -147,7 +150,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         for (f, inj) in &variants {
-            if one_box {
+            if one_box || history {
                 monitor.reset_tracks();
                 if let Some(p) = previous.filter(|_| history) {
                     let mut proi = Vec::new();
