@@ -300,8 +300,10 @@ pub struct MonitorParams {
     /// moved onto the place is no evidence that the track's evidence stayed. A box reported where the track's
     /// predicted box stands (centre and half extents within half a cell, axes within 10 degrees) is the same
     /// place, not a neighbour: with this key its cells count (two labels on one car, one of them jumping away:
-    /// the evidence stayed with the other label). Step 3b's rule for boxes reported in one place, applied to step
-    /// 9. Costs a comparison per such cell, only for a box that jumped.
+    /// the evidence stayed with the other label). So do the cells of a box reported where the jumping box itself
+    /// stands (two labels on one car that jumped together: the other label claims the place this box claims).
+    /// Step 3b's rule for boxes reported in one place, applied to step 9. Costs two comparisons per such cell,
+    /// only for a box that jumped.
     pub jump_coincident_boxes: bool,
     /// Off by default. The free-space test towards the sensor (a confirmed box whose rays pass through most of
     /// its footprint and end on its own evidence behind it) counts a ray only when it ends on the object's

@@ -1053,7 +1053,8 @@ impl Monitor {
         let range = geometry.cell_range(moved.aabb())?;
         let tau = self.params.tau_fn;
         // A box reported where the predicted box stands is the same place, not a neighbour that moved onto it
-        // (params key `jump_coincident_boxes`): its cells count.
+        // (params key `jump_coincident_boxes`): its cells count. So do a box reported where this box stands (a
+        // second label on the same object that jumped with it: where it claims to be is where this box claims).
         let predicted_box = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..*fp };
         let same_place = self.params.jump_coincident_boxes;
         let half_cell = 0.5 * geometry.cell_size_m;
@@ -1069,7 +1070,9 @@ impl Monitor {
                 if owner != j
                     && self.scratch.get(owner).and_then(|o| o.region).is_some_and(|o| {
                         o.footprint.contains(x, y)
-                            && !(same_place && in_one_place(&o.footprint, &predicted_box, half_cell))
+                            && !(same_place
+                                && (in_one_place(&o.footprint, &predicted_box, half_cell)
+                                    || in_one_place(&o.footprint, fp, half_cell)))
                     })
                 {
                     return;
