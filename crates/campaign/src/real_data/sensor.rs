@@ -1099,7 +1099,7 @@ mod tests {
         let (counts, json) = results(COUNTED, n, PassSize::Runs(4), &readings);
         assert_eq!(counts, vec![n]);
         // Held at once: one frame, whatever the length of the log (besides the copy of the frame before that each
-        // one-box run after a clean sweep keeps).
+        // one-box or every-box run after a clean sweep keeps).
         assert_eq!(FRAMES_PEAK.load(Ordering::SeqCst), 1);
         assert_eq!(FRAMES_ALIVE.load(Ordering::SeqCst), 0);
         // Runs: the clean run, per magnitude every box and 2 halves (7), 2 one-box runs, 2 one-box runs and 2
