@@ -18,12 +18,23 @@
 //! collateral alarms there are counted against the clean frame checked after the same clean previous sweep. Frames
 //! without such a previous sweep (single keyframes) count nothing. It is the condition of the development example
 //! `real_misses` with `ONE_BOX=1 HISTORY=1`.
+//!
+//! A third, the paper's form of that condition, **every box displaced at once after a clean sweep**
+//! ([`OneBoxRun::every_box_after_clean_sweep`]): the same frames (a previous sweep at most `max_time_step_s`
+//! earlier); for each, the track memory is reset, the previous frame is checked clean, and then the frame with every
+//! box displaced away from the ego by the magnitude, as the experiment's "every box displaced" run does it (an
+//! [`Injector`] with `Fault::PermanentPosition { direction: Direction::Away }` and `permanent_track_fraction = 1.0`,
+//! seed 7: each box moved by the magnitude along its own bearing from the ego origin). Recall counts the boxes
+//! consistent on their clean frame checked with a fresh track memory (the boxes of the one-box conditions), less those
+//! judged `not_monitored(OutsideGrid)` once displaced; no collateral alarms are counted (no box stays clean). It is
+//! the condition of the development example `real_misses` with `HISTORY=1` (without `ONE_BOX`).
 
 use pmon_datasets::DatasetFrame;
 use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, ObjectState, SensorVerdict};
 
 use super::short_rate;
 use crate::experiments::{Curve, Point};
+use crate::inject::{Direction, Fault, InjectionConfig, Injector};
 use crate::metrics::Rate;
 
 /// Outcome of the one-box runs at one magnitude.
@@ -61,6 +72,9 @@ pub(super) struct OneBoxRun {
     /// After a clean sweep: the previous frame stepped with (`None` before the first one); `None` for the
     /// single-sweep run.
     history: Option<History>,
+    /// Every box displaced at once (the run [`OneBoxRun::every_box_after_clean_sweep`]): the injector that displaces
+    /// them; `None`: one box at a time.
+    every_box: Option<Injector>,
     /// The counts so far.
     pub(super) out: OneBox,
 }
@@ -84,6 +98,7 @@ impl OneBoxRun {
             magnitude_m,
             objects: Vec::new(),
             history: None,
+            every_box: None,
             out: OneBox::default(),
         })
     }
@@ -99,6 +114,27 @@ impl OneBoxRun {
         Ok(run)
     }
 
+    /// The paper's form of the run after a clean sweep: on the same frames as [`OneBoxRun::after_clean_sweep`], one
+    /// check per frame (a fresh track memory, the previous frame checked clean) with **every** box displaced at once
+    /// away from the ego by `magnitude_m`. The displacement is the one of `real_misses` with `HISTORY=1` (without
+    /// `ONE_BOX`) and of the experiment's "every box displaced" run: an [`Injector`] with
+    /// `Fault::PermanentPosition { magnitude_m, direction: Direction::Away }`, `permanent_track_fraction = 1.0` and
+    /// seed 7, which moves each box by `magnitude_m` along its own bearing from the ego origin (the seed draws
+    /// nothing for that fault). The boxes counted are those consistent on their clean frame checked with a fresh
+    /// track memory (as the one-box runs), less those judged `not_monitored(OutsideGrid)` once displaced;
+    /// `collateral` stays 0 (every box is displaced).
+    ///
+    /// # Errors
+    /// The parameters are invalid.
+    pub(super) fn every_box_after_clean_sweep(params: &MonitorParams, magnitude_m: f32) -> Result<Self, String> {
+        let mut run = Self::after_clean_sweep(params, magnitude_m)?;
+        let fault = Fault::PermanentPosition { magnitude_m, direction: Direction::Away };
+        let mut cfg = InjectionConfig::new(fault, 7);
+        cfg.permanent_track_fraction = 1.0;
+        run.every_box = Some(Injector::new(cfg));
+        Ok(run)
+    }
+
     /// Frame `k`: one fresh-memory check of the clean frame, then one per displaced box (after a clean sweep:
     /// each preceded by the previous frame, clean, and the clean frame checked once more after it for the
     /// collateral alarms).
@@ -106,7 +142,7 @@ impl OneBoxRun {
     /// # Errors
     /// A monitor error (too many objects).
     pub(super) fn step(&mut self, k: usize, df: &DatasetFrame) -> Result<(), String> {
-        let Self { monitor, magnitude_m, objects, history, out } = self;
+        let Self { monitor, magnitude_m, objects, history, every_box, out } = self;
         let magnitude_m = *magnitude_m;
         // After a clean sweep: the previous frame, if it is the sweep just before this one (else nothing counts).
         let previous = match history {
@@ -135,6 +171,35 @@ impl OneBoxRun {
             .iter()
             .map(|r| r.sensor.verdict)
             .collect();
+        // Every box displaced at once: one check of the frame with all of them displaced (after the clean previous
+        // sweep), the boxes consistent on the clean frame counted.
+        if let Some(injector) = every_box {
+            objects.clone_from(&clean.objects);
+            let injected = injector.apply(k as u64, objects);
+            let mut polygons = Vec::new();
+            let mut view = clean.as_frame(&mut polygons);
+            view.objects = objects;
+            monitor.reset_tracks();
+            if let Some(p) = &previous {
+                check_previous(monitor, k, p)?;
+            }
+            let rep = monitor.check(&view).map_err(|e| format!("frame {k}: {e}"))?;
+            for inj in injected {
+                let i = inj.index as usize;
+                if !matches!(verdicts.get(i), Some(SensorVerdict::Consistent)) {
+                    continue;
+                }
+                let Some(mine) = rep.objects.get(i) else { continue };
+                if matches!(mine.sensor.verdict, SensorVerdict::NotMonitored(NotMonitoredReason::OutsideGrid)) {
+                    continue;
+                }
+                out.displaced += 1;
+                out.detected += u64::from(alarm(mine.sensor.verdict));
+                out.occluded +=
+                    u64::from(matches!(mine.sensor.verdict, SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)));
+            }
+            return Ok(());
+        }
         // What the collateral alarms are counted against: the clean frame as checked before each displaced box
         // (fresh memory, or after the clean previous sweep).
         let baseline: Vec<SensorVerdict> = match &previous {
@@ -204,8 +269,35 @@ pub(super) const AFTER_SWEEP_M: [f64; 2] = [1.0, 2.0];
 pub(super) const AFTER_CLEAN_SWEEP: &str =
     "one box displaced after a clean sweep (step 9 knows where its evidence was)";
 
+/// The paper's form of the condition after a clean sweep, as the report words it.
+pub(super) const EVERY_BOX_AFTER_CLEAN_SWEEP: &str =
+    "every box displaced at once after a clean sweep (the paper's form)";
+
 /// What the report says for a set where no frame follows another sweep closely enough (single keyframes).
 pub(super) const NO_PREVIOUS_SWEEP: &str = "n/a (no previous sweep within max_time_step_s)";
+
+/// Which of the runs after a clean sweep a part of the report is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum AfterSweep {
+    /// [`OneBoxRun::after_clean_sweep`]: one box displaced at a time.
+    OneBox,
+    /// [`OneBoxRun::every_box_after_clean_sweep`]: every box displaced at once (no collateral alarms to count).
+    EveryBox,
+}
+
+impl AfterSweep {
+    /// The curve's label in `real_position_<dataset>`.
+    fn curve_label(self) -> &'static str {
+        match self {
+            Self::OneBox => {
+                "sensor recall, boxes consistent on the clean frame (one box displaced after a clean sweep)"
+            }
+            Self::EveryBox => {
+                "sensor recall, boxes consistent on the clean frame (every box displaced at once after a clean sweep)"
+            }
+        }
+    }
+}
 
 /// The runs after a clean sweep at 1 m and 2 m (`None`: not run), each as `line(magnitude, counts)`, joined by
 /// `sep`; [`NO_PREVIOUS_SWEEP`] when they counted no frame, "n/a" when none ran.
@@ -222,18 +314,28 @@ fn after_sweep_parts(v: &[Option<OneBox>; 2], sep: &str, line: &dyn Fn(f64, &One
 }
 
 /// The real-sensor table's cell of the runs after a clean sweep: "1.0 m: 92 % (35/38), 0 occluded, 0 collateral;
-/// 2.0 m: ..." (the single-sweep column's form).
-pub(super) fn after_sweep_cell(v: &[Option<OneBox>; 2]) -> String {
+/// 2.0 m: ..." (the single-sweep column's form); every box displaced: "1.0 m: 89 % (34/38) [75.9, 95.8], 1 occluded;
+/// ..." (with the 95 % Wilson interval, without the collateral alarms).
+pub(super) fn after_sweep_cell(mode: AfterSweep, v: &[Option<OneBox>; 2]) -> String {
     after_sweep_parts(v, "; ", &|x, r| {
-        format!("{x:.1} m: {}, {} occluded, {} collateral", short_rate(Some(r.recall())), r.occluded, r.collateral)
+        let rate = short_rate(Some(r.recall()));
+        match mode {
+            AfterSweep::OneBox => format!("{x:.1} m: {rate}, {} occluded, {} collateral", r.occluded, r.collateral),
+            AfterSweep::EveryBox => format!("{x:.1} m: {rate} {}, {} occluded", interval(r), r.occluded),
+        }
     })
 }
 
 /// The report's sentence on the runs after a clean sweep: "1.0 m: 92 % (35/38) (0 collateral alarms), 2.0 m: ...
-/// (1 frame after a sweep)" (the claim rows' form for the single sweep).
-pub(super) fn after_sweep_text(v: &[Option<OneBox>; 2]) -> String {
+/// (1 frame after a sweep)" (the claim rows' form for the single sweep); every box displaced: "1.0 m: 89 % (34/38)
+/// [75.9, 95.8], 2.0 m: ..." (with the 95 % Wilson interval, without the collateral alarms).
+pub(super) fn after_sweep_text(mode: AfterSweep, v: &[Option<OneBox>; 2]) -> String {
     let text = after_sweep_parts(v, ", ", &|x, r| {
-        format!("{x:.1} m: {} ({} collateral alarms)", short_rate(Some(r.recall())), r.collateral)
+        let rate = short_rate(Some(r.recall()));
+        match mode {
+            AfterSweep::OneBox => format!("{x:.1} m: {rate} ({} collateral alarms)", r.collateral),
+            AfterSweep::EveryBox => format!("{x:.1} m: {rate} {}", interval(r)),
+        }
     });
     match v.iter().flatten().map(|r| r.frames).max() {
         Some(n) if n > 0 => format!("{text} ({n} {} after a sweep)", if n == 1 { "frame" } else { "frames" }),
@@ -241,9 +343,15 @@ pub(super) fn after_sweep_text(v: &[Option<OneBox>; 2]) -> String {
     }
 }
 
+/// The 95 % Wilson interval of the recall, percent: "[75.9, 95.8]".
+fn interval(r: &OneBox) -> String {
+    let rate = r.recall();
+    format!("[{:.1}, {:.1}]", 100.0 * rate.lo, 100.0 * rate.hi)
+}
+
 /// The figure's curve of the runs after a clean sweep: a point at each magnitude of [`AFTER_SWEEP_M`] that ran
 /// and counted a frame (`None` when none did: single keyframes). Its x values are the sweep's own.
-pub(super) fn after_sweep_curve(mags: &[f64], v: &[Option<OneBox>; 2]) -> Option<Curve> {
+pub(super) fn after_sweep_curve(mode: AfterSweep, mags: &[f64], v: &[Option<OneBox>; 2]) -> Option<Curve> {
     let points: Vec<Point> = AFTER_SWEEP_M
         .iter()
         .zip(v)
@@ -253,11 +361,7 @@ pub(super) fn after_sweep_curve(mags: &[f64], v: &[Option<OneBox>; 2]) -> Option
             Some(Point { x, rate: r.recall() })
         })
         .collect();
-    (!points.is_empty()).then(|| Curve {
-        label: "sensor recall, boxes consistent on the clean frame (one box displaced after a clean sweep)".into(),
-        points,
-        dashed: false,
-    })
+    (!points.is_empty()).then(|| Curve { label: mode.curve_label().into(), points, dashed: false })
 }
 
 /// One magnitude over frames held in memory (the experiments stream their frames through [`OneBoxRun`]).
@@ -270,6 +374,12 @@ fn one_box_at(frames: &[DatasetFrame], params: &MonitorParams, magnitude_m: f32)
 #[cfg(test)]
 fn after_sweep_at(frames: &[DatasetFrame], params: &MonitorParams, magnitude_m: f32) -> Result<OneBox, String> {
     run_over(OneBoxRun::after_clean_sweep(params, magnitude_m)?, frames)
+}
+
+/// [`after_sweep_at`] with every box displaced at once.
+#[cfg(test)]
+fn every_box_at(frames: &[DatasetFrame], params: &MonitorParams, magnitude_m: f32) -> Result<OneBox, String> {
+    run_over(OneBoxRun::every_box_after_clean_sweep(params, magnitude_m)?, frames)
 }
 
 #[cfg(test)]
@@ -428,7 +538,7 @@ mod tests {
         assert_eq!((single.displaced, single.detected), (1, 0), "{single:?}");
         assert_eq!((after.displaced, after.detected, after.collateral), (1, 1, 0), "{after:?}");
         assert_eq!(
-            after_sweep_text(&[Some(after), None]),
+            after_sweep_text(AfterSweep::OneBox, &[Some(after), None]),
             "1.0 m: 100 % (1/1) (0 collateral alarms) (1 frame after a sweep)"
         );
         // The single-sweep run over both sweeps counts each on its own, as before.
@@ -448,10 +558,75 @@ mod tests {
         // The same sweep twice (no time between them) is not a previous sweep either.
         assert_eq!(after_sweep_at(&[street(0, 0.1), street(1, 0.1)], &params, 1.0).unwrap(), nothing);
         let v = [Some(nothing), Some(nothing)];
-        assert_eq!(after_sweep_text(&v), NO_PREVIOUS_SWEEP);
-        assert_eq!(after_sweep_cell(&v), NO_PREVIOUS_SWEEP);
-        assert_eq!(after_sweep_curve(&[1.0, 2.0], &v).map(|c| c.points.len()), None);
-        assert_eq!(after_sweep_cell(&[None, None]), "n/a");
+        assert_eq!(after_sweep_text(AfterSweep::OneBox, &v), NO_PREVIOUS_SWEEP);
+        assert_eq!(after_sweep_cell(AfterSweep::OneBox, &v), NO_PREVIOUS_SWEEP);
+        assert_eq!(after_sweep_curve(AfterSweep::OneBox, &[1.0, 2.0], &v).map(|c| c.points.len()), None);
+        assert_eq!(after_sweep_cell(AfterSweep::OneBox, &[None, None]), "n/a");
+    }
+
+    /// Every box displaced at once after a clean sweep: the parked car and the pedestrian both moved 1 m away from
+    /// the ego in one check (after the previous sweep, checked clean) are both caught, the car by step 9 (a single
+    /// sweep confirms it, as in the one-box test above); the first sweep counts nothing. The boxes counted are the
+    /// same as in the one-box run; no collateral alarms are counted.
+    #[test]
+    fn every_box_displaced_after_a_clean_sweep_is_caught() {
+        let params = MonitorParams::default();
+        let sweeps = vec![street(0, 0.0), street(1, 0.1)];
+        let every = every_box_at(&sweeps, &params, 1.0).unwrap();
+        assert_eq!(
+            (every.displaced, every.detected, every.occluded, every.collateral, every.frames),
+            (2, 2, 0, 0, 1),
+            "{every:?}"
+        );
+        assert_eq!(every.displaced, after_sweep_at(&sweeps, &params, 1.0).unwrap().displaced);
+        // Moved 0.1 m (far below a cell), neither is flagged: the alarms above are the displacement's doing.
+        let near = every_box_at(&sweeps, &params, 0.1).unwrap();
+        assert_eq!((near.displaced, near.detected, near.frames), (2, 0, 1), "{near:?}");
+        // The car alone: caught only because the previous sweep was checked clean (the single-sweep one-box run
+        // misses it, see above).
+        let car_only: Vec<DatasetFrame> = sweeps
+            .iter()
+            .map(|df| {
+                let mut df = df.clone();
+                df.frame.objects.truncate(1);
+                df.extras.truncate(1);
+                df
+            })
+            .collect();
+        let car = every_box_at(&car_only, &params, 1.0).unwrap();
+        assert_eq!((car.displaced, car.detected), (1, 1), "{car:?}");
+        let v = [Some(every), Some(near)];
+        assert_eq!(
+            after_sweep_cell(AfterSweep::EveryBox, &v),
+            "1.0 m: 100 % (2/2) [34.2, 100.0], 0 occluded; 2.0 m: 0 % (0/2) [0.0, 65.8], 0 occluded"
+        );
+        assert_eq!(
+            after_sweep_text(AfterSweep::EveryBox, &[Some(every), None]),
+            "1.0 m: 100 % (2/2) [34.2, 100.0] (1 frame after a sweep)"
+        );
+        let curve = after_sweep_curve(AfterSweep::EveryBox, &[0.5, 1.0, 2.0], &v).unwrap();
+        assert_eq!(
+            curve.points.iter().map(|p| (p.x, p.rate.k, p.rate.n)).collect::<Vec<_>>(),
+            [(1.0, 2, 2), (2.0, 0, 2)]
+        );
+        assert!(curve.label.contains("every box displaced at once after a clean sweep"), "{}", curve.label);
+    }
+
+    /// Every box displaced after a clean sweep: a single frame, sweeps further apart than `max_time_step_s`, or the
+    /// same sweep twice count nothing, and the report says n/a.
+    #[test]
+    fn without_a_previous_sweep_the_every_box_run_after_a_clean_sweep_counts_nothing() {
+        let params = MonitorParams::default();
+        let nothing = OneBox::default();
+        assert_eq!(every_box_at(&[street(0, 0.1)], &params, 1.0).unwrap(), nothing);
+        assert_eq!(every_box_at(&[frame()], &params, 2.0).unwrap(), nothing);
+        let apart = vec![street(0, 0.0), street(1, 0.1 + params.max_time_step_s as f32)];
+        assert_eq!(every_box_at(&apart, &params, 1.0).unwrap(), nothing);
+        assert_eq!(every_box_at(&[street(0, 0.1), street(1, 0.1)], &params, 1.0).unwrap(), nothing);
+        let v = [Some(nothing), Some(nothing)];
+        assert_eq!(after_sweep_text(AfterSweep::EveryBox, &v), NO_PREVIOUS_SWEEP);
+        assert_eq!(after_sweep_cell(AfterSweep::EveryBox, &v), NO_PREVIOUS_SWEEP);
+        assert!(after_sweep_curve(AfterSweep::EveryBox, &[1.0, 2.0], &v).is_none());
     }
 
     #[test]

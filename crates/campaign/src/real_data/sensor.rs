@@ -10,8 +10,8 @@ use rayon::prelude::*;
 
 use super::clean::{band_points, box_points, evidence_in, object_label, region_of, CleanSummary};
 use super::one_box::{
-    after_sweep_cell, after_sweep_curve, after_sweep_text, OneBox, OneBoxRun, AFTER_CLEAN_SWEEP, AFTER_SWEEP_M,
-    NO_PREVIOUS_SWEEP,
+    after_sweep_cell, after_sweep_curve, after_sweep_text, AfterSweep, OneBox, OneBoxRun, AFTER_CLEAN_SWEEP,
+    AFTER_SWEEP_M, EVERY_BOX_AFTER_CLEAN_SWEEP, NO_PREVIOUS_SWEEP,
 };
 use super::{
     add_metrics, fig_spec, fmt_rate, mix, rate_at, short_rate, FrameStep, RealDataOptions, RealDataResults, RunState,
@@ -46,6 +46,8 @@ pub(super) struct Saturation {
     one_box: [Option<OneBox>; 2],
     /// The same after a clean sweep, at 1 m and 2 m (`None`: not run).
     one_box_after_sweep: [Option<OneBox>; 2],
+    /// Every box displaced at once after a clean sweep, at 1 m and 2 m (`None`: not run).
+    every_box_after_sweep: [Option<OneBox>; 2],
 }
 
 /// The frames of a sensor set, read one at a time and in order: each item one frame with a LiDAR sweep, or the
@@ -107,6 +109,8 @@ struct SetPass {
     one_box: Vec<OneBox>,
     /// One box displaced after a clean sweep, at [`AFTER_SWEEP_M`] (`None`: not run).
     one_box_after_sweep: [Option<OneBox>; 2],
+    /// Every box displaced at once after a clean sweep, at [`AFTER_SWEEP_M`] (`None`: not run).
+    every_box_after_sweep: [Option<OneBox>; 2],
     /// Boxes not detected at the largest magnitude, rows and causes.
     missed_rows: Vec<Vec<String>>,
     causes: BTreeMap<&'static str, u64>,
@@ -141,8 +145,8 @@ fn sensor_jobs(s: usize, seed: u64, opts: &RealDataOptions) -> Vec<SensorJob> {
 }
 
 /// Runs (each with its own monitor, a few MB) alive at once in a pass over a set's frames when the pass size is
-/// fixed ([`PassSize::Runs`], tests). The full sweeps have 244 runs per set (221 sensor runs, 20 one-box runs, 2
-/// one-box runs after a clean sweep, the check without the ROI); `pmon evaluate` and `pmon reproduce` size their
+/// fixed ([`PassSize::Runs`], tests). The full sweeps have 246 runs per set (221 sensor runs, 20 one-box runs, 2
+/// one-box runs after a clean sweep, 2 every-box runs after a clean sweep, the check without the ROI); `pmon evaluate` and `pmon reproduce` size their
 /// passes from a memory budget instead ([`PassSize::Budget`], [`pass_budget_bytes`]).
 #[cfg(test)]
 pub(super) const RUNS_PER_PASS: usize = 16;
@@ -209,6 +213,9 @@ enum Run {
     /// A one-box magnitude after a clean sweep (index into [`AFTER_SWEEP_M`]) with its state (it holds the
     /// previous frame too, within [`RUN_BYTES`]).
     OneBoxAfterSweep(usize, Box<OneBoxRun>),
+    /// An every-box magnitude after a clean sweep (index into [`AFTER_SWEEP_M`]) with its state (as
+    /// [`Run::OneBoxAfterSweep`]).
+    EveryBoxAfterSweep(usize, Box<OneBoxRun>),
     /// The clean frames once more without their ROI (`None`: no monitor, no comparison).
     WithoutRoi(Option<Box<Monitor>>),
 }
@@ -221,13 +228,15 @@ enum RunOut {
 }
 
 /// Which runs, in order: the sensor runs, the one-box magnitudes, the one-box magnitudes after a clean sweep, the
-/// check without the ROI.
+/// every-box magnitudes after a clean sweep, the check without the ROI.
 #[derive(Clone, Copy)]
 enum RunId {
     Sensor(usize),
     OneBox(usize),
     /// Index into [`AFTER_SWEEP_M`] (a magnitude of the sweep).
     OneBoxAfterSweep(usize),
+    /// Index into [`AFTER_SWEEP_M`] (a magnitude of the sweep).
+    EveryBoxAfterSweep(usize),
     WithoutRoi,
 }
 
@@ -247,13 +256,14 @@ fn stream_set(
     let jobs = sensor_jobs(s, seed, opts);
     let mut ids: Vec<RunId> = (0..jobs.len()).map(RunId::Sensor).collect();
     ids.extend((0..mags.len()).map(RunId::OneBox));
-    ids.extend(
-        AFTER_SWEEP_M
-            .iter()
-            .enumerate()
-            .filter(|(_, &x)| mags.iter().any(|&y| (y - x).abs() < 1e-9))
-            .map(|(j, _)| RunId::OneBoxAfterSweep(j)),
-    );
+    let after_sweep: Vec<usize> = AFTER_SWEEP_M
+        .iter()
+        .enumerate()
+        .filter(|(_, &x)| mags.iter().any(|&y| (y - x).abs() < 1e-9))
+        .map(|(j, _)| j)
+        .collect();
+    ids.extend(after_sweep.iter().map(|&j| RunId::OneBoxAfterSweep(j)));
+    ids.extend(after_sweep.iter().map(|&j| RunId::EveryBoxAfterSweep(j)));
     ids.push(RunId::WithoutRoi);
     let mut pass = SetPass {
         label: String::new(),
@@ -265,6 +275,7 @@ fn stream_set(
         consistent: vec![(0, 0); mags.len()],
         one_box: vec![OneBox::default(); mags.len()],
         one_box_after_sweep: [None; 2],
+        every_box_after_sweep: [None; 2],
         missed_rows: Vec::new(),
         causes: BTreeMap::new(),
         clean_summary: CleanSummary::default(),
@@ -308,6 +319,11 @@ fn stream_set(
                         let mag = AFTER_SWEEP_M.get(j).copied().ok_or("internal: no such magnitude")?;
                         Run::OneBoxAfterSweep(j, Box::new(OneBoxRun::after_clean_sweep(&params, mag as f32)?))
                     }
+                    RunId::EveryBoxAfterSweep(j) => {
+                        let mag = AFTER_SWEEP_M.get(j).copied().ok_or("internal: no such magnitude")?;
+                        let run = OneBoxRun::every_box_after_clean_sweep(&params, mag as f32)?;
+                        Run::EveryBoxAfterSweep(j, Box::new(run))
+                    }
                     RunId::WithoutRoi => Run::WithoutRoi(Monitor::new(params).ok().map(Box::new)),
                 })
             })
@@ -331,7 +347,9 @@ fn stream_set(
                         let details = jobs.get(*j).is_some_and(|x| x.details);
                         state.step(k, &df, details).map(RunOut::Sensor).map_err(|e| format!("{}: {e}", set.name))
                     }
-                    Run::OneBox(_, r) | Run::OneBoxAfterSweep(_, r) => r.step(k, &df).map(|()| RunOut::OneBox),
+                    Run::OneBox(_, r) | Run::OneBoxAfterSweep(_, r) | Run::EveryBoxAfterSweep(_, r) => {
+                        r.step(k, &df).map(|()| RunOut::OneBox)
+                    }
                     Run::WithoutRoi(m) => Ok(RunOut::WithoutRoi(m.as_mut().and_then(|m| {
                         let mut frame = df.frame.clone();
                         frame.roi_in_ego.clear();
@@ -433,6 +451,11 @@ fn stream_set(
                 }
                 Run::OneBoxAfterSweep(j, r) => {
                     if let Some(x) = pass.one_box_after_sweep.get_mut(j) {
+                        *x = Some(r.out);
+                    }
+                }
+                Run::EveryBoxAfterSweep(j, r) => {
+                    if let Some(x) = pass.every_box_after_sweep.get_mut(j) {
                         *x = Some(r.out);
                     }
                 }
@@ -616,7 +639,8 @@ fn sensor_experiments_in_passes(
         ];
         // After a clean sweep (1 m and 2 m): a curve only where some frame followed a sweep (not single keyframes).
         let mut curves = curves;
-        curves.extend(after_sweep_curve(mags, &pass.one_box_after_sweep));
+        curves.extend(after_sweep_curve(AfterSweep::OneBox, mags, &pass.one_box_after_sweep));
+        curves.extend(after_sweep_curve(AfterSweep::EveryBox, mags, &pass.every_box_after_sweep));
         let spec = fig_spec(
             format!("real_position_{}", set.key),
             format!("Permanent position errors away from the ego, real LiDAR: {} (sensor checks)", pass.label),
@@ -664,6 +688,7 @@ fn sensor_experiments_in_passes(
                 pass.one_box.get(m).copied()
             }),
             one_box_after_sweep: pass.one_box_after_sweep,
+            every_box_after_sweep: pass.every_box_after_sweep,
         });
         let highlights = [0.5, 1.0, 1.5, 2.0];
         let hl = |c: &Curve| {
@@ -728,7 +753,9 @@ fn sensor_experiments_in_passes(
             cause_notes.push(format!("{} {}", set.key, if c.is_empty() { "none" } else { &c }));
             row.push(if c.is_empty() { "none".into() } else { c });
             // One box displaced after a clean sweep (a column added after the others).
-            row.push(after_sweep_cell(&pass.one_box_after_sweep));
+            row.push(after_sweep_cell(AfterSweep::OneBox, &pass.one_box_after_sweep));
+            // Every box displaced at once after a clean sweep (the paper's form; a column after that one).
+            row.push(after_sweep_cell(AfterSweep::EveryBox, &pass.every_box_after_sweep));
         }
 
         // Clean frames.
@@ -761,6 +788,11 @@ fn sensor_experiments_in_passes(
             format!(
                 "recall, boxes consistent on the clean frame, {AFTER_CLEAN_SWEEP} (occluded; collateral alarms on \
                  clean neighbours)"
+            )
+            .as_str(),
+            format!(
+                "recall, boxes consistent on the clean frame, {EVERY_BOX_AFTER_CLEAN_SWEEP} (95 % Wilson interval; \
+                 occluded)"
             )
             .as_str(),
         ]
@@ -869,7 +901,24 @@ fn sensor_experiments_in_passes(
         "Real sensor, {AFTER_CLEAN_SWEEP}, recall over the boxes consistent on the clean frame: {}.",
         saturation
             .iter()
-            .map(|sat| format!("{}: {}", sat.label, after_sweep_text(&sat.one_box_after_sweep)))
+            .map(|sat| format!("{}: {}", sat.label, after_sweep_text(AfterSweep::OneBox, &sat.one_box_after_sweep)))
+            .collect::<Vec<_>>()
+            .join("; ")
+    ));
+    out.notes.push(format!(
+        "Real sensor, {EVERY_BOX_AFTER_CLEAN_SWEEP}: the paper displaces every box of the frame at once; this is that \
+         form of the condition after a clean sweep, reported apart from the claims. The frames are those of the \
+         one-box condition (a previous frame of the log at most max_time_step_s earlier); for each, the track memory \
+         is reset, the previous frame is checked clean, and then the frame with every box displaced away from the \
+         ego by the magnitude, as the every-box run does it. The boxes counted are those consistent on their clean \
+         frame (a fresh memory, as above), less those displaced out of the grid; no collateral alarms are counted \
+         (no box stays clean). Recall is given with its 95 % Wilson interval. Single keyframes have no previous sweep: {NO_PREVIOUS_SWEEP}."
+    ));
+    out.notes.push(format!(
+        "Real sensor, {EVERY_BOX_AFTER_CLEAN_SWEEP}, recall over the boxes consistent on the clean frame: {}.",
+        saturation
+            .iter()
+            .map(|sat| format!("{}: {}", sat.label, after_sweep_text(AfterSweep::EveryBox, &sat.every_box_after_sweep)))
             .collect::<Vec<_>>()
             .join("; ")
     ));
@@ -1050,12 +1099,12 @@ mod tests {
         let (counts, json) = results(COUNTED, n, PassSize::Runs(4), &readings);
         assert_eq!(counts, vec![n]);
         // Held at once: one frame, whatever the length of the log (besides the copy of the frame before that each
-        // one-box run after a clean sweep keeps).
+        // one-box or every-box run after a clean sweep keeps).
         assert_eq!(FRAMES_PEAK.load(Ordering::SeqCst), 1);
         assert_eq!(FRAMES_ALIVE.load(Ordering::SeqCst), 0);
-        // Runs: the clean run, per magnitude every box and 2 halves (7), 2 one-box runs, 2 one-box runs after a
-        // clean sweep, the check without the ROI: 12 runs, one reading of the log per 4 of them.
-        assert_eq!(readings.get(), 3);
+        // Runs: the clean run, per magnitude every box and 2 halves (7), 2 one-box runs, 2 one-box runs and 2
+        // every-box runs after a clean sweep, the check without the ROI: 14 runs, one reading of the log per 4 of them.
+        assert_eq!(readings.get(), 4);
         assert!(json.contains(&format!("{COUNTED} ({n} frames, {} boxes)", 2 * n)), "{json}");
         // All runs in one pass (one reading) give the same results: the passes change nothing but the memory.
         let once = std::cell::Cell::new(0);
@@ -1078,8 +1127,8 @@ mod tests {
         let (json, readings) = same("zq-budget-fits", PassSize::Budget(64 << 20));
         assert_eq!((json == reference, readings), (true, 1));
         // Nothing fits: the first pass (as many runs as threads) and then passes of as many runs as threads (the
-        // budget leaves room for none), each a reading: 12 runs.
+        // budget leaves room for none), each a reading: 14 runs.
         let (json, readings) = same("zq-budget-none", PassSize::Budget(0));
-        assert_eq!((json == reference, readings), (true, 1 + (12 - threads.min(12)).div_ceil(threads)));
+        assert_eq!((json == reference, readings), (true, 1 + (14 - threads.min(14)).div_ceil(threads)));
     }
 }
