@@ -26,6 +26,7 @@ class Params:
     jump_first_return: bool
     jump_evidence_at_prediction: bool
     jump_coincident_boxes: bool
+    jump_jumped_boxes: bool
     seen_body: bool
     memory_gate: bool
     front_cluster: bool

@@ -786,6 +786,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("front_cluster", d.front_cluster, p.front_cluster),
         ("jump_evidence_at_prediction", d.jump_evidence_at_prediction, p.jump_evidence_at_prediction),
         ("jump_coincident_boxes", d.jump_coincident_boxes, p.jump_coincident_boxes),
+        ("jump_jumped_boxes", d.jump_jumped_boxes, p.jump_jumped_boxes),
     ] {
         if default != value {
             out.push(format!("{key} = {value}"));

@@ -9,7 +9,7 @@
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
 //! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FRONT=1`: `front_cluster`; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
-//! `NOCOINC=1` `jump_coincident_boxes`). With `FULL=1` the runs are those of the full plan
+//! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
@@ -1305,6 +1305,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // (`jump_coincident_boxes` off). Both are the default since issue #10.
             r.spec.params.jump_evidence_at_prediction &= std::env::var_os("NOPRED").is_none();
             r.spec.params.jump_coincident_boxes &= std::env::var_os("NOCOINC").is_none();
+            r.spec.params.jump_jumped_boxes &= std::env::var_os("NOJUMPED").is_none();
             r
         })
         .collect();

@@ -19,8 +19,8 @@
 //! rays that end on the body), `MEMGATE=1` with `memory_gate` (evidence beyond the gate is never a box's).
 //! `jump_from_returns` (step 9 from the returns) and `jump_first_return` (their mean from each cell's first return)
 //! are the default since issue #10: `NOJUMP=1` checks without both, `NOFIRST=1` without the first return;
-//! `NOPRED=1` without `jump_evidence_at_prediction`, `NOCOINC=1` without `jump_coincident_boxes` (both the default
-//! since issue #10 too).
+//! `NOPRED=1` without `jump_evidence_at_prediction`, `NOCOINC=1` without `jump_coincident_boxes`, `NOJUMPED=1`
+//! without `jump_jumped_boxes` (all three the default since issue #10 too).
 //! `DETAIL=1` (with `ONE_BOX=1 HISTORY=1`) prints, for each clean box flagged beside a displaced one, where both stand
 //! and the cluster that flagged it.
 //! `FRONT=1` checks with the params key `front_cluster` (a free cluster in front of a confirmed box, fitting it, goes
@@ -66,6 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // Default since issue #10: `NOPRED=1` / `NOCOINC=1` turn them off.
         jump_evidence_at_prediction: base.jump_evidence_at_prediction && std::env::var_os("NOPRED").is_none(),
         jump_coincident_boxes: base.jump_coincident_boxes && std::env::var_os("NOCOINC").is_none(),
+        jump_jumped_boxes: base.jump_jumped_boxes && std::env::var_os("NOJUMPED").is_none(),
         ..base
     };
     let frames: Vec<_> = ds.frames.iter().filter(|f| f.frame.cloud.is_some()).collect();

@@ -183,7 +183,7 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 13] = [
+const LATE_PARAMS_KEYS: [&str; 14] = [
     "spill_over_fit",
     "seen_over",
     "face_in_front",
@@ -197,6 +197,7 @@ const LATE_PARAMS_KEYS: [&str; 13] = [
     "memory_hold_s",
     "jump_evidence_at_prediction",
     "jump_coincident_boxes",
+    "jump_jumped_boxes",
 ];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].

@@ -53,11 +53,16 @@ fn verdict(reports: &[ObjectReport], id: u64) -> SensorVerdict {
 /// clean sweep. Id 2 takes the car's returns left behind (a conflict cluster); id 15, still confirmed by returns
 /// deep in its box, is caught by step 9 only when the cells inside id 2's box count: id 2's box stands where id 15's
 /// box stands, the same place (params key `jump_coincident_boxes`, the default). Without the key they are left
-/// out as a neighbour's, and id 15 stays consistent.
+/// out as a neighbour's, and id 15 stays consistent. Id 2's box also jumped from its own prediction, so with the key
+/// `jump_jumped_boxes` (also the default) its cells count anyway: the rule is tested with that key off, and the
+/// defaults catch both labels.
 #[test]
 fn two_labels_on_one_real_car_displaced_together_are_both_caught_after_a_clean_sweep() {
     let Some(log) = av2_log() else { return };
-    let on = MonitorParams::default();
+    let defaults = every_box_after_a_clean_sweep(&log, MonitorParams::default(), 1.0);
+    assert_eq!(verdict(&defaults, 2), SensorVerdict::PositionError);
+    assert_eq!(verdict(&defaults, 15), SensorVerdict::PositionError);
+    let on = MonitorParams { jump_jumped_boxes: false, ..MonitorParams::default() };
     let off = MonitorParams { jump_coincident_boxes: false, ..on };
     let with = every_box_after_a_clean_sweep(&log, on, 1.0);
     let without = every_box_after_a_clean_sweep(&log, off, 1.0);
@@ -65,4 +70,23 @@ fn two_labels_on_one_real_car_displaced_together_are_both_caught_after_a_clean_s
     assert_eq!(verdict(&without, 2), SensorVerdict::PositionError);
     assert_eq!(verdict(&with, 15), SensorVerdict::PositionError, "with jump_coincident_boxes");
     assert_eq!(verdict(&without, 15), SensorVerdict::Consistent, "without jump_coincident_boxes");
+}
+
+/// Small objects a metre apart (ids 84 and 86 of log 7fab2350, about 25 m out, one to six cells of returns each),
+/// every box displaced 1 m away after a clean sweep: each box moves over a neighbour's returns while its own
+/// returns stay at its prediction, now inside a neighbour's displaced box. Step 9 leaves out cells inside another
+/// object's box, except (params key `jump_jumped_boxes`, the default) the box of a track that itself jumped from its
+/// prediction: both are then position errors; without the key neither is flagged.
+#[test]
+fn returns_under_a_neighbour_box_that_jumped_too_still_count_for_step_9() {
+    let Some(log) = av2_log() else { return };
+    let on = MonitorParams::default();
+    let off = MonitorParams { jump_jumped_boxes: false, ..on };
+    let with = every_box_after_a_clean_sweep(&log, on, 1.0);
+    let without = every_box_after_a_clean_sweep(&log, off, 1.0);
+    for id in [84, 86] {
+        assert_eq!(verdict(&with, id), SensorVerdict::PositionError, "id {id} with jump_jumped_boxes");
+        let v = verdict(&without, id);
+        assert!(!matches!(v, SensorVerdict::PositionError | SensorVerdict::Ghost), "id {id} without the key: {v:?}");
+    }
 }

@@ -305,6 +305,14 @@ pub struct MonitorParams {
     /// Step 3b's rule for boxes reported in one place, applied to step 9. Costs two comparisons per such cell,
     /// only for a box that jumped.
     pub jump_coincident_boxes: bool,
+    /// On by default (issue #10; off before it). Step 9 leaves out cells inside another object's box (a neighbour
+    /// that moved onto the place is no evidence that the track's evidence stayed), except, with this key, the box
+    /// of a track that itself jumped: its centre beyond step 9's ellipse from its own prediction. Such a box stands
+    /// where its own evidence is not, as far as step 9 can tell, so it is no claim on the returns it now covers
+    /// (every box of a frame displaced at once: each neighbour's box moved over the others' evidence). A neighbour
+    /// that moved as it said (its box at its prediction) still claims its cells. Costs a test per such cell, only
+    /// for a box that jumped (docs/attribution.md, "Neighbours whose boxes jumped too").
+    pub jump_jumped_boxes: bool,
     /// Off by default. The free-space test towards the sensor (a confirmed box whose rays pass through most of
     /// its footprint and end on its own evidence behind it) counts a ray only when it ends on the object's
     /// *body*: within the box's depth along the ray (plus `safety_margin_m`) of the nearest return of the
@@ -444,6 +452,7 @@ impl MonitorParams {
         jump_first_return: true,
         jump_evidence_at_prediction: true,
         jump_coincident_boxes: true,
+        jump_jumped_boxes: true,
         seen_body: false,
         memory_gate: false,
         front_cluster: false,
@@ -777,11 +786,16 @@ mod tests {
     fn step_9_from_first_returns_is_the_default_and_one_key_turns_it_off() {
         let d = MonitorParams::default();
         assert!(d.jump_from_returns && d.jump_first_return);
-        assert!(d.jump_evidence_at_prediction && d.jump_coincident_boxes);
+        assert!(d.jump_evidence_at_prediction && d.jump_coincident_boxes && d.jump_jumped_boxes);
         assert!(MonitorParams { jump_from_returns: false, ..d }.validate().is_ok());
-        assert!(MonitorParams { jump_evidence_at_prediction: false, jump_coincident_boxes: false, ..d }
-            .validate()
-            .is_ok());
+        assert!(MonitorParams {
+            jump_evidence_at_prediction: false,
+            jump_coincident_boxes: false,
+            jump_jumped_boxes: false,
+            ..d
+        }
+        .validate()
+        .is_ok());
         assert!(MonitorParams { jump_first_return: false, ..d }.validate().is_ok());
     }
 

@@ -1067,12 +1067,27 @@ impl Monitor {
             }
             if self.grid.flags(idx) & FLAG_EXPLAINED != 0 {
                 let owner = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
+                // A neighbour whose own box jumped from its prediction (params key `jump_jumped_boxes`) claims
+                // nothing by standing there.
+                let jumped_nb = |os: &super::ObjectScratch, o: &Region| {
+                    self.params.jump_jumped_boxes
+                        && os.predicted.is_some_and(|(q, _, _)| {
+                            beyond_ellipse(
+                                &o.footprint,
+                                [o.footprint.cx - q[0], o.footprint.cy - q[1]],
+                                self.jump_allowances(o).1,
+                            )
+                        })
+                };
                 if owner != j
-                    && self.scratch.get(owner).and_then(|o| o.region).is_some_and(|o| {
-                        o.footprint.contains(x, y)
-                            && !(same_place
-                                && (in_one_place(&o.footprint, &predicted_box, half_cell)
-                                    || in_one_place(&o.footprint, fp, half_cell)))
+                    && self.scratch.get(owner).is_some_and(|os| {
+                        os.region.is_some_and(|o| {
+                            o.footprint.contains(x, y)
+                                && !(same_place
+                                    && (in_one_place(&o.footprint, &predicted_box, half_cell)
+                                        || in_one_place(&o.footprint, fp, half_cell)))
+                                && !jumped_nb(os, &o)
+                        })
                     })
                 {
                     return;
