@@ -778,6 +778,57 @@ fn a_label_that_jumps_away_from_its_twin_on_one_car_is_a_position_error() {
     }
 }
 
+/// A post with a 1 m wide object 1.5 m in front of it along the ray (returns of both in the cloud) and an unlabelled
+/// post 1.5 m behind it, the two labelled ones reported 1.5 m further away in the second sweep, as when every box of
+/// a frame is displaced at once: the nearer object's box now stands over the post's returns, and the post's box on
+/// the unlabelled post (one sweep alone confirms it). Step 9 leaves out cells inside another object's box, except, with
+/// the params key `jump_jumped_boxes` (the default), the box of a track that itself jumped from its prediction: the
+/// post is then a position error; without the key its returns count as the nearer object's and it stays unflagged.
+/// Boxes right, or 0.3 m off, raise nothing either way.
+#[test]
+fn returns_under_a_neighbour_box_that_jumped_too_count_for_step_9() {
+    let on = MonitorParams::default();
+    let off = MonitorParams { jump_jumped_boxes: false, ..on };
+    let posts = |error: f32| {
+        // On the middle of a row of 0.5 m cells, so that every cell of the farther post's returns lies inside the
+        // nearer object's box once that box moved 1.5 m; the nearer one 1 m wide, so that its box does not stand
+        // in one place with the farther post's predicted box (`jump_coincident_boxes` would count its cells).
+        let (far, near) = (object(1, 20.0, 0.25, 0.0, 0.6, 0.4), object(2, 18.5, 0.25, 0.0, 0.6, 1.0));
+        let mut pts = visible_face_points(&far, 0.05);
+        pts.extend(visible_face_points(&near, 0.05));
+        // An unlabelled post 1.5 m behind the farther one: the farther box, displaced, stands on it and is confirmed by
+        // it (one sweep alone judges it consistent), so only step 9 can tell.
+        pts.extend(visible_face_points(&object(9, 21.5, 0.25, 0.0, 0.6, 0.4), 0.05));
+        pts.extend(ground_points(45.0));
+        let mut objects = vec![far, near];
+        for o in &mut objects {
+            let r = o.x_m.hypot(o.y_m);
+            o.x_m += error * o.x_m / r;
+            o.y_m += error * o.y_m / r;
+        }
+        (objects, pts, Pose2 { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 })
+    };
+    let second = |params: MonitorParams, error: f32| {
+        let mut m = Monitor::new(params).unwrap();
+        let (objects, pts, pose) = posts(0.0);
+        let r0 = check_at(&mut m, 0.0, &objects, &pts, pose);
+        assert!(r0.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent), "{r0:?}");
+        let (objects, pts, pose) = posts(error);
+        check_at(&mut m, 0.1, &objects, &pts, pose)
+    };
+    let alarm = |r: &ObjectReport| matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost);
+    let r = second(off, 1.5);
+    assert!(!alarm(&r[0]), "without the key: {:?}", r[0].sensor);
+    let r = second(on, 1.5);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "with the key: {:?}", r[0].sensor);
+    for params in [off, on] {
+        for error in [0.0, 0.3] {
+            let r = second(params, error);
+            assert!(!r.iter().any(alarm), "posts off by {error} m, key {}: {r:?}", params.jump_jumped_boxes);
+        }
+    }
+}
+
 /// A ray-cast sweep from the sensor of [`extrinsic`] over axis-aligned boxes `[x0, y0, x1, y1, top]` standing on
 /// the ground (and the ground itself): beams every 0.2 degrees from -15 to +2 degrees of elevation, every 0.1
 /// degrees of azimuth from -30 to +30 degrees. Returns the first hit of each ray within 60 m, ego frame.
