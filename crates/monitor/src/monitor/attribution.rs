@@ -1058,6 +1058,15 @@ impl Monitor {
         let predicted_box = crate::geometry::OrientedRect { cx: p[0], cy: p[1], ..*fp };
         let same_place = self.params.jump_coincident_boxes;
         let half_cell = 0.5 * geometry.cell_size_m;
+        // A neighbour whose own box jumped from its prediction, beyond the ellipse this box's jump is tested against
+        // (params key `jump_jumped_boxes`), claims nothing by standing there.
+        let jumped_nb = |os: &super::ObjectScratch, o: &Region| {
+            self.params.jump_jumped_boxes
+                && os.predicted.is_some_and(|(q, _, _)| {
+                    let jump = [o.footprint.cx - q[0], o.footprint.cy - q[1]];
+                    beyond_ellipse(&o.footprint, jump, self.jump_allowances(o).1)
+                })
+        };
         let mut sum = [0.0f32; 3];
         let mut ret = [0.0f32; 3];
         geometry.for_each_cell_overlapping(&moved, range, |idx, x, y| {
@@ -1067,18 +1076,6 @@ impl Monitor {
             }
             if self.grid.flags(idx) & FLAG_EXPLAINED != 0 {
                 let owner = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
-                // A neighbour whose own box jumped from its prediction (params key `jump_jumped_boxes`) claims
-                // nothing by standing there.
-                let jumped_nb = |os: &super::ObjectScratch, o: &Region| {
-                    self.params.jump_jumped_boxes
-                        && os.predicted.is_some_and(|(q, _, _)| {
-                            beyond_ellipse(
-                                &o.footprint,
-                                [o.footprint.cx - q[0], o.footprint.cy - q[1]],
-                                self.jump_allowances(o).1,
-                            )
-                        })
-                };
                 if owner != j
                     && self.scratch.get(owner).is_some_and(|os| {
                         os.region.is_some_and(|o| {
