@@ -808,14 +808,7 @@ fn returns_under_a_neighbour_box_that_jumped_too_count_for_step_9() {
         }
         (objects, pts, Pose2 { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 })
     };
-    let second = |params: MonitorParams, error: f32| {
-        let mut m = Monitor::new(params).unwrap();
-        let (objects, pts, pose) = posts(0.0);
-        let r0 = check_at(&mut m, 0.0, &objects, &pts, pose);
-        assert!(r0.iter().all(|r| r.sensor.verdict == SensorVerdict::Consistent), "{r0:?}");
-        let (objects, pts, pose) = posts(error);
-        check_at(&mut m, 0.1, &objects, &pts, pose)
-    };
+    let second = |params: MonitorParams, error: f32| after_clean_sweep(params, posts(0.0), posts(error));
     let alarm = |r: &ObjectReport| matches!(r.sensor.verdict, SensorVerdict::PositionError | SensorVerdict::Ghost);
     let r = second(off, 1.5);
     assert!(!alarm(&r[0]), "without the key: {:?}", r[0].sensor);

@@ -382,6 +382,20 @@ fn every_box_at(frames: &[DatasetFrame], params: &MonitorParams, magnitude_m: f3
     run_over(OneBoxRun::every_box_after_clean_sweep(params, magnitude_m)?, frames)
 }
 
+/// The sweeps with only their first labelled object (the street's parked car), for the tests.
+#[cfg(test)]
+fn first_object_only(frames: &[DatasetFrame]) -> Vec<DatasetFrame> {
+    frames
+        .iter()
+        .map(|df| {
+            let mut df = df.clone();
+            df.frame.objects.truncate(1);
+            df.extras.truncate(1);
+            df
+        })
+        .collect()
+}
+
 #[cfg(test)]
 fn run_over(mut run: OneBoxRun, frames: &[DatasetFrame]) -> Result<OneBox, String> {
     for (k, df) in frames.iter().enumerate() {
@@ -524,15 +538,7 @@ mod tests {
         assert_eq!((single.displaced, single.detected, single.collateral), (2, 1, 0), "{single:?}");
         assert_eq!((after.displaced, after.detected, after.collateral, after.frames), (2, 2, 0, 1), "{after:?}");
         // The car alone (the pedestrian's label removed): a miss in one sweep, caught after the clean one.
-        let car_only: Vec<DatasetFrame> = sweeps
-            .iter()
-            .map(|df| {
-                let mut df = df.clone();
-                df.frame.objects.truncate(1);
-                df.extras.truncate(1);
-                df
-            })
-            .collect();
+        let car_only = first_object_only(&sweeps);
         let single = one_box_at(&car_only[1..], &params, 1.0).unwrap();
         let after = after_sweep_at(&car_only, &params, 1.0).unwrap();
         assert_eq!((single.displaced, single.detected), (1, 0), "{single:?}");
@@ -584,15 +590,7 @@ mod tests {
         assert_eq!((near.displaced, near.detected, near.frames), (2, 0, 1), "{near:?}");
         // The car alone: caught only because the previous sweep was checked clean (the single-sweep one-box run
         // misses it, see above).
-        let car_only: Vec<DatasetFrame> = sweeps
-            .iter()
-            .map(|df| {
-                let mut df = df.clone();
-                df.frame.objects.truncate(1);
-                df.extras.truncate(1);
-                df
-            })
-            .collect();
+        let car_only = first_object_only(&sweeps);
         let car = every_box_at(&car_only, &params, 1.0).unwrap();
         assert_eq!((car.displaced, car.detected), (1, 1), "{car:?}");
         let v = [Some(every), Some(near)];
