@@ -265,18 +265,11 @@ fn check_previous(monitor: &mut Monitor, k: usize, previous: &DatasetFrame) -> R
 /// The magnitudes of the runs after a clean sweep, metres (run when the sweep of magnitudes holds them).
 pub(super) const AFTER_SWEEP_M: [f64; 2] = [1.0, 2.0];
 
-/// The condition after a clean sweep, as the report words it.
-pub(super) const AFTER_CLEAN_SWEEP: &str =
-    "one box displaced after a clean sweep (step 9 knows where its evidence was)";
-
-/// The paper's form of the condition after a clean sweep, as the report words it.
-pub(super) const EVERY_BOX_AFTER_CLEAN_SWEEP: &str =
-    "every box displaced at once after a clean sweep (the paper's form)";
-
 /// What the report says for a set where no frame follows another sweep closely enough (single keyframes).
 pub(super) const NO_PREVIOUS_SWEEP: &str = "n/a (no previous sweep within max_time_step_s)";
 
-/// Which of the runs after a clean sweep a part of the report is about.
+/// Which of the runs after a clean sweep a part of the report is about. Everything that differs between them is
+/// in [`AfterSweep::spec`]: a condition is added there (and in [`AfterSweep::ALL`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum AfterSweep {
     /// [`OneBoxRun::after_clean_sweep`]: one box displaced at a time.
@@ -285,17 +278,108 @@ pub(super) enum AfterSweep {
     EveryBox,
 }
 
-impl AfterSweep {
+/// What the runs and the report need of one condition after a clean sweep ([`AfterSweep::spec`]).
+pub(super) struct AfterSweepSpec {
+    /// The condition as the report words it (in its column and its notes).
+    pub(super) name: &'static str,
+    /// The run at one magnitude.
+    pub(super) new_run: fn(&MonitorParams, f32) -> Result<OneBoxRun, String>,
     /// The curve's label in `real_position_<dataset>`.
-    fn curve_label(self) -> &'static str {
+    curve_label: &'static str,
+    /// The real-sensor table's column (after the others, in the order of [`AfterSweep::ALL`]).
+    pub(super) column: String,
+    /// The report's note on the condition (followed by the one with its recall).
+    pub(super) note: String,
+    /// One magnitude in the table's cell ([`after_sweep_cell`]).
+    cell: fn(f64, &OneBox) -> String,
+    /// One magnitude in the report's sentence ([`after_sweep_text`]).
+    text: fn(f64, &OneBox) -> String,
+}
+
+impl AfterSweep {
+    /// The conditions, in the order of their runs, curves, columns and notes (and of [`AfterSweepRuns`]: each
+    /// kind's discriminant is its index here).
+    pub(super) const ALL: [Self; 2] = [Self::OneBox, Self::EveryBox];
+
+    /// The condition's names, run and report forms.
+    pub(super) fn spec(self) -> AfterSweepSpec {
         match self {
             Self::OneBox => {
-                "sensor recall, boxes consistent on the clean frame (one box displaced after a clean sweep)"
+                let name = "one box displaced after a clean sweep (step 9 knows where its evidence was)";
+                AfterSweepSpec {
+                    name,
+                    new_run: OneBoxRun::after_clean_sweep,
+                    curve_label: "sensor recall, boxes consistent on the clean frame (one box displaced after a \
+                                  clean sweep)",
+                    column: format!(
+                        "recall, boxes consistent on the clean frame, {name} (occluded; collateral alarms on clean \
+                         neighbours)"
+                    ),
+                    note: format!(
+                        "Real sensor, {name}: a condition beside the single sweep, reported apart from the claims. \
+                         Only frames whose previous frame of the log lies at most max_time_step_s earlier count: \
+                         before each displaced box's check (a fresh track memory) that previous frame is checked \
+                         clean, so the tracker was right one sweep ago and is wrong now. The boxes are those \
+                         consistent on their clean frame (a fresh memory, as above); 'collateral' counts clean \
+                         neighbours flagged in those checks and not on the clean frame checked after the same sweep. \
+                         Single keyframes (KITTI object frames, the nuScenes keyframe) have no previous sweep: \
+                         {NO_PREVIOUS_SWEEP}."
+                    ),
+                    cell: |x, r| {
+                        let rate = short_rate(Some(r.recall()));
+                        format!("{x:.1} m: {rate}, {} occluded, {} collateral", r.occluded, r.collateral)
+                    },
+                    text: |x, r| {
+                        let rate = short_rate(Some(r.recall()));
+                        format!("{x:.1} m: {rate} ({} collateral alarms)", r.collateral)
+                    },
+                }
             }
             Self::EveryBox => {
-                "sensor recall, boxes consistent on the clean frame (every box displaced at once after a clean sweep)"
+                let name = "every box displaced at once after a clean sweep (the paper's form)";
+                AfterSweepSpec {
+                    name,
+                    new_run: OneBoxRun::every_box_after_clean_sweep,
+                    curve_label: "sensor recall, boxes consistent on the clean frame (every box displaced at once \
+                                  after a clean sweep)",
+                    column: format!(
+                        "recall, boxes consistent on the clean frame, {name} (95 % Wilson interval; occluded)"
+                    ),
+                    note: format!(
+                        "Real sensor, {name}: the paper displaces every box of the frame at once; this is that form \
+                         of the condition after a clean sweep, reported apart from the claims. The frames are those \
+                         of the one-box condition (a previous frame of the log at most max_time_step_s earlier); \
+                         for each, the track memory is reset, the previous frame is checked clean, and then the \
+                         frame with every box displaced away from the ego by the magnitude, as the every-box run \
+                         does it. The boxes counted are those consistent on their clean frame (a fresh memory, as \
+                         above), less those displaced out of the grid; no collateral alarms are counted (no box \
+                         stays clean). Recall is given with its 95 % Wilson interval. Single keyframes have no \
+                         previous sweep: {NO_PREVIOUS_SWEEP}."
+                    ),
+                    cell: |x, r| {
+                        let rate = short_rate(Some(r.recall()));
+                        format!("{x:.1} m: {rate} {}, {} occluded", interval(r), r.occluded)
+                    },
+                    text: |x, r| format!("{x:.1} m: {} {}", short_rate(Some(r.recall())), interval(r)),
+                }
             }
         }
+    }
+}
+
+/// The runs after a clean sweep, per condition (by [`AfterSweep`]), each at [`AFTER_SWEEP_M`] (`None`: not run).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct AfterSweepRuns([[Option<OneBox>; 2]; AfterSweep::ALL.len()]);
+
+impl AfterSweepRuns {
+    /// The runs of one condition.
+    pub(super) fn get(&self, kind: AfterSweep) -> &[Option<OneBox>; 2] {
+        &self.0[kind as usize]
+    }
+
+    /// The runs of one condition, to store their counts.
+    pub(super) fn get_mut(&mut self, kind: AfterSweep) -> &mut [Option<OneBox>; 2] {
+        &mut self.0[kind as usize]
     }
 }
 
@@ -317,26 +401,14 @@ fn after_sweep_parts(v: &[Option<OneBox>; 2], sep: &str, line: &dyn Fn(f64, &One
 /// 2.0 m: ..." (the single-sweep column's form); every box displaced: "1.0 m: 89 % (34/38) [75.9, 95.8], 1 occluded;
 /// ..." (with the 95 % Wilson interval, without the collateral alarms).
 pub(super) fn after_sweep_cell(mode: AfterSweep, v: &[Option<OneBox>; 2]) -> String {
-    after_sweep_parts(v, "; ", &|x, r| {
-        let rate = short_rate(Some(r.recall()));
-        match mode {
-            AfterSweep::OneBox => format!("{x:.1} m: {rate}, {} occluded, {} collateral", r.occluded, r.collateral),
-            AfterSweep::EveryBox => format!("{x:.1} m: {rate} {}, {} occluded", interval(r), r.occluded),
-        }
-    })
+    after_sweep_parts(v, "; ", &mode.spec().cell)
 }
 
 /// The report's sentence on the runs after a clean sweep: "1.0 m: 92 % (35/38) (0 collateral alarms), 2.0 m: ...
 /// (1 frame after a sweep)" (the claim rows' form for the single sweep); every box displaced: "1.0 m: 89 % (34/38)
 /// [75.9, 95.8], 2.0 m: ..." (with the 95 % Wilson interval, without the collateral alarms).
 pub(super) fn after_sweep_text(mode: AfterSweep, v: &[Option<OneBox>; 2]) -> String {
-    let text = after_sweep_parts(v, ", ", &|x, r| {
-        let rate = short_rate(Some(r.recall()));
-        match mode {
-            AfterSweep::OneBox => format!("{x:.1} m: {rate} ({} collateral alarms)", r.collateral),
-            AfterSweep::EveryBox => format!("{x:.1} m: {rate} {}", interval(r)),
-        }
-    });
+    let text = after_sweep_parts(v, ", ", &mode.spec().text);
     match v.iter().flatten().map(|r| r.frames).max() {
         Some(n) if n > 0 => format!("{text} ({n} {} after a sweep)", if n == 1 { "frame" } else { "frames" }),
         _ => text,
@@ -361,7 +433,7 @@ pub(super) fn after_sweep_curve(mode: AfterSweep, mags: &[f64], v: &[Option<OneB
             Some(Point { x, rate: r.recall() })
         })
         .collect();
-    (!points.is_empty()).then(|| Curve { label: mode.curve_label().into(), points, dashed: false })
+    (!points.is_empty()).then(|| Curve { label: mode.spec().curve_label.into(), points, dashed: false })
 }
 
 /// One magnitude over frames held in memory (the experiments stream their frames through [`OneBoxRun`]).
@@ -625,6 +697,20 @@ mod tests {
         assert_eq!(after_sweep_text(AfterSweep::EveryBox, &v), NO_PREVIOUS_SWEEP);
         assert_eq!(after_sweep_cell(AfterSweep::EveryBox, &v), NO_PREVIOUS_SWEEP);
         assert!(after_sweep_curve(AfterSweep::EveryBox, &[1.0, 2.0], &v).is_none());
+    }
+
+    /// [`AfterSweepRuns`] keeps each condition at its discriminant: [`AfterSweep::ALL`] lists them in that order,
+    /// and each condition's runs are its own.
+    #[test]
+    fn the_conditions_after_a_clean_sweep_are_listed_in_the_order_of_their_runs() {
+        for (i, kind) in AfterSweep::ALL.into_iter().enumerate() {
+            assert_eq!(kind as usize, i, "{kind:?}");
+        }
+        let mut runs = AfterSweepRuns::default();
+        let counted = OneBox { frames: 1, ..OneBox::default() };
+        runs.get_mut(AfterSweep::EveryBox)[1] = Some(counted);
+        assert_eq!(runs.get(AfterSweep::OneBox), &[None, None]);
+        assert_eq!(runs.get(AfterSweep::EveryBox), &[None, Some(counted)]);
     }
 
     #[test]

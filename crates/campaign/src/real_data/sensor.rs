@@ -10,8 +10,7 @@ use rayon::prelude::*;
 
 use super::clean::{band_points, box_points, evidence_in, object_label, region_of, CleanSummary};
 use super::one_box::{
-    after_sweep_cell, after_sweep_curve, after_sweep_text, AfterSweep, OneBox, OneBoxRun, AFTER_CLEAN_SWEEP,
-    AFTER_SWEEP_M, EVERY_BOX_AFTER_CLEAN_SWEEP, NO_PREVIOUS_SWEEP,
+    after_sweep_cell, after_sweep_curve, after_sweep_text, AfterSweep, AfterSweepRuns, OneBox, OneBoxRun, AFTER_SWEEP_M,
 };
 use super::{
     add_metrics, fig_spec, fmt_rate, mix, rate_at, short_rate, FrameStep, RealDataOptions, RealDataResults, RunState,
@@ -44,10 +43,8 @@ pub(super) struct Saturation {
     from: Option<f64>,
     /// One box displaced at a time (boxes consistent on their clean frame): recall at 1 m and 2 m.
     one_box: [Option<OneBox>; 2],
-    /// The same after a clean sweep, at 1 m and 2 m (`None`: not run).
-    one_box_after_sweep: [Option<OneBox>; 2],
-    /// Every box displaced at once after a clean sweep, at 1 m and 2 m (`None`: not run).
-    every_box_after_sweep: [Option<OneBox>; 2],
+    /// The runs after a clean sweep (one box, every box), at 1 m and 2 m (`None`: not run).
+    after_sweep: AfterSweepRuns,
 }
 
 /// The frames of a sensor set, read one at a time and in order: each item one frame with a LiDAR sweep, or the
@@ -107,10 +104,8 @@ struct SetPass {
     /// Recall over the boxes consistent on the clean frame (every box displaced), `(k, n)` per magnitude.
     consistent: Vec<(u64, u64)>,
     one_box: Vec<OneBox>,
-    /// One box displaced after a clean sweep, at [`AFTER_SWEEP_M`] (`None`: not run).
-    one_box_after_sweep: [Option<OneBox>; 2],
-    /// Every box displaced at once after a clean sweep, at [`AFTER_SWEEP_M`] (`None`: not run).
-    every_box_after_sweep: [Option<OneBox>; 2],
+    /// The runs after a clean sweep (one box, every box), at [`AFTER_SWEEP_M`] (`None`: not run).
+    after_sweep: AfterSweepRuns,
     /// Boxes not detected at the largest magnitude, rows and causes.
     missed_rows: Vec<Vec<String>>,
     causes: BTreeMap<&'static str, u64>,
@@ -210,12 +205,9 @@ enum Run {
     Sensor(usize, Box<RunState>),
     /// A one-box magnitude (index) with its state.
     OneBox(usize, Box<OneBoxRun>),
-    /// A one-box magnitude after a clean sweep (index into [`AFTER_SWEEP_M`]) with its state (it holds the
-    /// previous frame too, within [`RUN_BYTES`]).
-    OneBoxAfterSweep(usize, Box<OneBoxRun>),
-    /// An every-box magnitude after a clean sweep (index into [`AFTER_SWEEP_M`]) with its state (as
-    /// [`Run::OneBoxAfterSweep`]).
-    EveryBoxAfterSweep(usize, Box<OneBoxRun>),
+    /// A condition after a clean sweep at one magnitude (index into [`AFTER_SWEEP_M`]) with its state (it holds
+    /// the previous frame too, within [`RUN_BYTES`]).
+    AfterSweep(AfterSweep, usize, Box<OneBoxRun>),
     /// The clean frames once more without their ROI (`None`: no monitor, no comparison).
     WithoutRoi(Option<Box<Monitor>>),
 }
@@ -227,16 +219,14 @@ enum RunOut {
     WithoutRoi(Option<u64>),
 }
 
-/// Which runs, in order: the sensor runs, the one-box magnitudes, the one-box magnitudes after a clean sweep, the
-/// every-box magnitudes after a clean sweep, the check without the ROI.
+/// Which runs, in order: the sensor runs, the one-box magnitudes, the magnitudes of each condition after a clean
+/// sweep (one box, then every box: [`AfterSweep::ALL`]), the check without the ROI.
 #[derive(Clone, Copy)]
 enum RunId {
     Sensor(usize),
     OneBox(usize),
-    /// Index into [`AFTER_SWEEP_M`] (a magnitude of the sweep).
-    OneBoxAfterSweep(usize),
-    /// Index into [`AFTER_SWEEP_M`] (a magnitude of the sweep).
-    EveryBoxAfterSweep(usize),
+    /// A condition and an index into [`AFTER_SWEEP_M`] (a magnitude of the sweep).
+    AfterSweep(AfterSweep, usize),
     WithoutRoi,
 }
 
@@ -262,8 +252,9 @@ fn stream_set(
         .filter(|(_, &x)| mags.iter().any(|&y| (y - x).abs() < 1e-9))
         .map(|(j, _)| j)
         .collect();
-    ids.extend(after_sweep.iter().map(|&j| RunId::OneBoxAfterSweep(j)));
-    ids.extend(after_sweep.iter().map(|&j| RunId::EveryBoxAfterSweep(j)));
+    for kind in AfterSweep::ALL {
+        ids.extend(after_sweep.iter().map(|&j| RunId::AfterSweep(kind, j)));
+    }
     ids.push(RunId::WithoutRoi);
     let mut pass = SetPass {
         label: String::new(),
@@ -274,8 +265,7 @@ fn stream_set(
         half: vec![Metrics::default(); mags.len()],
         consistent: vec![(0, 0); mags.len()],
         one_box: vec![OneBox::default(); mags.len()],
-        one_box_after_sweep: [None; 2],
-        every_box_after_sweep: [None; 2],
+        after_sweep: AfterSweepRuns::default(),
         missed_rows: Vec::new(),
         causes: BTreeMap::new(),
         clean_summary: CleanSummary::default(),
@@ -315,14 +305,9 @@ fn stream_set(
                         let mag = mags.get(m).copied().ok_or("internal: no such magnitude")?;
                         Run::OneBox(m, Box::new(OneBoxRun::new(&params, mag as f32)?))
                     }
-                    RunId::OneBoxAfterSweep(j) => {
+                    RunId::AfterSweep(kind, j) => {
                         let mag = AFTER_SWEEP_M.get(j).copied().ok_or("internal: no such magnitude")?;
-                        Run::OneBoxAfterSweep(j, Box::new(OneBoxRun::after_clean_sweep(&params, mag as f32)?))
-                    }
-                    RunId::EveryBoxAfterSweep(j) => {
-                        let mag = AFTER_SWEEP_M.get(j).copied().ok_or("internal: no such magnitude")?;
-                        let run = OneBoxRun::every_box_after_clean_sweep(&params, mag as f32)?;
-                        Run::EveryBoxAfterSweep(j, Box::new(run))
+                        Run::AfterSweep(kind, j, Box::new((kind.spec().new_run)(&params, mag as f32)?))
                     }
                     RunId::WithoutRoi => Run::WithoutRoi(Monitor::new(params).ok().map(Box::new)),
                 })
@@ -347,9 +332,7 @@ fn stream_set(
                         let details = jobs.get(*j).is_some_and(|x| x.details);
                         state.step(k, &df, details).map(RunOut::Sensor).map_err(|e| format!("{}: {e}", set.name))
                     }
-                    Run::OneBox(_, r) | Run::OneBoxAfterSweep(_, r) | Run::EveryBoxAfterSweep(_, r) => {
-                        r.step(k, &df).map(|()| RunOut::OneBox)
-                    }
+                    Run::OneBox(_, r) | Run::AfterSweep(_, _, r) => r.step(k, &df).map(|()| RunOut::OneBox),
                     Run::WithoutRoi(m) => Ok(RunOut::WithoutRoi(m.as_mut().and_then(|m| {
                         let mut frame = df.frame.clone();
                         frame.roi_in_ego.clear();
@@ -449,13 +432,8 @@ fn stream_set(
                         *x = r.out;
                     }
                 }
-                Run::OneBoxAfterSweep(j, r) => {
-                    if let Some(x) = pass.one_box_after_sweep.get_mut(j) {
-                        *x = Some(r.out);
-                    }
-                }
-                Run::EveryBoxAfterSweep(j, r) => {
-                    if let Some(x) = pass.every_box_after_sweep.get_mut(j) {
+                Run::AfterSweep(kind, j, r) => {
+                    if let Some(x) = pass.after_sweep.get_mut(kind).get_mut(j) {
                         *x = Some(r.out);
                     }
                 }
@@ -639,8 +617,9 @@ fn sensor_experiments_in_passes(
         ];
         // After a clean sweep (1 m and 2 m): a curve only where some frame followed a sweep (not single keyframes).
         let mut curves = curves;
-        curves.extend(after_sweep_curve(AfterSweep::OneBox, mags, &pass.one_box_after_sweep));
-        curves.extend(after_sweep_curve(AfterSweep::EveryBox, mags, &pass.every_box_after_sweep));
+        curves.extend(
+            AfterSweep::ALL.into_iter().filter_map(|kind| after_sweep_curve(kind, mags, pass.after_sweep.get(kind))),
+        );
         let spec = fig_spec(
             format!("real_position_{}", set.key),
             format!("Permanent position errors away from the ego, real LiDAR: {} (sensor checks)", pass.label),
@@ -687,8 +666,7 @@ fn sensor_experiments_in_passes(
                 let m = mags.iter().position(|&y| (y - x).abs() < 1e-9)?;
                 pass.one_box.get(m).copied()
             }),
-            one_box_after_sweep: pass.one_box_after_sweep,
-            every_box_after_sweep: pass.every_box_after_sweep,
+            after_sweep: pass.after_sweep,
         });
         let highlights = [0.5, 1.0, 1.5, 2.0];
         let hl = |c: &Curve| {
@@ -752,10 +730,8 @@ fn sensor_experiments_in_passes(
             let c = causes.iter().map(|(k, n)| format!("{k} {n}")).collect::<Vec<_>>().join(", ");
             cause_notes.push(format!("{} {}", set.key, if c.is_empty() { "none" } else { &c }));
             row.push(if c.is_empty() { "none".into() } else { c });
-            // One box displaced after a clean sweep (a column added after the others).
-            row.push(after_sweep_cell(AfterSweep::OneBox, &pass.one_box_after_sweep));
-            // Every box displaced at once after a clean sweep (the paper's form; a column after that one).
-            row.push(after_sweep_cell(AfterSweep::EveryBox, &pass.every_box_after_sweep));
+            // The conditions after a clean sweep (columns added after the others, one box then every box).
+            row.extend(AfterSweep::ALL.map(|kind| after_sweep_cell(kind, pass.after_sweep.get(kind))));
         }
 
         // Clean frames.
@@ -768,36 +744,28 @@ fn sensor_experiments_in_passes(
         }
     }
 
+    let mut columns: Vec<String> = [
+        "dataset",
+        "object states in scope (of all)",
+        "not verifiable at the smallest error",
+        "not verifiable at the largest error",
+        "recall, all boxes",
+        "recall, verifiable boxes",
+        "recall, boxes consistent on the clean frame",
+        "recall, boxes consistent on the clean frame, one box displaced at a time (occluded; collateral alarms \
+         on clean neighbours)",
+        "verifiable recall > 90 % from",
+        "precision, half the boxes displaced (seeds pooled)",
+        "not detected at the largest error, by cause",
+    ]
+    .map(String::from)
+    .to_vec();
+    columns.extend(AfterSweep::ALL.map(|kind| kind.spec().column));
     out.tables.push((
         "Real sensor: permanent position errors away from the ego (sensor checks, every box displaced unless \
          stated)"
             .into(),
-        [
-            "dataset",
-            "object states in scope (of all)",
-            "not verifiable at the smallest error",
-            "not verifiable at the largest error",
-            "recall, all boxes",
-            "recall, verifiable boxes",
-            "recall, boxes consistent on the clean frame",
-            "recall, boxes consistent on the clean frame, one box displaced at a time (occluded; collateral alarms \
-             on clean neighbours)",
-            "verifiable recall > 90 % from",
-            "precision, half the boxes displaced (seeds pooled)",
-            "not detected at the largest error, by cause",
-            format!(
-                "recall, boxes consistent on the clean frame, {AFTER_CLEAN_SWEEP} (occluded; collateral alarms on \
-                 clean neighbours)"
-            )
-            .as_str(),
-            format!(
-                "recall, boxes consistent on the clean frame, {EVERY_BOX_AFTER_CLEAN_SWEEP} (95 % Wilson interval; \
-                 occluded)"
-            )
-            .as_str(),
-        ]
-        .map(String::from)
-        .to_vec(),
+        columns,
         summary_rows,
     ));
     let largest = mags.last().copied().unwrap_or(f64::NAN);
@@ -888,40 +856,19 @@ fn sensor_experiments_in_passes(
          clean frame."
             .into(),
     );
-    out.notes.push(format!(
-        "Real sensor, {AFTER_CLEAN_SWEEP}: a condition beside the single sweep, reported apart from the claims. Only \
-         frames whose previous frame of the log lies at most max_time_step_s earlier count: before each displaced \
-         box's check (a fresh track memory) that previous frame is checked clean, so the tracker was right one sweep \
-         ago and is wrong now. The boxes are those consistent on their clean frame (a fresh memory, as above); \
-         'collateral' counts clean neighbours flagged in those checks and not on the clean frame checked after the \
-         same sweep. Single keyframes (KITTI object frames, the nuScenes keyframe) have no previous sweep: \
-         {NO_PREVIOUS_SWEEP}."
-    ));
-    out.notes.push(format!(
-        "Real sensor, {AFTER_CLEAN_SWEEP}, recall over the boxes consistent on the clean frame: {}.",
-        saturation
-            .iter()
-            .map(|sat| format!("{}: {}", sat.label, after_sweep_text(AfterSweep::OneBox, &sat.one_box_after_sweep)))
-            .collect::<Vec<_>>()
-            .join("; ")
-    ));
-    out.notes.push(format!(
-        "Real sensor, {EVERY_BOX_AFTER_CLEAN_SWEEP}: the paper displaces every box of the frame at once; this is that \
-         form of the condition after a clean sweep, reported apart from the claims. The frames are those of the \
-         one-box condition (a previous frame of the log at most max_time_step_s earlier); for each, the track memory \
-         is reset, the previous frame is checked clean, and then the frame with every box displaced away from the \
-         ego by the magnitude, as the every-box run does it. The boxes counted are those consistent on their clean \
-         frame (a fresh memory, as above), less those displaced out of the grid; no collateral alarms are counted \
-         (no box stays clean). Recall is given with its 95 % Wilson interval. Single keyframes have no previous sweep: {NO_PREVIOUS_SWEEP}."
-    ));
-    out.notes.push(format!(
-        "Real sensor, {EVERY_BOX_AFTER_CLEAN_SWEEP}, recall over the boxes consistent on the clean frame: {}.",
-        saturation
-            .iter()
-            .map(|sat| format!("{}: {}", sat.label, after_sweep_text(AfterSweep::EveryBox, &sat.every_box_after_sweep)))
-            .collect::<Vec<_>>()
-            .join("; ")
-    ));
+    for kind in AfterSweep::ALL {
+        let spec = kind.spec();
+        out.notes.push(spec.note);
+        out.notes.push(format!(
+            "Real sensor, {}, recall over the boxes consistent on the clean frame: {}.",
+            spec.name,
+            saturation
+                .iter()
+                .map(|sat| format!("{}: {}", sat.label, after_sweep_text(kind, sat.after_sweep.get(kind))))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+    }
     out.notes.push(format!(
         "Real sensor: the half-the-boxes runs repeat the same frames with {} different seeds (different halves) and \
          pool the counts; the samples share boxes, so their 95 % intervals are optimistic.",
