@@ -13,23 +13,15 @@ use pmon_campaign::experiments::{Curve, Figure};
 use pmon_campaign::real_data::{real_data_experiments_with, RealDataOptions, RealDataResults};
 use pmon_monitor::MonitorParams;
 
+mod common;
+
 const SEED: u64 = 20_240_611;
 
-/// `PMON_DATA_DIR`, or `<workspace root>/../shared/data`.
-fn data_dir() -> PathBuf {
-    std::env::var_os("PMON_DATA_DIR")
-        .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"), PathBuf::from)
-}
-
-/// The data folder, or `None` after printing why the test is skipped.
+/// The data folder ([`common::data_dir`]), or `None` after printing why the test is skipped.
 fn data() -> Option<PathBuf> {
-    let d = data_dir();
-    if d.join("nuscenes").exists() {
-        Some(d)
-    } else {
-        eprintln!("SKIPPED: real data not found at {} (set PMON_DATA_DIR to the shared data folder)", d.display());
-        None
-    }
+    let d = common::data_dir();
+    common::require(&d.join("nuscenes"), || format!("real data not found at {}", d.display()))?;
+    Some(d)
 }
 
 /// The smoke-sized run, computed once for all tests of this file.

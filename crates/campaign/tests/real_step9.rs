@@ -9,17 +9,13 @@ use pmon_datasets::roi::RoiOptions;
 use pmon_datasets::{open_with, ReadOptions};
 use pmon_monitor::{Monitor, MonitorParams, ObjectReport, SensorVerdict};
 
+mod common;
+
 /// The Argoverse 2 log with labels and two sweeps 0.1 s apart, or `None` after printing why the test is skipped.
 fn av2_log() -> Option<PathBuf> {
-    let data = std::env::var_os("PMON_DATA_DIR")
-        .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"), PathBuf::from);
-    let log = data.join("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede");
-    if log.exists() {
-        Some(log)
-    } else {
-        eprintln!("SKIPPED: {} not found (set PMON_DATA_DIR to the shared data folder)", log.display());
-        None
-    }
+    let log = common::data_dir().join("av2/sensor/val/7fab2350-7eaf-3b7e-a39d-6937a4c1bede");
+    common::require(&log, || format!("{} not found", log.display()))?;
+    Some(log)
 }
 
 /// The log's first sweep checked clean, then its second with every box displaced away from the ego by
