@@ -110,12 +110,26 @@ pub struct PairedFrame<'a> {
 pub fn paired_frames(
     scene: &Scene,
     spec: &RunSpec,
+    f: impl FnMut(&PairedFrame<'_>) -> Result<(), String>,
+) -> Result<(), String> {
+    let injector = Injector::for_scene(spec.injection, scene.frames.iter().map(|f| f.objects.as_slice()));
+    paired_frames_with(scene, spec, injector, f)
+}
+
+/// [`paired_frames`] with a given injector (for example one that displaces a single track,
+/// [`Injector::with_faulty_tracks`]).
+///
+/// # Errors
+/// As [`paired_frames`].
+pub fn paired_frames_with(
+    scene: &Scene,
+    spec: &RunSpec,
+    mut injector: Injector,
     mut f: impl FnMut(&PairedFrame<'_>) -> Result<(), String>,
 ) -> Result<(), String> {
     let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
     // The same monitor on the clean frames tells which objects the sensor can verify at all.
     let mut clean_monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
-    let mut injector = Injector::new(spec.injection);
     let (mut objects, mut confirmed, mut reports, mut clusters) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (k, clean) in scene.frames.iter().enumerate() {
         // Only the object list changes: copy it, lend the clean cloud.
@@ -157,13 +171,21 @@ pub fn paired_frames(
 /// # Errors
 /// Invalid parameters, or a frame the monitor refuses.
 pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
+    run_one_with(scene, spec, Injector::for_scene(spec.injection, scene.frames.iter().map(|f| f.objects.as_slice())))
+}
+
+/// [`run_one`] with a given injector (see [`paired_frames_with`]).
+///
+/// # Errors
+/// As [`run_one`].
+pub fn run_one_with(scene: &Scene, spec: &RunSpec, injector: Injector) -> Result<RunResult, String> {
     let mut outcomes = Vec::new();
     let mut missed = 0u64;
     let mut times = Vec::with_capacity(scene.frames.len());
     let (mut detected_example, mut missed_example, mut false_alarm_example, mut occluded_example) =
         (None, None, None, None);
     let mut injected = Vec::new();
-    paired_frames(scene, spec, |p| {
+    paired_frames_with(scene, spec, injector, |p| {
         let k = p.k;
         injected.clear();
         injected.resize(p.objects.len(), false);
@@ -262,7 +284,7 @@ pub fn replay_to(scene: &Scene, spec: &RunSpec, k: usize) -> Result<Replay, Stri
         return Err(format!("{} has {} frames, no frame {k}", scene.name, scene.frames.len()));
     }
     let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
-    let mut injector = Injector::new(spec.injection);
+    let mut injector = Injector::for_scene(spec.injection, scene.frames.iter().map(|f| f.objects.as_slice()));
     for (i, clean) in scene.frames.iter().enumerate().take(k + 1) {
         let mut frame = clean.clone();
         let injections = injector.apply_at(i as u64, clean.timestamp_s, &mut frame.objects);
