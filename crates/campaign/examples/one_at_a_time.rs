@@ -4,7 +4,8 @@
 //!
 //! `cargo run --release -p pmon-campaign --example one_at_a_time -- SEED [MAGNITUDE ...]`
 //!
-//! For each magnitude (default 1.0 and 2.0 m) and both cell sizes it takes the plan's run (`--quick` plan, the
+//! For each magnitude (default 1.0 and 2.0 m) and both cell sizes it takes the plan's run (`--quick` plan, or with
+//! `FULL=1` the full plan; the
 //! same scene, injection seed and faulty tracks as `pmon reproduce --quick --seed SEED`), prints how many tracks
 //! carry the error and how many the scene has, then runs the scene once per faulty track with that track alone
 //! displaced, and once with none (the clean baseline). It prints the isolated run's verifiable detections and
@@ -20,8 +21,8 @@ use pmon_monitor::MonitorParams;
 use pmon_scenario::Simulator;
 use rayon::prelude::*;
 
-fn pedestrians(seed: u64) -> Result<Scene, Box<dyn std::error::Error>> {
-    for spec in pmon_campaign::sim_tasks::scene_specs(true, seed, None)? {
+fn pedestrians(seed: u64, full: bool) -> Result<Scene, Box<dyn std::error::Error>> {
+    for spec in pmon_campaign::sim_tasks::scene_specs(!full, seed, None)? {
         if spec.name == "pedestrians" {
             let cfg = pmon_campaign::sim_tasks::scenario_config(&spec.name, spec.seed, Some(spec.duration_s))?;
             let mut sim = Simulator::new(&cfg).map_err(|e| format!("{}: {e}", spec.name))?;
@@ -40,10 +41,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seed: u64 = args.get(1).map_or(Ok(7), |s| s.parse())?;
     let mags: Vec<f64> =
         if args.len() > 2 { args.iter().skip(2).map(|s| s.parse()).collect::<Result<_, _>>()? } else { vec![1.0, 2.0] };
-    let scene = pedestrians(seed)?;
+    // `FULL=1`: the full plan's scene and runs (`pmon reproduce` without `--quick`).
+    let full = std::env::var_os("FULL").is_some();
+    let scene = pedestrians(seed, full)?;
     // The pedestrians scene is index 0 here: the plan's runs name it by `ids.pedestrians`.
     let ids = SceneIds { pedestrians: 0, intersection: 1, pedestrians_20hz: None, pedestrians_paper: None };
-    let plan = experiments::plan(Scale::Quick, ids, &MonitorParams::default(), seed);
+    let scale = if full { Scale::Full } else { Scale::Quick };
+    let plan = experiments::plan(scale, ids, &MonitorParams::default(), seed);
     let tracks: BTreeSet<u64> = scene.frames.iter().flat_map(|f| f.objects.iter().map(|o| o.id)).collect();
     let per_frame =
         scene.frames.iter().map(|f| f.objects.len()).sum::<usize>() as f64 / scene.frames.len().max(1) as f64;
