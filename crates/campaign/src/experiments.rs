@@ -292,7 +292,7 @@ pub fn figure_specs() -> Vec<FigureSpec> {
         fig(
             "permanent_position_one",
             "Permanent position errors away from the ego, hard conditions, one object at a time (faulty tracks never within 15 m of each other)",
-            "Fig. PositionError",
+            "beyond the paper (Fig. PositionError's errors, one faulty object at a time)",
             "position error [m]",
             "rate",
             vec![(true, 0.9, "90 %".into())],
