@@ -114,18 +114,19 @@ fn diamond_direction(a: f32) -> [f32; 2] {
     [dx / norm, dy / norm]
 }
 
-/// Bins the rasterize loop updates without a bounds test: every bin count the params allow (`visibility_bins` is
-/// at most 65,536), so that a bin index read as a `u16` indexes [`VisibilityMap`]'s fixed-size arrays.
-const FAST_BINS: usize = 1 << 16;
+/// The capacity of [`VisibilityMap`]'s fixed-size arrays: a map of at most this many bins (the default
+/// `visibility_bins` is 720) holds its bins in two arrays of exactly this length, which the rasterize loop indexes
+/// by the bin masked with `FAST_BINS - 1`, with no bounds test. A power of two.
+const FAST_BINS: usize = 1 << 10;
 
 /// Nearest-obstacle and farthest-return ranges per azimuth bin.
 ///
-/// The bins are two arrays, the nearest obstacle's [`key`]s and the farthest returns, each of [`FAST_BINS`]
-/// entries (of which the first `len` are the map; more only for a map of more bins, which validated params never
-/// ask for). The rasterize loop indexes them by a `u16` bin, with no bounds test and with the addressing mode's
-/// scale of 8 and 4 (one array of 16-byte records needed a shift and a bounds test per update: docs/performance.md,
-/// "Round perf17"). The arrays are allocated zeroed and only the first `len` entries are ever written or read, so
-/// on a hosted system only the pages of those are resident (720 bins: about 8.6 KB of the 768 KiB reserved).
+/// The bins are two arrays, the nearest obstacle's [`key`]s and the farthest returns. A map of at most
+/// [`FAST_BINS`] bins holds [`FAST_BINS`] entries in each (12 KiB; the first `len` are the map, the rest is never
+/// read or written), which the rasterize loop indexes by the bin masked, with no bounds test and with the
+/// addressing mode's scale of 8 and 4 (one array of 16-byte records needed a shift and a bounds test per update:
+/// docs/performance.md, "Round perf17"). A map of more bins holds `len` entries in each (12 bytes per bin) and
+/// takes the same updates with the bounds tested.
 #[derive(Clone)]
 pub struct VisibilityMap {
     /// Each bin's nearest obstacle as a [`key`] (`Bin::nearest_obstacle`).
@@ -156,7 +157,8 @@ impl VisibilityMap {
     #[must_use]
     pub fn new(bins: u32) -> Self {
         let n = bins.max(1) as usize;
-        // Zeroed (untouched pages stay unmapped on a hosted system); the used bins are emptied now and per frame.
+        // The used bins are emptied now and per frame; the entries beyond them (maps of fewer bins than
+        // `FAST_BINS`) are never read.
         let (near, far) = (vec![0u64; n.max(FAST_BINS)], vec![0.0f32; n.max(FAST_BINS)]);
         let mut map = Self { near, far, len: n, origin: [0.0, 0.0], bins_per_unit: n as f32 / 4.0 };
         map.reset([0.0, 0.0]);
@@ -210,10 +212,10 @@ impl VisibilityMap {
     /// first round, a 64-bit key `(r^2 bits << 32) | point index` in a second array of bins, copied into this one
     /// per frame.)
     ///
-    /// The bins are at most the last bin of [`VisibilityMap::bin_params`] (pass 1 clamps them), so below 65,536 in a
-    /// map of at most [`FAST_BINS`] bins: there each update indexes the fixed-size arrays by the bin's lower 16 bits,
-    /// with no bounds test (round perf17: 11 -> 9 instructions per update). A map of more bins takes the same
-    /// updates with the bounds tested.
+    /// The bins are at most the last bin of [`VisibilityMap::bin_params`] (pass 1 clamps them), so below
+    /// [`FAST_BINS`] in a map of at most [`FAST_BINS`] bins: there each update indexes the fixed-size arrays by the
+    /// bin masked with `FAST_BINS - 1` (the bin itself), with no bounds test (round perf17). A map of more bins
+    /// takes the same updates with the bounds tested.
     #[inline(always)]
     pub(crate) fn add_binned(&mut self, bins: &[u32; 64], far_r2: &[f32; 64], near_keys: &[[u32; 2]; 64]) {
         debug_assert!(bins.iter().all(|&b| (b as usize) < self.len));
@@ -226,10 +228,9 @@ impl VisibilityMap {
         if let (Ok(near_of), Ok(far_of)) = fast {
             for ((b, far), near) in bins.iter().zip(far_r2).zip(near_keys) {
                 for ((&b, &far), &[bits, cell]) in b.iter().zip(far).zip(near) {
-                    // Exact: `b < len <= FAST_BINS` (a `movzx` load of the bin's lower half).
-                    #[allow(clippy::cast_possible_truncation)]
-                    let b = usize::from(b as u16);
-                    // A `u16` below the arrays' length: no test is compiled for these `get_mut`s. On a
+                    // Exact: `b < len <= FAST_BINS`, so the mask keeps the bin.
+                    let b = b as usize & (FAST_BINS - 1);
+                    // An index below the arrays' length: no test is compiled for these `get_mut`s. On a
                     // little-endian processor the key is one 64-bit load: the pair lies in memory as its bytes.
                     if let (Some(n), Some(f)) = (near_of.get_mut(b), far_of.get_mut(b)) {
                         Self::update(n, f, far, key(bits, cell), bits);
@@ -541,21 +542,24 @@ mod tests {
         assert_eq!(map.get(0), Some(Bin::EMPTY), "no obstacle never wins");
     }
 
-    /// `add_binned` on the fixed-size arrays (maps of up to `FAST_BINS` bins, bins indexed by their lower 16 bits)
+    /// `add_binned` on the fixed-size arrays (maps of up to `FAST_BINS` bins, bins masked with `FAST_BINS - 1`)
     /// and on a larger map (bounds tested) is the straightforward update of one record per bin, return by return:
     /// random blocks with many ties, bins up to the last, the first and the last bin of each map. Fails when the
-    /// fast path reads a bin by other bits than its own (e.g. `b as u8`) or when a tie goes to the later return.
+    /// fast path reads a bin by other bits than its own (e.g. `b & 511`), when a map of more than `FAST_BINS` bins
+    /// takes the fast path, or when a tie goes to the later return.
     #[test]
-    fn updates_by_u16_bins_are_the_updates_of_records() {
+    fn updates_by_masked_bins_are_the_updates_of_records() {
         let mut draws = unit_draws(17);
         let mut draw = |n: usize| {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let v = ((f64::from(draws()) * n as f64) as usize).min(n - 1);
             v
         };
-        for bins in [1u32, 2, 720, 4096, 65_535, 65_536, 65_537, 70_000] {
+        for bins in [1u32, 2, 720, 1023, 1024, 1025, 2048, 4096, 65_535, 65_536, 70_000] {
             let n = bins as usize;
             let mut map = VisibilityMap::new(bins);
+            // Memory proportional to the map: the fixed capacity up to it, one entry per bin beyond.
+            assert_eq!((map.near.len(), map.far.len()), (n.max(FAST_BINS), n.max(FAST_BINS)), "{bins} bins");
             let mut want = vec![Bin::EMPTY; n];
             for block in 0..40 {
                 let mut b = [0u32; 64];
