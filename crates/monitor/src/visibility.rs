@@ -114,13 +114,42 @@ fn diamond_direction(a: f32) -> [f32; 2] {
     [dx / norm, dy / norm]
 }
 
+/// The capacity of [`VisibilityMap`]'s fixed-size arrays: a map of at most this many bins (the default
+/// `visibility_bins` is 720) holds its bins in two arrays of exactly this length, which the rasterize loop indexes
+/// by the bin masked with `FAST_BINS - 1`, with no bounds test. A power of two.
+const FAST_BINS: usize = 1 << 10;
+
 /// Nearest-obstacle and farthest-return ranges per azimuth bin.
-#[derive(Clone, Debug)]
+///
+/// The bins are two arrays, the nearest obstacle's [`key`]s and the farthest returns. A map of at most
+/// [`FAST_BINS`] bins holds [`FAST_BINS`] entries in each (12 KiB; the first `len` are the map, the rest is never
+/// read or written), which the rasterize loop indexes by the bin masked, with no bounds test and with the
+/// addressing mode's scale of 8 and 4 (one array of 16-byte records needed a shift and a bounds test per update:
+/// docs/performance.md, "Round perf17"). A map of more bins holds `len` entries in each (12 bytes per bin) and
+/// takes the same updates with the bounds tested.
+#[derive(Clone)]
 pub struct VisibilityMap {
-    /// One record per bin (a single bounds check per update).
-    bins: Vec<Bin>,
+    /// Each bin's nearest obstacle as a [`key`] (`Bin::nearest_obstacle`).
+    near: Vec<u64>,
+    /// Each bin's farthest return, `r^2` (`Bin::farthest_return_r2`).
+    far: Vec<f32>,
+    /// The number of bins (at least 1).
+    len: usize,
     origin: [f32; 2],
     bins_per_unit: f32,
+}
+
+impl core::fmt::Debug for VisibilityMap {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let (near, far) = self.bins();
+        let bins: Vec<Bin> =
+            near.iter().zip(far).map(|(&n, &r)| Bin { nearest_obstacle: n, farthest_return_r2: r }).collect();
+        f.debug_struct("VisibilityMap")
+            .field("bins", &bins)
+            .field("origin", &self.origin)
+            .field("bins_per_unit", &self.bins_per_unit)
+            .finish()
+    }
 }
 
 impl VisibilityMap {
@@ -128,23 +157,42 @@ impl VisibilityMap {
     #[must_use]
     pub fn new(bins: u32) -> Self {
         let n = bins.max(1) as usize;
-        Self { bins: vec![Bin::EMPTY; n], origin: [0.0, 0.0], bins_per_unit: n as f32 / 4.0 }
+        // The used bins are emptied now and per frame; the entries beyond them (maps of fewer bins than
+        // `FAST_BINS`) are never read.
+        let (near, far) = (vec![0u64; n.max(FAST_BINS)], vec![0.0f32; n.max(FAST_BINS)]);
+        let mut map = Self { near, far, len: n, origin: [0.0, 0.0], bins_per_unit: n as f32 / 4.0 };
+        map.reset([0.0, 0.0]);
+        map
     }
 
     /// Clears the map and sets the sensor origin (ego frame, metres).
     pub fn reset(&mut self, origin: [f32; 2]) {
-        self.bins.fill(Bin::EMPTY);
+        if let Some(near) = self.near.get_mut(..self.len) {
+            near.fill(Bin::EMPTY.nearest_obstacle);
+        }
+        if let Some(far) = self.far.get_mut(..self.len) {
+            far.fill(Bin::EMPTY.farthest_return_r2);
+        }
         self.origin = origin;
+    }
+
+    /// The map's bins: their nearest obstacles' keys and farthest returns (`len` each).
+    #[inline(always)]
+    fn bins(&self) -> (&[u64], &[f32]) {
+        (self.near.get(..self.len).unwrap_or_default(), self.far.get(..self.len).unwrap_or_default())
+    }
+
+    /// Bin `b`, `None` beyond the map.
+    #[inline(always)]
+    fn get(&self, b: usize) -> Option<Bin> {
+        let (near, far) = self.bins();
+        Some(Bin { nearest_obstacle: *near.get(b)?, farthest_return_r2: *far.get(b)? })
     }
 
     /// What the blocked rasteriser needs to bin returns itself (see `crate::rasterize`).
     #[must_use]
     pub(crate) fn bin_params(&self) -> BinParams {
-        BinParams {
-            origin: self.origin,
-            bins_per_unit: self.bins_per_unit,
-            last_bin: self.bins.len().saturating_sub(1),
-        }
+        BinParams { origin: self.origin, bins_per_unit: self.bins_per_unit, last_bin: self.len.saturating_sub(1) }
     }
 
     /// Records a block of returns already binned (see [`BinParams`]), in point order: the same map as
@@ -163,32 +211,59 @@ impl VisibilityMap {
     /// round rast16 the range's bits and the cell were two fields and two conditional moves; before issue #16's
     /// first round, a 64-bit key `(r^2 bits << 32) | point index` in a second array of bins, copied into this one
     /// per frame.)
+    ///
+    /// The bins are at most the last bin of [`VisibilityMap::bin_params`] (pass 1 clamps them), so below
+    /// [`FAST_BINS`] in a map of at most [`FAST_BINS`] bins: there each update indexes the fixed-size arrays by the
+    /// bin masked with `FAST_BINS - 1` (the bin itself), with no bounds test (round perf17). A map of more bins
+    /// takes the same updates with the bounds tested.
     #[inline(always)]
     pub(crate) fn add_binned(&mut self, bins: &[u32; 64], far_r2: &[f32; 64], near_keys: &[[u32; 2]; 64]) {
-        // Eight returns per turn of the loop: one loop test for eight updates (each update still tests its bin).
+        debug_assert!(bins.iter().all(|&b| (b as usize) < self.len));
+        // Eight returns per turn of the loop: one loop test for eight updates.
         let (bins, _) = bins.as_chunks::<8>();
         let (far_r2, _) = far_r2.as_chunks::<8>();
         let (near_keys, _) = near_keys.as_chunks::<8>();
-        for ((b, far), near) in bins.iter().zip(far_r2).zip(near_keys) {
-            for ((&b, &far), &[bits, cell]) in b.iter().zip(far).zip(near) {
-                // On a little-endian processor one 64-bit load: the pair lies in memory as the key's bytes.
-                self.add_keyed(b, far, key(bits, cell), bits);
+        let fast: (Result<&mut [u64; FAST_BINS], _>, Result<&mut [f32; FAST_BINS], _>) =
+            (self.near.as_mut_slice().try_into(), self.far.as_mut_slice().try_into());
+        if let (Ok(near_of), Ok(far_of)) = fast {
+            for ((b, far), near) in bins.iter().zip(far_r2).zip(near_keys) {
+                for ((&b, &far), &[bits, cell]) in b.iter().zip(far).zip(near) {
+                    // Exact: `b < len <= FAST_BINS`, so the mask keeps the bin.
+                    let b = b as usize & (FAST_BINS - 1);
+                    // An index below the arrays' length: no test is compiled for these `get_mut`s. On a
+                    // little-endian processor the key is one 64-bit load: the pair lies in memory as its bytes.
+                    if let (Some(n), Some(f)) = (near_of.get_mut(b), far_of.get_mut(b)) {
+                        Self::update(n, f, far, key(bits, cell), bits);
+                    }
+                }
+            }
+        } else {
+            let len = self.len;
+            let (near_of, far_of) = (&mut self.near, &mut self.far);
+            for ((b, far), near) in bins.iter().zip(far_r2).zip(near_keys) {
+                for ((&b, &far), &[bits, cell]) in b.iter().zip(far).zip(near) {
+                    let b = b as usize;
+                    if let (true, Some(n), Some(f)) = (b < len, near_of.get_mut(b), far_of.get_mut(b)) {
+                        Self::update(n, f, far, key(bits, cell), bits);
+                    }
+                }
             }
         }
     }
 
-    /// One return of [`VisibilityMap::add_binned`].
+    /// One return of [`VisibilityMap::add_binned`] into its bin's nearest obstacle `n` and farthest return `f`.
     #[inline(always)]
-    fn add_keyed(&mut self, b: u32, far: f32, near: u64, bits: u32) {
-        if let Some(bin) = self.bins.get_mut(b as usize) {
-            // The farthest return: a `maxss` (neither range is NaN).
-            bin.farthest_return_r2 = if far > bin.farthest_return_r2 { far } else { bin.farthest_return_r2 };
-            // The nearest obstacle. An empty bin holds `INFINITY`, whose bits are below `u32::MAX`, so a point
-            // that is no obstacle never wins. Whether a return is the nearest so far is not predictable in real
-            // sweeps: no branch.
-            let old = bin.nearest_obstacle;
-            bin.nearest_obstacle = core::hint::select_unpredictable(bits < bin.nearest_r2_bits(), near, old);
-        }
+    fn update(n: &mut u64, f: &mut f32, far: f32, near: u64, bits: u32) {
+        // The farthest return: a `maxss` (neither range is NaN).
+        *f = if far > *f { far } else { *f };
+        // The nearest obstacle. An empty bin holds `INFINITY`, whose bits are below `u32::MAX`, so a point that is
+        // no obstacle never wins. Whether a return is the nearest so far is not predictable in real sweeps: no
+        // branch.
+        let old = *n;
+        // The lower half: the truncation is the point.
+        #[allow(clippy::cast_possible_truncation)]
+        let old_bits = old as u32;
+        *n = core::hint::select_unpredictable(bits < old_bits, near, old);
     }
 
     /// Folds in a map of the returns that came after this map's (same bins and origin): per bin the farthest of
@@ -196,32 +271,38 @@ impl VisibilityMap {
     /// which came first): the map one pass over both sets of returns in order gives. For the rasterize stage on
     /// two threads (`crate::split`).
     pub(crate) fn absorb(&mut self, other: &VisibilityMap) {
-        for (bin, o) in self.bins.iter_mut().zip(&other.bins) {
-            bin.farthest_return_r2 = if o.farthest_return_r2 > bin.farthest_return_r2 {
-                o.farthest_return_r2
-            } else {
-                bin.farthest_return_r2
-            };
-            if o.nearest_r2_bits() < bin.nearest_r2_bits() {
-                bin.nearest_obstacle = o.nearest_obstacle;
+        let (o_near, o_far) = other.bins();
+        let len = self.len;
+        let near = self.near.get_mut(..len).unwrap_or_default();
+        for (n, &o) in near.iter_mut().zip(o_near) {
+            #[allow(clippy::cast_possible_truncation)]
+            if (o as u32) < (*n as u32) {
+                *n = o;
             }
+        }
+        let far = self.far.get_mut(..len).unwrap_or_default();
+        for (f, &o) in far.iter_mut().zip(o_far) {
+            *f = if o > *f { o } else { *f };
         }
     }
 
     /// The three arrays (nearest obstacle r^2, its cell, farthest return r^2), for bit-exact comparisons.
     #[cfg(test)]
     pub(crate) fn arrays(&self) -> (Vec<f32>, Vec<u32>, Vec<f32>) {
+        let (near, far) = self.bins();
+        let bins: Vec<Bin> =
+            near.iter().zip(far).map(|(&n, &r)| Bin { nearest_obstacle: n, farthest_return_r2: r }).collect();
         (
-            self.bins.iter().map(|b| b.nearest_obstacle_r2()).collect(),
-            self.bins.iter().map(|b| b.nearest_obstacle_cell()).collect(),
-            self.bins.iter().map(|b| b.farthest_return_r2).collect(),
+            bins.iter().map(|b| b.nearest_obstacle_r2()).collect(),
+            bins.iter().map(|b| b.nearest_obstacle_cell()).collect(),
+            bins.iter().map(|b| b.farthest_return_r2).collect(),
         )
     }
 
     #[inline]
     fn bin(&self, dx: f32, dy: f32) -> usize {
         let b = (diamond_angle(dx, dy) * self.bins_per_unit) as usize;
-        b.min(self.bins.len().saturating_sub(1))
+        b.min(self.len.saturating_sub(1))
     }
 
     /// Records a return at an ego-frame position; `obstacle` for points in the height band, with the grid
@@ -232,12 +313,13 @@ impl VisibilityMap {
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
         let b = self.bin(dx, dy);
-        if let Some(bin) = self.bins.get_mut(b) {
-            if r2 > bin.farthest_return_r2 {
-                bin.farthest_return_r2 = r2;
+        let len = self.len;
+        if let (true, Some(near), Some(far)) = (b < len, self.near.get_mut(b), self.far.get_mut(b)) {
+            if r2 > *far {
+                *far = r2;
             }
-            if obstacle && r2 < bin.nearest_obstacle_r2() {
-                bin.nearest_obstacle = key(r2.to_bits(), cell);
+            if obstacle && r2 < f32::from_bits(*near as u32) {
+                *near = key(r2.to_bits(), cell);
             }
         }
     }
@@ -279,7 +361,7 @@ impl VisibilityMap {
     /// rounding) holds no return beyond the box or an obstacle within `margin` (and 0.1 mm) of its far corner.
     #[must_use]
     pub fn box_seen_empty(&self, b: [f32; 4], margin: f32) -> bool {
-        if self.bins.is_empty() || !(b.iter().all(|v| v.is_finite()) && margin.is_finite()) {
+        if self.len == 0 || !(b.iter().all(|v| v.is_finite()) && margin.is_finite()) {
             return false;
         }
         // Slack for the rounding of the positions the look-ups are given (nearest points of shifted boxes): a
@@ -308,7 +390,7 @@ impl VisibilityMap {
     /// [`VisibilityMap::box_seen_empty`] of a box (relative to the origin, already widened) within one closed
     /// quadrant, with the squared range bound `r2_up` of the whole box.
     fn quadrant_box_seen_empty(&self, q: [f64; 4], r2_up: f64, margin: f32) -> bool {
-        let n = self.bins.len();
+        let n = self.len;
         // Within one quadrant the extremes of the angle are at corners; a bin more on each side covers the
         // look-ups' rounding (a few ulps against a bin of 4 / n).
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
@@ -327,8 +409,9 @@ impl VisibilityMap {
             return false;
         }
         let r_up = libm::sqrt(r2_up);
-        let Some(bins) = self.bins.get(b_lo..=b_hi) else { return false };
-        bins.iter().all(|bin| {
+        let (near, far) = self.bins();
+        let (Some(near), Some(far)) = (near.get(b_lo..=b_hi), far.get(b_lo..=b_hi)) else { return false };
+        near.iter().zip(far).map(|(&n, &r)| Bin { nearest_obstacle: n, farthest_return_r2: r }).all(|bin| {
             let near = f64::from(bin.nearest_obstacle_r2());
             f64::from(bin.farthest_return_r2) >= r2_up
                 && if bin.nearest_obstacle_cell() == NO_CELL {
@@ -345,7 +428,7 @@ impl VisibilityMap {
         let dx = x - self.origin[0];
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
-        let bin = self.bins.get(self.bin(dx, dy)).copied();
+        let bin = self.get(self.bin(dx, dy));
         let near = bin.map_or(0.0, |b| b.nearest_obstacle_r2());
         let far = bin.map_or(0.0, |b| b.farthest_return_r2);
         let sight = if r2 >= near {
@@ -365,7 +448,7 @@ impl VisibilityMap {
         let dx = x - self.origin[0];
         let dy = y - self.origin[1];
         let r2 = dx * dx + dy * dy;
-        let bin = self.bins.get(self.bin(dx, dy)).copied()?;
+        let bin = self.get(self.bin(dx, dy))?;
         (r2 < bin.nearest_obstacle_r2() && r2 <= bin.farthest_return_r2 && bin.nearest_obstacle_cell() != NO_CELL)
             .then(|| (libm::sqrtf(bin.nearest_obstacle_r2()) - libm::sqrtf(r2), bin.nearest_obstacle_cell()))
     }
@@ -374,7 +457,7 @@ impl VisibilityMap {
     /// `None` when the bin holds no obstacle inside the grid. Exact (the return's own range), not a cell's.
     #[must_use]
     pub fn nearest_obstacle(&self, x: f32, y: f32) -> Option<(f32, u32)> {
-        let bin = self.bins.get(self.bin(x - self.origin[0], y - self.origin[1])).copied()?;
+        let bin = self.get(self.bin(x - self.origin[0], y - self.origin[1]))?;
         (bin.nearest_obstacle_cell() != NO_CELL)
             .then(|| (libm::sqrtf(bin.nearest_obstacle_r2()), bin.nearest_obstacle_cell()))
     }
@@ -402,10 +485,10 @@ impl VisibilityMap {
         if !(lo <= hi && hi - lo < 2.0) {
             return false;
         }
-        let n = self.bins.len();
+        let n = self.len;
         let (first, last) = ((lo * self.bins_per_unit) as usize, (hi * self.bins_per_unit) as usize);
         for b in first..=last.min(first.saturating_add(n / 2)) {
-            if let Some(bin) = self.bins.get(b % n) {
+            if let Some(bin) = self.get(b % n) {
                 if bin.nearest_obstacle_cell() != NO_CELL {
                     let r = libm::sqrtf(bin.nearest_obstacle_r2());
                     let d = diamond_direction(((b % n) as f32 + 0.5) / self.bins_per_unit);
@@ -443,10 +526,12 @@ mod tests {
                 for &c_new in &cells {
                     for &c_old in &cells {
                         let mut map = VisibilityMap::new(1);
-                        map.bins[0].nearest_obstacle = key(r_old, c_old);
+                        if let Some(n) = map.near.get_mut(0) {
+                            *n = key(r_old, c_old);
+                        }
                         map.add_binned(&[0; 64], &[0.0; 64], &[[r_new, c_new]; 64]);
                         let want = if r_new < r_old { (r_new, c_new) } else { (r_old, c_old) };
-                        let bin = map.bins[0];
+                        let bin = map.get(0).unwrap();
                         assert_eq!((bin.nearest_r2_bits(), bin.nearest_obstacle_cell()), want);
                     }
                 }
@@ -454,7 +539,57 @@ mod tests {
         }
         let mut map = VisibilityMap::new(1);
         map.add_binned(&[0; 64], &[0.0; 64], &[[u32::MAX, 5]; 64]);
-        assert_eq!(map.bins[0], Bin::EMPTY, "no obstacle never wins");
+        assert_eq!(map.get(0), Some(Bin::EMPTY), "no obstacle never wins");
+    }
+
+    /// `add_binned` on the fixed-size arrays (maps of up to `FAST_BINS` bins, bins masked with `FAST_BINS - 1`)
+    /// and on a larger map (bounds tested) is the straightforward update of one record per bin, return by return:
+    /// random blocks with many ties, bins up to the last, the first and the last bin of each map. Fails when the
+    /// fast path reads a bin by other bits than its own (e.g. `b & 511`), when a map of more than `FAST_BINS` bins
+    /// takes the fast path, or when a tie goes to the later return.
+    #[test]
+    fn updates_by_masked_bins_are_the_updates_of_records() {
+        let mut draws = unit_draws(17);
+        let mut draw = |n: usize| {
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let v = ((f64::from(draws()) * n as f64) as usize).min(n - 1);
+            v
+        };
+        for bins in [1u32, 2, 720, 1023, 1024, 1025, 2048, 4096, 65_535, 65_536, 70_000] {
+            let n = bins as usize;
+            let mut map = VisibilityMap::new(bins);
+            // Memory proportional to the map: the fixed capacity up to it, one entry per bin beyond.
+            assert_eq!((map.near.len(), map.far.len()), (n.max(FAST_BINS), n.max(FAST_BINS)), "{bins} bins");
+            let mut want = vec![Bin::EMPTY; n];
+            for block in 0..40 {
+                let mut b = [0u32; 64];
+                let mut far = [0.0f32; 64];
+                let mut near = [[0u32; 2]; 64];
+                for i in 0..64 {
+                    // A few bins per block (ties and repeats), the first and the last among them.
+                    let pick = [0, n - 1, draw(n), draw(n)];
+                    b[i] = pick[draw(4)] as u32;
+                    far[i] = if draw(3) == 0 { 0.0 } else { draw(50) as f32 * 0.5 };
+                    let bits = if draw(4) == 0 { u32::MAX } else { (draw(20) as f32 * 0.25).to_bits() };
+                    near[i] = [bits, (block * 64 + i) as u32];
+                }
+                map.add_binned(&b, &far, &near);
+                for i in 0..64 {
+                    let w = &mut want[b[i] as usize];
+                    if far[i] > w.farthest_return_r2 {
+                        w.farthest_return_r2 = far[i];
+                    }
+                    if near[i][0] < w.nearest_r2_bits() {
+                        w.nearest_obstacle = key(near[i][0], near[i][1]);
+                    }
+                }
+            }
+            let got: Vec<Bin> = (0..n).map(|b| map.get(b).unwrap()).collect();
+            assert_eq!(got, want, "{bins} bins");
+            assert_eq!(map.get(n), None);
+            map.reset([0.0, 0.0]);
+            assert!((0..n).all(|b| map.get(b) == Some(Bin::EMPTY)), "{bins} bins after a reset");
+        }
     }
 
     /// `box_seen_empty` is sound: wherever it answers true, every point of the box and of a half-millimetre rim

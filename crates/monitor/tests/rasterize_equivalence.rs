@@ -373,7 +373,7 @@ proptest! {
         clouds in proptest::collection::vec(proptest::collection::vec(arb_point(), 0..300), 2),
         cell_size_m in prop_oneof![Just(0.5f32), Just(0.2), Just(0.37), Just(1.0)],
         grid_size_m in prop_oneof![Just(100.0f32), Just(40.0), Just(73.3)],
-        bins in prop_oneof![Just(8u32), Just(720), Just(1001), Just(65_536)],
+        bins in prop_oneof![Just(8u32), Just(720), Just(1001), Just(1024), Just(1025), Just(65_536)],
         ground_z_m in -0.3f32..0.3,
         yaw in -3.2f32..3.2,
         offset in (-2.0f32..2.0, -2.0f32..2.0, 0.0f32..2.5),
