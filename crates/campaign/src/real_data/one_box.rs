@@ -297,8 +297,7 @@ pub(super) struct AfterSweepSpec {
 }
 
 impl AfterSweep {
-    /// The conditions, in the order of their runs, curves, columns and notes (and of [`AfterSweepRuns`]: each
-    /// kind's discriminant is its index here).
+    /// The conditions, in the order of their runs, curves, columns and notes.
     pub(super) const ALL: [Self; 2] = [Self::OneBox, Self::EveryBox];
 
     /// The condition's names, run and report forms.
@@ -368,18 +367,28 @@ impl AfterSweep {
 }
 
 /// The runs after a clean sweep, per condition (by [`AfterSweep`]), each at [`AFTER_SWEEP_M`] (`None`: not run).
+/// One field per condition, chosen by a `match`: a new condition that is not given one does not compile.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(super) struct AfterSweepRuns([[Option<OneBox>; 2]; AfterSweep::ALL.len()]);
+pub(super) struct AfterSweepRuns {
+    one_box: [Option<OneBox>; 2],
+    every_box: [Option<OneBox>; 2],
+}
 
 impl AfterSweepRuns {
     /// The runs of one condition.
     pub(super) fn get(&self, kind: AfterSweep) -> &[Option<OneBox>; 2] {
-        &self.0[kind as usize]
+        match kind {
+            AfterSweep::OneBox => &self.one_box,
+            AfterSweep::EveryBox => &self.every_box,
+        }
     }
 
     /// The runs of one condition, to store their counts.
     pub(super) fn get_mut(&mut self, kind: AfterSweep) -> &mut [Option<OneBox>; 2] {
-        &mut self.0[kind as usize]
+        match kind {
+            AfterSweep::OneBox => &mut self.one_box,
+            AfterSweep::EveryBox => &mut self.every_box,
+        }
     }
 }
 
@@ -699,8 +708,8 @@ mod tests {
         assert!(after_sweep_curve(AfterSweep::EveryBox, &[1.0, 2.0], &v).is_none());
     }
 
-    /// [`AfterSweepRuns`] keeps each condition at its discriminant: [`AfterSweep::ALL`] lists them in that order,
-    /// and each condition's runs are its own.
+    /// [`AfterSweep::ALL`] lists every condition once, in the order of the report, and each condition's runs in
+    /// [`AfterSweepRuns`] are its own.
     #[test]
     fn the_conditions_after_a_clean_sweep_are_listed_in_the_order_of_their_runs() {
         for (i, kind) in AfterSweep::ALL.into_iter().enumerate() {
