@@ -15,11 +15,10 @@ use std::collections::BTreeSet;
 
 use pmon_campaign::experiments::{self, Scale, SceneIds};
 use pmon_campaign::inject::isolated_tracks;
-use pmon_campaign::run::{run_one, run_one_with};
-use pmon_campaign::{Injector, Scene};
+use pmon_campaign::run::{each_track_alone, run_one};
+use pmon_campaign::Scene;
 use pmon_monitor::MonitorParams;
 use pmon_scenario::Simulator;
-use rayon::prelude::*;
 
 fn pedestrians(seed: u64, full: bool) -> Result<Scene, Box<dyn std::error::Error>> {
     for spec in pmon_campaign::sim_tasks::scene_specs(!full, seed, None)? {
@@ -69,28 +68,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             let spec = &spec;
             let cells = spec.params.cell_size_m;
-            let faulty = isolated_tracks(
-                spec.injection.isolation_m,
-                spec.injection.isolation_set,
-                scene.frames.iter().map(|f| f.objects.as_slice()),
-            );
+            let faulty =
+                isolated_tracks(spec.injection.isolation_m, spec.injection.isolation_set, scene.object_lists());
             let isolated = run_one(&scene, spec)?.metrics;
-            let alone: Vec<_> = faulty
-                .iter()
-                .map(|&id| BTreeSet::from([id]))
-                .chain(std::iter::once(BTreeSet::new()))
-                .collect::<Vec<_>>()
-                .into_par_iter()
-                .map(|set| {
-                    run_one_with(&scene, spec, Injector::with_faulty_tracks(spec.injection, set)).map(|r| r.metrics)
-                })
-                .collect::<Result<Vec<_>, _>>()?;
-            let (singles, baseline) = alone.split_at(alone.len() - 1);
-            let fa0 = baseline.first().map_or(0, |b| b.sensor.false_alarms());
-            let sum = |f: &dyn Fn(&pmon_campaign::metrics::Metrics) -> u64| singles.iter().map(f).sum::<u64>();
-            let (inj, det) = (sum(&|x| x.sensor_verifiable.injected), sum(&|x| x.sensor_verifiable.detected));
-            let true_alarms = sum(&|x| x.sensor.true_alarms);
-            let fa = sum(&|x| x.sensor.false_alarms().saturating_sub(fa0)) + fa0;
+            let alone = each_track_alone(&scene, spec, &faulty)?;
+            let (det, inj, true_alarms, fa, fa0) = (
+                alone.verifiable_detected,
+                alone.verifiable_injected,
+                alone.true_alarms,
+                alone.false_alarms,
+                alone.baseline_false_alarms,
+            );
             let pct = |a: u64, b: u64| if b == 0 { f64::NAN } else { 100.0 * a as f64 / b as f64 };
             println!(
                 "{m:.1} m, {cells} m cells, set {}: {} faulty tracks | isolated run: verifiable {}/{} ({:.1} %), alarms {} true {} false ({:.1} % precision) | each alone: verifiable {det}/{inj} ({:.1} %), alarms {true_alarms} true {fa} false ({:.1} %); clean baseline {fa0} false alarms",

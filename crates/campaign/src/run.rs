@@ -1,5 +1,6 @@
 //! Runs the monitor over a scene with a fault injected, and scores it.
 
+use std::collections::BTreeSet;
 use std::time::Instant;
 
 use pmon_monitor::{
@@ -21,6 +22,20 @@ pub struct Scene {
     pub source: String,
     /// The frames, in time order.
     pub frames: Vec<RecordedFrame>,
+}
+
+impl Scene {
+    /// The frames' object lists, in order (what [`Injector::for_scene`] and
+    /// [`crate::inject::isolated_tracks`] read).
+    pub fn object_lists(&self) -> impl Iterator<Item = &[ObjectState]> {
+        self.frames.iter().map(|f| f.objects.as_slice())
+    }
+
+    /// The injector of a run of `spec` over this scene.
+    #[must_use]
+    pub fn injector(&self, spec: &RunSpec) -> Injector {
+        Injector::for_scene(spec.injection, self.object_lists())
+    }
 }
 
 /// One run: a scene, monitor parameters and an injection.
@@ -112,8 +127,7 @@ pub fn paired_frames(
     spec: &RunSpec,
     f: impl FnMut(&PairedFrame<'_>) -> Result<(), String>,
 ) -> Result<(), String> {
-    let injector = Injector::for_scene(spec.injection, scene.frames.iter().map(|f| f.objects.as_slice()));
-    paired_frames_with(scene, spec, injector, f)
+    paired_frames_with(scene, spec, scene.injector(spec), f)
 }
 
 /// [`paired_frames`] with a given injector (for example one that displaces a single track,
@@ -171,7 +185,7 @@ pub fn paired_frames_with(
 /// # Errors
 /// Invalid parameters, or a frame the monitor refuses.
 pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
-    run_one_with(scene, spec, Injector::for_scene(spec.injection, scene.frames.iter().map(|f| f.objects.as_slice())))
+    run_one_with(scene, spec, scene.injector(spec))
 }
 
 /// [`run_one`] with a given injector (see [`paired_frames_with`]).
@@ -243,6 +257,50 @@ pub fn run_one_with(scene: &Scene, spec: &RunSpec, injector: Injector) -> Result
     })
 }
 
+/// What running each of `tracks` alone (the only faulty track of the run, [`Injector::with_faulty_tracks`])
+/// scores, summed: the check that a run of one object at a time ([`InjectionConfig::isolation_m`]) is that.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AloneSums {
+    /// Verifiable errors, summed over the runs.
+    pub verifiable_injected: u64,
+    /// Of those, detected.
+    pub verifiable_detected: u64,
+    /// Alarms explained by an injection, summed.
+    pub true_alarms: u64,
+    /// False alarms: each run's less the clean run's, summed, plus the clean run's once.
+    pub false_alarms: u64,
+    /// The false alarms of the run with no faulty track.
+    pub baseline_false_alarms: u64,
+    /// Runs with fewer false alarms than the clean run (a faulty track that silenced a clean run's alarm; counted
+    /// as 0 in `false_alarms`).
+    pub below_baseline: u64,
+}
+
+/// Runs `spec` on `scene` once per track of `tracks` with that track alone faulty, and once with none (in parallel;
+/// the sums do not depend on the order), and sums their scores ([`AloneSums`]).
+///
+/// # Errors
+/// As [`run_one`].
+pub fn each_track_alone(scene: &Scene, spec: &RunSpec, tracks: &BTreeSet<u64>) -> Result<AloneSums, String> {
+    let sets: Vec<BTreeSet<u64>> =
+        tracks.iter().map(|&id| BTreeSet::from([id])).chain(std::iter::once(BTreeSet::new())).collect();
+    let metrics = sets
+        .into_par_iter()
+        .map(|set| run_one_with(scene, spec, Injector::with_faulty_tracks(spec.injection, set)).map(|r| r.metrics))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (singles, baseline) = metrics.split_at(metrics.len().saturating_sub(1));
+    let fa0 = baseline.first().map_or(0, |b| b.sensor.false_alarms());
+    let sum = |f: &dyn Fn(&Metrics) -> u64| singles.iter().map(f).sum::<u64>();
+    Ok(AloneSums {
+        verifiable_injected: sum(&|m| m.sensor_verifiable.injected),
+        verifiable_detected: sum(&|m| m.sensor_verifiable.detected),
+        true_alarms: sum(&|m| m.sensor.true_alarms),
+        false_alarms: sum(&|m| m.sensor.false_alarms().saturating_sub(fa0)) + fa0,
+        baseline_false_alarms: fa0,
+        below_baseline: sum(&|m| u64::from(m.sensor.false_alarms() < fa0)),
+    })
+}
+
 /// Runs every spec in parallel (rayon); results come back in spec order, identical whatever the number of
 /// threads (timings aside). `progress` is called once per finished run.
 ///
@@ -284,7 +342,7 @@ pub fn replay_to(scene: &Scene, spec: &RunSpec, k: usize) -> Result<Replay, Stri
         return Err(format!("{} has {} frames, no frame {k}", scene.name, scene.frames.len()));
     }
     let mut monitor = Monitor::new(spec.params).map_err(|e| e.to_string())?;
-    let mut injector = Injector::for_scene(spec.injection, scene.frames.iter().map(|f| f.objects.as_slice()));
+    let mut injector = scene.injector(spec);
     for (i, clean) in scene.frames.iter().enumerate().take(k + 1) {
         let mut frame = clean.clone();
         let injections = injector.apply_at(i as u64, clean.timestamp_s, &mut frame.objects);

@@ -142,8 +142,7 @@ pub struct VisibilityMap {
 impl core::fmt::Debug for VisibilityMap {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         let (near, far) = self.bins();
-        let bins: Vec<Bin> =
-            near.iter().zip(far).map(|(&n, &r)| Bin { nearest_obstacle: n, farthest_return_r2: r }).collect();
+        let bins: Vec<Bin> = Self::records(near, far).collect();
         f.debug_struct("VisibilityMap")
             .field("bins", &bins)
             .field("origin", &self.origin)
@@ -180,6 +179,11 @@ impl VisibilityMap {
     #[inline(always)]
     fn bins(&self) -> (&[u64], &[f32]) {
         (self.near.get(..self.len).unwrap_or_default(), self.far.get(..self.len).unwrap_or_default())
+    }
+
+    /// The bins of the two arrays `near` and `far` (one range of the map's), as records.
+    fn records<'a>(near: &'a [u64], far: &'a [f32]) -> impl Iterator<Item = Bin> + 'a {
+        near.iter().zip(far).map(|(&n, &r)| Bin { nearest_obstacle: n, farthest_return_r2: r })
     }
 
     /// Bin `b`, `None` beyond the map.
@@ -290,8 +294,7 @@ impl VisibilityMap {
     #[cfg(test)]
     pub(crate) fn arrays(&self) -> (Vec<f32>, Vec<u32>, Vec<f32>) {
         let (near, far) = self.bins();
-        let bins: Vec<Bin> =
-            near.iter().zip(far).map(|(&n, &r)| Bin { nearest_obstacle: n, farthest_return_r2: r }).collect();
+        let bins: Vec<Bin> = Self::records(near, far).collect();
         (
             bins.iter().map(|b| b.nearest_obstacle_r2()).collect(),
             bins.iter().map(|b| b.nearest_obstacle_cell()).collect(),
@@ -411,7 +414,7 @@ impl VisibilityMap {
         let r_up = libm::sqrt(r2_up);
         let (near, far) = self.bins();
         let (Some(near), Some(far)) = (near.get(b_lo..=b_hi), far.get(b_lo..=b_hi)) else { return false };
-        near.iter().zip(far).map(|(&n, &r)| Bin { nearest_obstacle: n, farthest_return_r2: r }).all(|bin| {
+        Self::records(near, far).all(|bin| {
             let near = f64::from(bin.nearest_obstacle_r2());
             f64::from(bin.farthest_return_r2) >= r2_up
                 && if bin.nearest_obstacle_cell() == NO_CELL {
