@@ -87,7 +87,7 @@ pub fn frame_verdicts(ctx: &FrameContext<'_>, objects: &[ObjectState], rep: &Fra
                 verdict: verdict_code(r.verdict),
                 verdict_name: r.verdict.name().into(),
                 reason: match r.verdict {
-                    Verdict::NotMonitored(reason) => reason.name().into(),
+                    Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => reason.name().into(),
                     Verdict::ImplausibleMotion(c) => c.to_string(),
                     _ => String::new(),
                 },
@@ -159,6 +159,8 @@ pub fn diagnostics(v: &FrameVerdicts) -> DiagnosticArray {
 
 /// One `diagnostic_msgs/DiagnosticStatus` per check, each with a level a system can act on (docs/ros2.md):
 /// - object consistency: ERROR on a ghost or position error, WARN when the sensor checks did not run, else OK;
+///   beside the counts of alarms, the objects the sensor checks could not judge (`not_monitored` and
+///   `motion_only_consistent`), in total and by reason;
 /// - missed objects: ERROR when evidence no object explains was found, WARN when the sensor checks did not
 ///   run, else OK;
 /// - motion plausibility: ERROR on implausible motion, else OK (it runs without a cloud);
@@ -192,6 +194,14 @@ pub fn check_statuses(v: &FrameVerdicts) -> Vec<DiagnosticStatus> {
     let not_run = || (level::WARN, format!("not run: {}", v.sensor_status));
     let (ghosts, position) = (count(1), count(2));
     let mut consistency = vec![kv("ghosts", ghosts.to_string()), kv("position_errors", position.to_string())];
+    // The objects the sensor checks could not judge, counted by reason (not alarms, changing no level): a
+    // planner should know which of its objects nobody confirmed (occluded, outside the grid, ...).
+    let mut unjudged = std::collections::BTreeMap::<&str, usize>::new();
+    for o in v.objects.iter().filter(|o| o.verdict == 4 || o.verdict == 5) {
+        *unjudged.entry(if o.reason.is_empty() { "unknown" } else { o.reason.as_str() }).or_default() += 1;
+    }
+    consistency.push(kv("not_judged_by_sensor", unjudged.values().sum::<usize>().to_string()));
+    consistency.extend(unjudged.iter().map(|(r, n)| kv(&format!("not_judged_by_sensor: {r}"), n.to_string())));
     consistency.extend(alarm_values(&[1, 2]));
     let consistency_level = if ghosts + position > 0 {
         (level::ERROR, format!("{ghosts} ghosts, {position} position errors"))
@@ -271,6 +281,29 @@ mod tests {
             ]
         );
         assert!(s[0].values.iter().any(|kv| kv.key == "object 2" && kv.value.starts_with("ghost")));
+        let keys = |s: &DiagnosticStatus| -> Vec<(String, String)> {
+            s.values.iter().map(|kv| (kv.key.clone(), kv.value.clone())).collect()
+        };
+        assert!(keys(&s[0]).contains(&("not_judged_by_sensor".into(), "0".into())), "{:?}", s[0]);
+        // Objects the sensor checks could not judge are counted by reason, and change no level.
+        v.objects = vec![
+            verdict(1, 0, "consistent", ""),
+            verdict(4, 4, "not_monitored", "outside_grid"),
+            verdict(5, 5, "motion_only_consistent", "occluded"),
+            verdict(6, 5, "motion_only_consistent", "occluded"),
+        ];
+        let s = check_statuses(&v);
+        assert_eq!(s[0].level, level::OK);
+        let k = keys(&s[0]);
+        let at = k.iter().position(|(key, _)| key == "not_judged_by_sensor").unwrap();
+        assert_eq!(
+            k[at..],
+            [
+                ("not_judged_by_sensor".to_string(), "3".to_string()),
+                ("not_judged_by_sensor: occluded".to_string(), "2".to_string()),
+                ("not_judged_by_sensor: outside_grid".to_string(), "1".to_string()),
+            ]
+        );
         // Without a cloud: the sensor checks WARN, motion still judged.
         v.sensor_status = "no_lidar_data".into();
         v.cloud_paired = false;

@@ -91,3 +91,18 @@ fn objects_in_a_frame_without_transform_are_not_monitored() {
     assert_eq!(frames[0].objects[0].verdict_name, "not_monitored");
     assert_eq!(frames[0].objects[0].reason, "invalid_state");
 }
+
+#[test]
+fn an_object_judged_by_its_motion_only_carries_the_reason_the_sensor_could_not_judge_it() {
+    let topic = BagConfig::default().objects_topic;
+    let mut second = objects(1, "base_link");
+    second.header.stamp.nanosec = 100_000_000;
+    let bytes =
+        bag(&topic, &[(encode(&objects(1, "base_link")).unwrap(), TRACKED), (encode(&second).unwrap(), TRACKED)]);
+    let (s, frames) = run(&bytes);
+    s.unwrap();
+    assert_eq!(frames.len(), 2);
+    // No cloud in the bag: the second frame's object is judged by the plausibility checks alone, and says why.
+    assert_eq!(frames[1].objects[0].verdict_name, "motion_only_consistent", "{:?}", frames[1].objects[0]);
+    assert_eq!(frames[1].objects[0].reason, "no_lidar_data", "{:?}", frames[1].objects[0]);
+}
