@@ -535,12 +535,11 @@ fn object_result(r: &ObjectReport) -> PmonObjectResult {
         severity: 0.0,
     };
     write_display(&mut out.verdict_name, &r.verdict.name());
-    match r.verdict {
-        Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => {
-            write_display(&mut out.reason_name, &reason);
-        }
-        Verdict::ImplausibleMotion(c) => write_display(&mut out.conditions_text, &c),
-        _ => {}
+    if let Some(reason) = r.verdict.not_monitored_reason() {
+        write_display(&mut out.reason_name, &reason);
+    }
+    if let Verdict::ImplausibleMotion(c) = r.verdict {
+        write_display(&mut out.conditions_text, &c);
     }
     if let Some(kind) = r.motion.kind {
         write_display(&mut out.kind_name, &kind.name());

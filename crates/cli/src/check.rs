@@ -210,10 +210,7 @@ fn object_record<'a>(f: &RecordedFrame, o: &'a ObjectState, r: &ObjectReport) ->
         id: r.id,
         class: o.class.name(),
         verdict: r.verdict.name(),
-        reason: match r.verdict {
-            Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => Some(reason.name()),
-            _ => None,
-        },
+        reason: r.verdict.not_monitored_reason().map(NotMonitoredReason::name),
         conditions: match r.verdict {
             Verdict::ImplausibleMotion(c) => Some(c.to_string()),
             _ => None,

@@ -352,6 +352,17 @@ impl Verdict {
         }
     }
 
+    /// Why the sensor checks could not judge the object, for the two verdicts that carry a reason
+    /// (`not_monitored`, `motion_only_consistent`); `None` for the others. Every front end reports it beside the
+    /// verdict (an object nobody confirmed, and why).
+    #[must_use]
+    pub const fn not_monitored_reason(self) -> Option<NotMonitoredReason> {
+        match self {
+            Self::NotMonitored(r) | Self::MotionOnlyConsistent(r) => Some(r),
+            _ => None,
+        }
+    }
+
     /// Short snake_case name.
     #[must_use]
     pub const fn name(self) -> &'static str {
@@ -585,6 +596,7 @@ mod tests {
         for reason in [R::Occluded, R::NoLidarData, R::EmptyCloud, R::OutsideGrid, R::TooManyPoints, R::InvalidCloud] {
             let v = Verdict::combine(SensorVerdict::NotMonitored(reason), MotionVerdict::Plausible);
             assert_eq!(v, Verdict::MotionOnlyConsistent(reason));
+            assert_eq!(v.not_monitored_reason(), Some(reason));
             assert!(!v.is_alarm());
             assert_ne!(v.name(), "consistent");
         }
@@ -596,5 +608,9 @@ mod tests {
             MotionVerdict::NotMonitored(R::FirstFrameOfTrack),
         );
         assert_eq!(v, Verdict::NotMonitored(R::Occluded));
+        assert_eq!(v.not_monitored_reason(), Some(R::Occluded));
+        for v in [Verdict::Consistent, Verdict::Ghost, Verdict::PositionError] {
+            assert_eq!(v.not_monitored_reason(), None);
+        }
     }
 }

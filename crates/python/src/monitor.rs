@@ -311,10 +311,7 @@ fn report_columns(rep: &FrameReport<'_>) -> ReportColumns {
     for r in rep.objects {
         c.id.push(r.id);
         verdict.push(r.verdict, |v| v.name().to_string());
-        reason.push(r.verdict, |v| match v {
-            Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => reason.name().to_string(),
-            _ => String::new(),
-        });
+        reason.push(r.verdict, |v| v.not_monitored_reason().map_or_else(String::new, |r| r.name().to_string()));
         conditions.push(r.verdict, |v| match v {
             Verdict::ImplausibleMotion(cond) => cond.to_string(),
             _ => String::new(),

@@ -86,10 +86,10 @@ pub fn frame_verdicts(ctx: &FrameContext<'_>, objects: &[ObjectState], rep: &Fra
                 id: r.id,
                 verdict: verdict_code(r.verdict),
                 verdict_name: r.verdict.name().into(),
-                reason: match r.verdict {
-                    Verdict::NotMonitored(reason) | Verdict::MotionOnlyConsistent(reason) => reason.name().into(),
-                    Verdict::ImplausibleMotion(c) => c.to_string(),
-                    _ => String::new(),
+                reason: match (r.verdict.not_monitored_reason(), r.verdict) {
+                    (Some(reason), _) => reason.name().into(),
+                    (None, Verdict::ImplausibleMotion(c)) => c.to_string(),
+                    (None, _) => String::new(),
                 },
                 x_m: o.x_m,
                 y_m: o.y_m,
