@@ -279,6 +279,45 @@ fn marked_points(map: &[u8; EDGE_MAP], cells: &[u32]) -> u64 {
     marked
 }
 
+/// Every obstacle-band return of the sweep that may stand in a cell the prefilter `edge_map` marks, in the order
+/// of the sweep, as `visit(cell, point in the sensor frame)`: the scan of `roi_by_returns` and `roi_by_amount`.
+/// Through the cells the rasterizer recorded per point, 64 at a time ([`marked_points`]: no branch per point), when
+/// they were recorded for this sweep; else (never with the capacities of `new`) by a pass over the sweep that finds
+/// each band return outside the ego footprint and its cell. Either way `visit` tests the cell's flags itself (they
+/// may change as it goes, and the prefilter only narrows down) and transforms the point when it wants it.
+fn for_each_marked_return(
+    edge_map: &[u8],
+    point_cells: &[u32],
+    cloud: Cloud<'_>,
+    band: crate::rasterize::Band,
+    geometry: GridGeometry,
+    mut visit: impl FnMut(u32, [f32; 3]),
+) {
+    let points = cloud.points;
+    let map = <&[u8; EDGE_MAP]>::try_from(edge_map).ok();
+    if let Some(map) = map.filter(|_| point_cells.len() == points.len()) {
+        for (block_index, cells) in point_cells.chunks(64).enumerate() {
+            let mut marked = marked_points(map, cells);
+            while marked != 0 {
+                let i = marked.trailing_zeros() as usize;
+                marked &= marked - 1;
+                let (Some(&cell), Some(p)) = (cells.get(i), points.get(block_index * 64 + i)) else { continue };
+                visit(cell, p);
+            }
+        }
+    } else {
+        for p in (0..points.len()).filter_map(|i| points.get(i)) {
+            let q = cloud.ego_from_sensor.transform(p);
+            if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
+                continue;
+            }
+            if let Some(cell) = geometry.point_to_cell(q[0], q[1]) {
+                visit(cell, p);
+            }
+        }
+    }
+}
+
 impl Monitor {
     /// Validates the parameters and allocates every buffer.
     ///
@@ -1002,46 +1041,19 @@ impl Monitor {
     /// returns reach into the area is one although its cells' centres lie outside.
     fn roi_by_returns(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
         let Some(cloud) = cloud else { return };
-        let t = cloud.ego_from_sensor;
-        let (points, roi) = (cloud.points, frame.roi_in_ego);
-        let map = <&[u8; EDGE_MAP]>::try_from(self.edge_map.as_slice()).ok();
-        if let Some(map) = map.filter(|_| self.point_cells.len() == points.len()) {
-            // 64 points at a time: which of them may lie in a marked cell, as a mask from the prefilter (no branch
-            // per point, and no bounds test: a 16-bit index into 65,536 bytes; `NO_CELL` reads byte 0xFFFF), then
-            // those points alone, each checked against its cell's flags (exact also where cells share a byte).
-            for (block_index, cells) in self.point_cells.chunks(64).enumerate() {
-                let mut marked = marked_points(map, cells);
-                while marked != 0 {
-                    let i = marked.trailing_zeros() as usize;
-                    marked &= marked - 1;
-                    let Some(&cell) = cells.get(i) else { continue };
-                    if self.grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) != FLAG_ROI_EDGE {
-                        continue;
-                    }
-                    let Some(p) = points.get(block_index * 64 + i) else { continue };
-                    let q = t.transform(p);
-                    if self.roi.contains(roi, cell, q[0], q[1]) {
-                        self.grid.set_flags(cell, FLAG_RETURN_IN_ROI);
-                    }
-                }
+        let (t, roi) = (cloud.ego_from_sensor, frame.roi_in_ego);
+        let (band, geometry) = (self.band(), self.grid.geometry);
+        let (grid, index) = (&mut self.grid, &self.roi);
+        // Each edge cell until one of its returns is inside (then its flag skips the rest of them).
+        for_each_marked_return(&self.edge_map, &self.point_cells, cloud, band, geometry, |cell, p| {
+            if grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) != FLAG_ROI_EDGE {
+                return;
             }
-        } else {
-            // Not recorded (never with the capacities of `new`): the same returns, found by a pass over the sweep.
-            let band = self.band();
-            let geometry = self.grid.geometry;
-            for p in (0..points.len()).filter_map(|i| points.get(i)) {
-                let q = t.transform(p);
-                if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
-                    continue;
-                }
-                let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
-                if self.grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) == FLAG_ROI_EDGE
-                    && self.roi.contains(roi, cell, q[0], q[1])
-                {
-                    self.grid.set_flags(cell, FLAG_RETURN_IN_ROI);
-                }
+            let q = t.transform(p);
+            if index.contains(roi, cell, q[0], q[1]) {
+                grid.set_flags(cell, FLAG_RETURN_IN_ROI);
             }
-        }
+        });
         for (k, &(start, end)) in self.cluster_spans.iter().enumerate() {
             let Some(c) = self.clusters.get_mut(k) else { continue };
             if c.in_roi {

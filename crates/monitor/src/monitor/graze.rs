@@ -42,47 +42,22 @@ impl Monitor {
     pub(super) fn roi_by_amount(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>, edges: bool) {
         let Some(cloud) = cloud else { return };
         let t = cloud.ego_from_sensor;
-        let (points, roi) = (cloud.points, frame.roi_in_ego);
+        let roi = frame.roi_in_ego;
         if edges {
-            let map = <&[u8; EDGE_MAP]>::try_from(self.edge_map.as_slice()).ok();
-            if let Some(map) = map.filter(|_| self.point_cells.len() == points.len()) {
-                // The recorded cells, 64 at a time through the prefilter (as `roi_by_returns`), every return of a
-                // marked cell tested.
-                for (block_index, cells) in self.point_cells.chunks(64).enumerate() {
-                    let mut marked = marked_points(map, cells);
-                    while marked != 0 {
-                        let i = marked.trailing_zeros() as usize;
-                        marked &= marked - 1;
-                        let Some(&cell) = cells.get(i) else { continue };
-                        if self.grid.flags(cell) & FLAG_ROI_EDGE == 0 {
-                            continue;
-                        }
-                        let Some(p) = points.get(block_index * 64 + i) else { continue };
-                        let q = t.transform(p);
-                        if self.roi.contains(roi, cell, q[0], q[1]) {
-                            if let Some(n) = self.roi_cell_counts.get_mut(cell as usize) {
-                                *n = n.saturating_add(1);
-                            }
-                        }
+            let (band, geometry) = (self.band(), self.grid.geometry);
+            let (grid, index, counts) = (&self.grid, &self.roi, &mut self.roi_cell_counts);
+            // Every return of an edge cell, counted when inside.
+            for_each_marked_return(&self.edge_map, &self.point_cells, cloud, band, geometry, |cell, p| {
+                if grid.flags(cell) & FLAG_ROI_EDGE == 0 {
+                    return;
+                }
+                let q = t.transform(p);
+                if index.contains(roi, cell, q[0], q[1]) {
+                    if let Some(n) = counts.get_mut(cell as usize) {
+                        *n = n.saturating_add(1);
                     }
                 }
-            } else {
-                // Not recorded (never with the capacities of `new`): the same returns, by a pass over the sweep.
-                let band = self.band();
-                let geometry = self.grid.geometry;
-                for p in (0..points.len()).filter_map(|i| points.get(i)) {
-                    let q = t.transform(p);
-                    if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
-                        continue;
-                    }
-                    let Some(cell) = geometry.point_to_cell(q[0], q[1]) else { continue };
-                    if self.grid.flags(cell) & FLAG_ROI_EDGE != 0 && self.roi.contains(roi, cell, q[0], q[1]) {
-                        if let Some(n) = self.roi_cell_counts.get_mut(cell as usize) {
-                            *n = n.saturating_add(1);
-                        }
-                    }
-                }
-            }
+            });
         }
         // The amount: in with the fraction, out with none inside, else tall or not decides.
         let fraction = self.params.roi_graze_fraction;
