@@ -11,7 +11,7 @@
 //! - Errors on objects that the sensor does not confirm even without the error (occluded, too few points:
 //!   `eta < tau_tp` in the clean frame) are counted as *not verifiable*.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use serde::{Deserialize, Serialize};
 
@@ -136,13 +136,52 @@ impl Metrics {
     }
 }
 
+/// One track's share of a run's sensor-check counts (the clusters of an interval by track).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TrackTally {
+    /// Object (track) id.
+    pub id: u64,
+    /// Its verifiable injected errors in scope (its share of [`Metrics::sensor_verifiable`]`.injected`).
+    pub verifiable: u64,
+    /// Of those, detected by the sensor checks.
+    pub detected: u64,
+    /// Its sensor alarms in scope (its share of [`Metrics::sensor`]`.alarms`).
+    pub alarms: u64,
+    /// Of those, explained by an injection.
+    pub true_alarms: u64,
+}
+
 /// Scores a run's outcomes (any order) with a plausibility window of `window >= 1` frames.
 #[must_use]
 pub fn score(outcomes: &[Outcome], window: u64, frames: u64, missed_object_alarms: u64) -> Metrics {
+    score_by_track(outcomes, window, frames, missed_object_alarms).0
+}
+
+/// [`score`], and the sensor checks' counts per track (sorted by id; only tracks with a verifiable error or an
+/// alarm): they add up to `sensor_verifiable.{injected, detected}` and `sensor.{alarms, true_alarms}`.
+#[must_use]
+pub fn score_by_track(
+    outcomes: &[Outcome],
+    window: u64,
+    frames: u64,
+    missed_object_alarms: u64,
+) -> (Metrics, Vec<TrackTally>) {
     let window = window.max(1);
     let by_key: HashMap<(u64, u64), &Outcome> = outcomes.iter().map(|o| ((o.id, o.frame), o)).collect();
     let mut m = Metrics { frames, missed_object_alarms, ..Metrics::default() };
+    let mut tracks: BTreeMap<u64, TrackTally> = BTreeMap::new();
     for o in outcomes.iter().filter(|o| o.in_scope) {
+        if (o.injected && o.sensor_judged) || o.sensor_alarm {
+            let t = tracks.entry(o.id).or_insert(TrackTally { id: o.id, ..TrackTally::default() });
+            if o.injected && o.sensor_judged {
+                t.verifiable += 1;
+                t.detected += u64::from(o.sensor_alarm);
+            }
+            if o.sensor_alarm {
+                t.alarms += 1;
+                t.true_alarms += u64::from(o.injected);
+            }
+        }
         m.states_in_scope += 1;
         if !o.injected {
             m.clean_states_in_scope += 1;
@@ -179,7 +218,7 @@ pub fn score(outcomes: &[Outcome], window: u64, frames: u64, missed_object_alarm
             m.combined.true_alarms += u64::from(explained);
         }
     }
-    m
+    (m, tracks.into_values().collect())
 }
 
 #[cfg(test)]
@@ -208,6 +247,40 @@ mod tests {
         }
         assert_eq!(Rate::wilson(38, 38).hi, 1.0);
         assert_eq!(Rate::wilson(0, 38).lo, 0.0);
+    }
+
+    /// The per-track counts add up to the run's totals, whatever mix of scope, injections, verifiability and
+    /// alarms the states carry.
+    #[test]
+    fn track_tallies_add_up_to_the_totals() {
+        let mut x = 99u64;
+        let mut bit = |one_in: u64| {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (x >> 33).is_multiple_of(one_in)
+        };
+        let mut outs = Vec::new();
+        for frame in 0..50 {
+            for id in [3, 17, 4, 99, 8, 1000] {
+                outs.push(Outcome {
+                    frame,
+                    id,
+                    in_scope: !bit(8),
+                    injected: bit(2),
+                    sensor_alarm: bit(3),
+                    sensor_judged: !bit(4),
+                    plausibility_alarm: bit(5),
+                });
+            }
+        }
+        let (m, tracks) = score_by_track(&outs, 2, 50, 0);
+        assert_eq!(m, score(&outs, 2, 50, 0));
+        let sum = |f: fn(&TrackTally) -> u64| tracks.iter().map(f).sum::<u64>();
+        assert_eq!(
+            (sum(|t| t.verifiable), sum(|t| t.detected), sum(|t| t.alarms), sum(|t| t.true_alarms)),
+            (m.sensor_verifiable.injected, m.sensor_verifiable.detected, m.sensor.alarms, m.sensor.true_alarms)
+        );
+        assert!(m.sensor_verifiable.injected > 0 && m.sensor.alarms > m.sensor.true_alarms);
+        assert_eq!(tracks.iter().map(|t| t.id).collect::<Vec<_>>(), [3, 4, 8, 17, 99, 1000]);
     }
 
     fn o(frame: u64, injected: bool, s: bool, p: bool) -> Outcome {
