@@ -61,6 +61,32 @@ def cli_records(pmon_bin, spec, *extra):
     return [r for r in records if r.get("record") != "totals"]
 
 
+# `pmon reproduce` on the smoke plan (every figure and every curve of --quick, three points per sweep: 68 runs against
+# --quick's 264) over 1 s scenes, to keep CI short; no real data (that part runs in the driving process whatever the
+# scheduler). test_reproduce.py compares it with the scheduled runs, test_intervals.py recomputes its intervals.
+REPRODUCE_ARGS = ["reproduce", "--smoke", "--duration-s", "1", "--seed", "5"]
+
+
+def run_reproduce(pmon_bin, out, *extra):
+    """`pmon reproduce` with REPRODUCE_ARGS into `out`, no real data; the finished process."""
+    import sys
+
+    # One absent data folder for every run: its path is in the report's notes.
+    p = subprocess.run([str(pmon_bin), *REPRODUCE_ARGS, "--data", "/nonexistent/pmon-test-no-data", "--out", str(out),
+                        "--python", sys.executable, *extra], capture_output=True, text=True, timeout=900)
+    assert p.returncode == 0, p.stderr
+    return p
+
+
+@pytest.fixture(scope="session")
+def reproduce_local(pmon_bin, tmp_path_factory):
+    """The single-process `pmon reproduce` (REPRODUCE_ARGS): its report folder, made once for the session."""
+    local = tmp_path_factory.mktemp("reproduce-local") / "local"
+    run_reproduce(pmon_bin, local, "--quiet")
+    assert not Path(str(local) + ".run").exists()  # the local run needs no run folder
+    return local
+
+
 @pytest.fixture(scope="module")
 def cluster():
     """A Dask LocalCluster of 2 single-thread worker processes, one per test module (skipped without Dask)."""

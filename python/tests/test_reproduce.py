@@ -7,17 +7,14 @@ import io
 import json
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from pmon import campaign
 
-# The smoke plan (every figure and every curve of --quick, three points per sweep: 68 runs against --quick's 264)
-# over 1 s scenes, to keep CI short; no real data (that part runs in the driving process whatever the scheduler).
-# The comparison is the same as with --quick: every run a task on the cluster, the bytes of every report file.
-ARGS = ["reproduce", "--smoke", "--duration-s", "1", "--seed", "5"]
+from conftest import REPRODUCE_ARGS as ARGS
+from conftest import run_reproduce
 
 # The timing fields of `pmon reproduce`'s outputs: the run's wall time, the measured latency (its number and its
 # row of the claims table, verdict included); latency.csv is left out.
@@ -48,21 +45,13 @@ def report(out):
 
 
 def reproduce(pmon_bin, tmp, out, *extra):
-    # One absent data folder for every run: its path is in the report's notes.
-    p = subprocess.run([str(pmon_bin), *ARGS, "--data", "/nonexistent/pmon-test-no-data", "--out", str(out),
-                        "--python", sys.executable, *extra], capture_output=True, text=True, timeout=900)
-    assert p.returncode == 0, p.stderr
-    return p
+    return run_reproduce(pmon_bin, out, *extra)
 
 
 @pytest.fixture(scope="module")
-def local_report(pmon_bin, tmp_path_factory):
-    """The single-process run's report (masked), made once for the module."""
-    tmp = tmp_path_factory.mktemp("reproduce-local")
-    local = tmp / "local"
-    reproduce(pmon_bin, tmp, local, "--quiet")
-    assert not Path(str(local) + ".run").exists()  # the local run needs no run folder
-    return report(local)
+def local_report(reproduce_local):
+    """The single-process run's report (masked)."""
+    return report(reproduce_local)
 
 
 def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_path, local_report):

@@ -4,12 +4,14 @@
 //! The plan is data: [`plan`] returns the runs and, for each, which curve points it feeds; [`assemble`]
 //! turns run results into [`Figure`]s (curves with 95 % intervals) and [`Claim`]s (paper vs pmon).
 
+use std::collections::BTreeMap;
+
 use pmon_monitor::theory::{dv_min_mps, dv_min_transient_accel_only_mps, Margins, SpeedError};
 use pmon_monitor::{MonitorParams, PlausibilityMode};
 use serde::{Deserialize, Serialize};
 
 use crate::inject::{Direction, Fault, InjectionConfig};
-use crate::metrics::{Metrics, Rate};
+use crate::metrics::{clustered_wilson, ClusteredRate, Metrics, Rate};
 use crate::run::{RunResult, RunSpec};
 
 /// Which number of a run a curve point shows.
@@ -52,6 +54,20 @@ impl Measure {
             Self::CombinedPrecision => m.combined.precision(),
             Self::SensorFalseAlarmRate => m.false_alarm_rate(&m.sensor),
             Self::PlausibilityFalseAlarmRate => m.false_alarm_rate(&m.plausibility),
+        }
+    }
+
+    /// The per-track `(track, k, n)` of this measure in a run (tracks with `n > 0`), for the measures whose counts
+    /// are kept per track: sensor recall over verifiable errors and sensor precision. `None` for the others.
+    #[must_use]
+    pub fn by_track(self, r: &RunResult) -> Option<Vec<(u64, u64, u64)>> {
+        let tally = |f: fn(&crate::metrics::TrackTally) -> (u64, u64)| {
+            r.tracks.iter().map(|t| (t.id, f(t))).filter(|(_, (_, n))| *n > 0).map(|(id, (k, n))| (id, k, n)).collect()
+        };
+        match self {
+            Self::SensorRecallVerifiable => Some(tally(|t| (t.detected, t.verifiable))),
+            Self::SensorPrecision => Some(tally(|t| (t.true_alarms, t.alarms))),
+            _ => None,
         }
     }
 }
@@ -98,12 +114,42 @@ pub struct FigureSpec {
 }
 
 /// One point of a curve.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Point {
     /// x.
     pub x: f64,
-    /// The rate with its interval.
+    /// The rate with its interval (over object states, as if independent).
     pub rate: Rate,
+    /// The interval clustered by track ([`clustered_wilson`] over the clusters of `clusters`), where the measure
+    /// keeps its counts per track ([`Measure::by_track`]) and they add up to `rate`'s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub by_track: Option<ClusteredRate>,
+    /// The clusters behind `by_track`: one per run feeding the point and track (not in the JSON; written as
+    /// `<figure>_tracks.csv`).
+    #[serde(skip)]
+    pub clusters: Vec<Cluster>,
+}
+
+impl Point {
+    /// A point with its per-state interval only.
+    #[must_use]
+    pub fn new(x: f64, rate: Rate) -> Self {
+        Self { x, rate, by_track: None, clusters: Vec::new() }
+    }
+}
+
+/// One track of one run behind a point: its `k` of `n`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cluster {
+    /// The run, counted among the runs that feed the point (0 when one run does; 0 to 2 for the three sets of one
+    /// object at a time), in plan order.
+    pub run: u64,
+    /// Track (object) id.
+    pub track: u64,
+    /// Successes.
+    pub k: u64,
+    /// Trials.
+    pub n: u64,
 }
 
 /// A curve.
@@ -666,13 +712,18 @@ pub fn plan(scale: Scale, ids: SceneIds, base: &MonitorParams, seed: u64) -> Vec
     runs
 }
 
-/// Collects run results into figures (curves sorted by x, in first-seen order).
+/// Collects run results into figures (curves sorted by x, in first-seen order). Points of a measure kept per track
+/// ([`Measure::by_track`]) also get the interval clustered by track, the clusters being (run, track) pairs; it is
+/// left out (`None`) where the per-track counts do not add up to the point's (results written before they were
+/// kept).
 #[must_use]
 pub fn assemble(planned: &[PlannedRun], results: &[RunResult]) -> Vec<Figure> {
     let mut figures: Vec<Figure> = figure_specs().into_iter().map(|spec| Figure { spec, curves: Vec::new() }).collect();
+    // Per point (figure, curve, x): the runs that fed it so far, and whether every one kept its counts per track.
+    let mut fed: BTreeMap<(usize, usize, u64), (u64, bool)> = BTreeMap::new();
     for (run, res) in planned.iter().zip(results) {
         for p in &run.probes {
-            let Some(fig) = figures.iter_mut().find(|f| f.spec.id == p.figure) else { continue };
+            let Some((fi, fig)) = figures.iter_mut().enumerate().find(|(_, f)| f.spec.id == p.figure) else { continue };
             let idx = match fig.curves.iter().position(|c| c.label == p.curve) {
                 Some(i) => i,
                 None => {
@@ -688,15 +739,33 @@ pub fn assemble(planned: &[PlannedRun], results: &[RunResult]) -> Vec<Figure> {
                 let rate = p.measure.of(&res.metrics);
                 // Several runs feed one point (one object at a time: a run per set of isolated tracks): their
                 // counts add up.
-                match c.points.iter_mut().find(|q| q.x == p.x) {
-                    Some(q) => q.rate = Rate::wilson(q.rate.k + rate.k, q.rate.n + rate.n),
-                    None => c.points.push(Point { x: p.x, rate }),
+                if !c.points.iter().any(|q| q.x == p.x) {
+                    c.points.push(Point::new(p.x, Rate::wilson(0, 0)));
                 }
+                let Some(q) = c.points.iter_mut().find(|q| q.x == p.x) else { continue };
+                q.rate = Rate::wilson(q.rate.k + rate.k, q.rate.n + rate.n);
+                let (run, kept) = fed.entry((fi, idx, p.x.to_bits())).or_insert((0, true));
+                match p.measure.by_track(res) {
+                    Some(tracks) => {
+                        q.clusters.extend(tracks.into_iter().map(|(track, k, n)| Cluster { run: *run, track, k, n }))
+                    }
+                    None => *kept = false,
+                }
+                *run += 1;
             }
         }
     }
-    for f in &mut figures {
-        for c in &mut f.curves {
+    for (fi, f) in figures.iter_mut().enumerate() {
+        for (ci, c) in f.curves.iter_mut().enumerate() {
+            for q in &mut c.points {
+                let kept = fed.get(&(fi, ci, q.x.to_bits())).is_some_and(|&(_, kept)| kept);
+                let sums = q.clusters.iter().fold((0, 0), |(k, n), c| (k + c.k, n + c.n));
+                let pairs: Vec<(u64, u64)> = q.clusters.iter().map(|c| (c.k, c.n)).collect();
+                q.by_track = if kept && sums == (q.rate.k, q.rate.n) { clustered_wilson(&pairs).ok() } else { None };
+                if q.by_track.is_none() {
+                    q.clusters.clear();
+                }
+            }
             c.points.sort_by(|a, b| a.x.total_cmp(&b.x));
         }
     }
@@ -776,6 +845,29 @@ fn fmt_rate(r: &Rate) -> String {
     }
 }
 
+/// A rate with its per-state interval and, where kept, the interval by track: `95.1 % [93.0, 96.6] / [85.2, 98.9]
+/// (40 tracks)`.
+fn fmt_both(r: &Rate, t: Option<&ClusteredRate>) -> String {
+    if r.n == 0 {
+        return "n/a".into();
+    }
+    let pct = |v: f64| 100.0 * v;
+    let by_track = t.map_or("n/a".into(), |t| format!("[{:.1}, {:.1}] ({} tracks)", pct(t.lo), pct(t.hi), t.clusters));
+    format!("{:.1} % [{:.1}, {:.1}] / {by_track}", pct(r.value), pct(r.lo), pct(r.hi))
+}
+
+/// Recall and precision at the first point from `x` on, both intervals: the permanent-position claims' detail.
+fn both_intervals_at(r: &Curve, p: &Curve, x: f64) -> Option<String> {
+    let at = r.points.iter().find(|q| q.x >= x - 1e-9)?;
+    let prec = p.points.iter().find(|q| (q.x - at.x).abs() < 1e-9)?;
+    Some(format!(
+        "at {:.1} m, 95 % intervals by state / by track: recall {}, precision {}",
+        at.x,
+        fmt_both(&at.rate, at.by_track.as_ref()),
+        fmt_both(&prec.rate, prec.by_track.as_ref())
+    ))
+}
+
 /// The paper's headline claims, each with pmon's measurement and a verdict. `latency_ms` gives pmon's
 /// median sensor-check and plausibility-check times per frame, if measured.
 #[must_use]
@@ -847,12 +939,13 @@ pub fn claims(figs: &[Figure], latency_ms: Option<(f64, f64)>) -> Vec<Claim> {
             let from = joint_threshold(r, p, 0.9);
             let at_2m =
                 all.points.last().map_or("n/a".into(), |q| format!("{:.0} % at {:.1} m", 100.0 * q.rate.value, q.x));
+            let detail = both_intervals_at(r, p, paper_from).map_or(String::new(), |d| format!("; {d}"));
             out.push(Claim {
                 paper: format!(
                     "Permanent position errors: recall and precision above 90 % from {paper_from} m ({cells} m cells; {conditions})"
                 ),
                 pmon: format!(
-                    "{}; recall over all errors, occluded objects included: {at_2m}",
+                    "{}; recall over all errors, occluded objects included: {at_2m}{detail}",
                     from.map_or("recall on verifiable errors and precision never both stay above 90 %".into(), |x| {
                         format!("recall on verifiable errors (object confirmed by LiDAR when clean) and precision both above 90 % from {x:.2} m on")
                     })
@@ -953,7 +1046,7 @@ mod tests {
     fn c(points: &[(f64, f64)]) -> Curve {
         Curve {
             label: "x".into(),
-            points: points.iter().map(|&(x, v)| Point { x, rate: Rate::wilson((v * 100.0) as u64, 100) }).collect(),
+            points: points.iter().map(|&(x, v)| Point::new(x, Rate::wilson((v * 100.0) as u64, 100))).collect(),
             dashed: false,
         }
     }
@@ -965,6 +1058,57 @@ mod tests {
             Some(0.4)
         );
         assert_eq!(threshold_from(&c(&[(0.1, 0.5), (0.2, 0.8)]), 0.9), None);
+    }
+
+    /// Runs that feed one point add their counts, and their tracks become (run, track) clusters of the interval by
+    /// track; a run without per-track counts (a result written before they were kept) leaves that interval out.
+    #[test]
+    fn a_point_clusters_by_run_and_track() {
+        use crate::metrics::{Score, TrackTally};
+        let spec = RunSpec {
+            scene: 0,
+            params: MonitorParams::default(),
+            injection: InjectionConfig::new(Fault::None, 0),
+            window: 2,
+        };
+        let probes = vec![
+            probe("permanent_position_one", "recall", 1.0, Measure::SensorRecallVerifiable),
+            probe("permanent_position_one", "all", 1.0, Measure::SensorRecall),
+        ];
+        let planned = vec![PlannedRun { spec: spec.clone(), probes: probes.clone() }, PlannedRun { spec, probes }];
+        let result = |tracks: Vec<TrackTally>| {
+            let (detected, injected) = tracks.iter().fold((0, 0), |(d, i), t| (d + t.detected, i + t.verifiable));
+            let score = Score { injected, detected, ..Score::default() };
+            RunResult {
+                metrics: Metrics { sensor: score, sensor_verifiable: score, ..Metrics::default() },
+                tracks,
+                detected_example: None,
+                missed_example: None,
+                false_alarm_example: None,
+                occluded_example: None,
+                check_median_us: 0.0,
+            }
+        };
+        let t = |id, detected, verifiable| TrackTally { id, verifiable, detected, ..TrackTally::default() };
+        let results = [result(vec![t(4, 10, 10), t(9, 0, 10)]), result(vec![t(4, 2, 10), t(5, 10, 10)])];
+        let figs = assemble(&planned, &results);
+        let fig = figs.iter().find(|f| f.spec.id == "permanent_position_one").unwrap();
+        let point = |label: &str| fig.curves.iter().find(|c| c.label == label).unwrap().points[0].clone();
+        let p = point("recall");
+        assert_eq!((p.rate.k, p.rate.n), (22, 40));
+        let clusters: Vec<_> = p.clusters.iter().map(|c| (c.run, c.track, c.k, c.n)).collect();
+        assert_eq!(clusters, [(0, 4, 10, 10), (0, 9, 0, 10), (1, 4, 2, 10), (1, 5, 10, 10)]);
+        let want = clustered_wilson(&[(10, 10), (0, 10), (2, 10), (10, 10)]).unwrap();
+        assert_eq!(p.by_track, Some(want));
+        assert!(want.clusters == 4 && want.deff > 5.0 && want.lo < p.rate.lo);
+        // Recall over all errors keeps no per-track counts: no interval by track.
+        assert!(point("all").by_track.is_none() && point("all").clusters.is_empty());
+        // An old result (no tracks) among the runs: the sums do not hold, no interval by track.
+        let old = [results[0].clone(), RunResult { tracks: Vec::new(), ..results[1].clone() }];
+        let figs = assemble(&planned, &old);
+        let fig = figs.iter().find(|f| f.spec.id == "permanent_position_one").unwrap();
+        let p = &fig.curves[0].points[0];
+        assert!(p.rate.n == 40 && p.by_track.is_none() && p.clusters.is_empty());
     }
 
     #[test]

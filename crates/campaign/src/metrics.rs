@@ -11,7 +11,7 @@
 //! - Errors on objects that the sensor does not confirm even without the error (occluded, too few points:
 //!   `eta < tau_tp` in the clean frame) are counted as *not verifiable*.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use serde::{Deserialize, Serialize};
 
@@ -36,19 +36,104 @@ impl Rate {
     /// 38 of 38: an interval that did not hold its own estimate).
     #[must_use]
     pub fn wilson(k: u64, n: u64) -> Self {
-        if n == 0 {
-            return Self { k, n, value: f64::NAN, lo: f64::NAN, hi: f64::NAN };
-        }
-        let z = 1.959_963_984_540_054_f64;
-        let nf = n as f64;
-        let p = k as f64 / nf;
-        let z2n = z * z / nf;
-        let center = (p + z2n / 2.0) / (1.0 + z2n);
-        let half = z * (p * (1.0 - p) / nf + z2n / (4.0 * nf)).sqrt() / (1.0 + z2n);
-        let lo = if k == 0 { 0.0 } else { (center - half).max(0.0) };
-        let hi = if k >= n { 1.0 } else { (center + half).min(1.0) };
-        Self { k, n, value: p, lo, hi }
+        let (value, lo, hi) = wilson_f64(k as f64, n as f64);
+        Self { k, n, value, lo, hi }
     }
+}
+
+/// The Wilson score 95 % interval `(k / n, lo, hi)` for a count `k` of `n` that need not be whole (an effective
+/// sample size, [`clustered_wilson`]); [`Rate::wilson`] is this function of its integers. NaN when `n` is not
+/// positive; the ends are exact at `k = 0` and `k >= n` (see [`Rate::wilson`]).
+#[must_use]
+pub fn wilson_f64(k: f64, n: f64) -> (f64, f64, f64) {
+    if n.is_nan() || n <= 0.0 {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let z = 1.959_963_984_540_054_f64;
+    let p = k / n;
+    let z2n = z * z / n;
+    let center = (p + z2n / 2.0) / (1.0 + z2n);
+    let half = z * (p * (1.0 - p) / n + z2n / (4.0 * n)).sqrt() / (1.0 + z2n);
+    let lo = if k <= 0.0 { 0.0 } else { (center - half).max(0.0) };
+    let hi = if k >= n { 1.0 } else { (center + half).min(1.0) };
+    (p, lo, hi)
+}
+
+/// A 95 % interval for a ratio of counts that come in clusters (the object states of one track), from
+/// [`clustered_wilson`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ClusteredRate {
+    /// Clusters with at least one trial (`m`).
+    pub clusters: u64,
+    /// Design effect (at least 1).
+    pub deff: f64,
+    /// Effective sample size `n / deff`.
+    pub n_eff: f64,
+    /// Lower bound of the 95 % interval.
+    pub lo: f64,
+    /// Upper bound of the 95 % interval.
+    pub hi: f64,
+}
+
+/// The 95 % interval of `p = sum k_i / sum n_i` over clusters of `(k_i, n_i)` (successes, trials), accounting
+/// for the correlation within a cluster: the Wilson interval with the effective sample size (Kish's design effect;
+/// Korn & Graubard, "Confidence intervals for proportions with small expected number of positive counts estimated
+/// from survey data", Survey Methodology 24(2), 1998):
+///
+/// - `V = m / (m - 1) * sum (k_i - p n_i)^2 / n^2`, the with-replacement variance of the ratio estimator over the
+///   `m` clusters with `n_i > 0` (`n = sum n_i`);
+/// - `V_srs = p (1 - p) / (n - 1)`, the variance of states drawn independently, with the same small-sample
+///   correction (`n / (n - 1)` for `n` clusters of one state), so that clusters of one state each give exactly
+///   `deff = 1` and the plain Wilson interval;
+/// - `deff = max(1, V / V_srs)` (1 when `p` is 0 or 1 or `m < 2`: one cluster tells nothing of the spread
+///   between clusters, and the interval is the per-state one), `n_eff = n / deff`;
+/// - the interval: [`wilson_f64`]`(p n_eff, n_eff)`.
+///
+/// Tracks that are all detected or all missed (clusters of `s` states each, all or nothing) give `deff` close to
+/// `s`: `n_eff` close to the number of tracks. The comparison `V <= V_srs` is made in exact integers (where they
+/// fit), so that `deff` is exactly 1 when the clusters vary no more than independent states would.
+///
+/// # Errors
+/// A cluster with more successes than trials.
+pub fn clustered_wilson(clusters: &[(u64, u64)]) -> Result<ClusteredRate, String> {
+    if let Some(i) = clusters.iter().position(|&(k, n)| k > n) {
+        return Err(format!("cluster {i}: {} successes of {} trials", clusters[i].0, clusters[i].1));
+    }
+    let used: Vec<(u128, u128)> =
+        clusters.iter().filter(|c| c.1 > 0).map(|&(k, n)| (u128::from(k), u128::from(n))).collect();
+    let m = used.len() as u64;
+    let (k, n) = used.iter().fold((0u128, 0u128), |(a, b), c| (a + c.0, b + c.1));
+    let deff = if m < 2 || k == 0 || k == n { 1.0 } else { design_effect(&used, m, k, n) };
+    // `p n_eff` as `k / deff`: at `deff = 1` the very counts of the per-state interval, bit for bit.
+    let n_eff = n as f64 / deff;
+    let (_, lo, hi) = wilson_f64(k as f64 / deff, n_eff);
+    Ok(ClusteredRate { clusters: m, deff, n_eff, lo, hi })
+}
+
+/// `max(1, V / V_srs)` of [`clustered_wilson`] for `m >= 2` clusters and `0 < k < n`. With `p = k / n` the ratio is
+/// `m (n - 1) S / ((m - 1) n^2 k (n - k))`, `S = sum (n k_i - k n_i)^2`: integers, compared exactly when they fit
+/// in 128 bits, else in floating point.
+fn design_effect(used: &[(u128, u128)], m: u64, k: u128, n: u128) -> f64 {
+    let m = u128::from(m);
+    let exact = || -> Option<(u128, u128)> {
+        let mut s = 0u128;
+        for &(ki, ni) in used {
+            let d = (n.checked_mul(ki)?).abs_diff(k.checked_mul(ni)?);
+            s = s.checked_add(d.checked_mul(d)?)?;
+        }
+        let num = m.checked_mul(n - 1)?.checked_mul(s)?;
+        let den = (m - 1).checked_mul(n.checked_mul(n)?)?.checked_mul(k)?.checked_mul(n - k)?;
+        Some((num, den))
+    };
+    if let Some((num, den)) = exact() {
+        return if num <= den { 1.0 } else { num as f64 / den as f64 };
+    }
+    let (kf, nf, mf) = (k as f64, n as f64, m as f64);
+    let p = kf / nf;
+    let s: f64 = used.iter().map(|&(ki, ni)| (ki as f64 - p * ni as f64).powi(2)).sum();
+    let v = mf / (mf - 1.0) * s / (nf * nf);
+    let v_srs = p * (1.0 - p) / (nf - 1.0);
+    (v / v_srs).max(1.0)
 }
 
 /// One object in one frame, as the evaluation sees it.
@@ -136,13 +221,52 @@ impl Metrics {
     }
 }
 
+/// One track's share of a run's sensor-check counts: the clusters of [`clustered_wilson`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TrackTally {
+    /// Object (track) id.
+    pub id: u64,
+    /// Its verifiable injected errors in scope (its share of [`Metrics::sensor_verifiable`]`.injected`).
+    pub verifiable: u64,
+    /// Of those, detected by the sensor checks.
+    pub detected: u64,
+    /// Its sensor alarms in scope (its share of [`Metrics::sensor`]`.alarms`).
+    pub alarms: u64,
+    /// Of those, explained by an injection.
+    pub true_alarms: u64,
+}
+
 /// Scores a run's outcomes (any order) with a plausibility window of `window >= 1` frames.
 #[must_use]
 pub fn score(outcomes: &[Outcome], window: u64, frames: u64, missed_object_alarms: u64) -> Metrics {
+    score_by_track(outcomes, window, frames, missed_object_alarms).0
+}
+
+/// [`score`], and the sensor checks' counts per track (sorted by id; only tracks with a verifiable error or an
+/// alarm): they add up to `sensor_verifiable.{injected, detected}` and `sensor.{alarms, true_alarms}`.
+#[must_use]
+pub fn score_by_track(
+    outcomes: &[Outcome],
+    window: u64,
+    frames: u64,
+    missed_object_alarms: u64,
+) -> (Metrics, Vec<TrackTally>) {
     let window = window.max(1);
     let by_key: HashMap<(u64, u64), &Outcome> = outcomes.iter().map(|o| ((o.id, o.frame), o)).collect();
     let mut m = Metrics { frames, missed_object_alarms, ..Metrics::default() };
+    let mut tracks: BTreeMap<u64, TrackTally> = BTreeMap::new();
     for o in outcomes.iter().filter(|o| o.in_scope) {
+        if (o.injected && o.sensor_judged) || o.sensor_alarm {
+            let t = tracks.entry(o.id).or_insert(TrackTally { id: o.id, ..TrackTally::default() });
+            if o.injected && o.sensor_judged {
+                t.verifiable += 1;
+                t.detected += u64::from(o.sensor_alarm);
+            }
+            if o.sensor_alarm {
+                t.alarms += 1;
+                t.true_alarms += u64::from(o.injected);
+            }
+        }
         m.states_in_scope += 1;
         if !o.injected {
             m.clean_states_in_scope += 1;
@@ -179,7 +303,7 @@ pub fn score(outcomes: &[Outcome], window: u64, frames: u64, missed_object_alarm
             m.combined.true_alarms += u64::from(explained);
         }
     }
-    m
+    (m, tracks.into_values().collect())
 }
 
 #[cfg(test)]
@@ -208,6 +332,147 @@ mod tests {
         }
         assert_eq!(Rate::wilson(38, 38).hi, 1.0);
         assert_eq!(Rate::wilson(0, 38).lo, 0.0);
+    }
+
+    /// `Rate::wilson` through `wilson_f64` gives the bits of the integer formula it replaced (kept here verbatim).
+    #[test]
+    fn wilson_through_f64_keeps_the_integer_bits() {
+        let before = |k: u64, n: u64| -> (f64, f64, f64) {
+            let z = 1.959_963_984_540_054_f64;
+            let nf = n as f64;
+            let p = k as f64 / nf;
+            let z2n = z * z / nf;
+            let center = (p + z2n / 2.0) / (1.0 + z2n);
+            let half = z * (p * (1.0 - p) / nf + z2n / (4.0 * nf)).sqrt() / (1.0 + z2n);
+            let lo = if k == 0 { 0.0 } else { (center - half).max(0.0) };
+            let hi = if k >= n { 1.0 } else { (center + half).min(1.0) };
+            (p, lo, hi)
+        };
+        for n in (1..=300u64).chain([1_000, 4_567, 123_456]) {
+            for k in (0..=n).step_by((n / 300).max(1) as usize).chain([n]) {
+                let (r, (p, lo, hi)) = (Rate::wilson(k, n), before(k, n));
+                assert_eq!(
+                    (r.value.to_bits(), r.lo.to_bits(), r.hi.to_bits()),
+                    (p.to_bits(), lo.to_bits(), hi.to_bits())
+                );
+            }
+        }
+    }
+
+    /// Tracks of one state each are independent states: the plain Wilson interval, bit for bit, `deff = 1`.
+    #[test]
+    fn clusters_of_one_state_give_the_plain_wilson_interval() {
+        for n in 1..=60u64 {
+            for k in 0..=n {
+                let clusters: Vec<(u64, u64)> = (0..n).map(|i| (u64::from(i < k), 1)).collect();
+                let c = clustered_wilson(&clusters).unwrap_or_else(|e| panic!("{e}"));
+                let r = Rate::wilson(k, n);
+                assert_eq!(
+                    (c.lo.to_bits(), c.hi.to_bits(), c.deff, c.clusters),
+                    (r.lo.to_bits(), r.hi.to_bits(), 1.0, n)
+                );
+            }
+        }
+    }
+
+    /// Tracks all detected or all missed, `s` states each: `deff` close to `s`, `n_eff` close to the number of
+    /// tracks, and the interval that of so many independent trials.
+    #[test]
+    fn all_or_nothing_tracks_count_once_each() {
+        for (m, s, hit) in [(40u64, 10u64, 30u64), (12, 50, 5), (3, 7, 1), (200, 3, 150)] {
+            let clusters: Vec<(u64, u64)> = (0..m).map(|i| (if i < hit { s } else { 0 }, s)).collect();
+            let c = clustered_wilson(&clusters).unwrap_or_else(|e| panic!("{e}"));
+            let n = (m * s) as f64;
+            // Exactly: deff = (n - 1) / (m - 1), n_eff = n (m - 1) / (n - 1).
+            assert!((c.deff - (n - 1.0) / (m - 1) as f64).abs() < 1e-9, "{m} x {s}: {c:?}");
+            assert!((c.n_eff - m as f64).abs() < 1.0, "{m} x {s}: {c:?}");
+            let (_, lo, hi) = wilson_f64(hit as f64 * c.n_eff / m as f64, c.n_eff);
+            assert!((c.lo - lo).abs() < 1e-12 && (c.hi - hi).abs() < 1e-12);
+            let r = Rate::wilson(hit * s, m * s);
+            assert!(c.lo < r.lo && c.hi > r.hi, "{m} x {s}: {c:?} vs {r:?}");
+        }
+    }
+
+    #[test]
+    fn clustered_edges() {
+        // p = 0 and p = 1: nothing varies, deff = 1, the per-state interval.
+        for (clusters, k, n) in [(vec![(0, 5), (0, 9)], 0, 14), (vec![(5, 5), (9, 9), (0, 0)], 14, 14)] {
+            let c = clustered_wilson(&clusters).unwrap_or_else(|e| panic!("{e}"));
+            let r = Rate::wilson(k, n);
+            assert_eq!((c.deff, c.lo, c.hi, c.clusters), (1.0, r.lo, r.hi, 2));
+        }
+        // One cluster: no spread between clusters to measure; the per-state interval, m = 1.
+        let c = clustered_wilson(&[(3, 10), (0, 0)]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((c.deff, c.lo, c.hi, c.clusters), (1.0, Rate::wilson(3, 10).lo, Rate::wilson(3, 10).hi, 1));
+        // Empty: no interval.
+        for empty in [vec![], vec![(0, 0)]] {
+            let c = clustered_wilson(&empty).unwrap_or_else(|e| panic!("{e}"));
+            assert!(c.lo.is_nan() && c.hi.is_nan() && c.clusters == 0 && c.n_eff == 0.0, "{c:?}");
+        }
+        // More successes than trials: an error naming the cluster.
+        assert_eq!(clustered_wilson(&[(1, 2), (3, 2)]), Err("cluster 1: 3 successes of 2 trials".into()));
+    }
+
+    /// The clustered interval holds the per-state one (the Wilson interval is nested in `n` at a given rate, and
+    /// `n_eff <= n`), and counts too large for the exact comparison still give an interval.
+    #[test]
+    fn clustered_interval_holds_the_per_state_one() {
+        let mut x = 12_345u64;
+        let mut next = |b: u64| {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (x >> 33) % b
+        };
+        for _ in 0..2000 {
+            let clusters: Vec<(u64, u64)> = (0..1 + next(30))
+                .map(|_| {
+                    let n = next(40);
+                    (next(n + 1), n)
+                })
+                .collect();
+            let c = clustered_wilson(&clusters).unwrap_or_else(|e| panic!("{e}"));
+            let r = Rate::wilson(clusters.iter().map(|c| c.0).sum(), clusters.iter().map(|c| c.1).sum());
+            assert!(c.deff >= 1.0 && c.n_eff <= r.n as f64, "{clusters:?}: {c:?}");
+            if r.n > 0 {
+                assert!(c.lo <= r.lo + 1e-12 && c.hi >= r.hi - 1e-12, "{clusters:?}: {c:?} vs {r:?}");
+            }
+        }
+        let big = [(u64::MAX / 4, u64::MAX / 2), (1, u64::MAX / 2)];
+        let c = clustered_wilson(&big).unwrap_or_else(|e| panic!("{e}"));
+        assert!(c.deff > 1.0 && c.lo < 0.25 && c.hi > 0.25, "{c:?}");
+    }
+
+    /// The per-track counts add up to the run's totals, whatever mix of scope, injections, verifiability and
+    /// alarms the states carry.
+    #[test]
+    fn track_tallies_add_up_to_the_totals() {
+        let mut x = 99u64;
+        let mut bit = |one_in: u64| {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (x >> 33).is_multiple_of(one_in)
+        };
+        let mut outs = Vec::new();
+        for frame in 0..50 {
+            for id in [3, 17, 4, 99, 8, 1000] {
+                outs.push(Outcome {
+                    frame,
+                    id,
+                    in_scope: !bit(8),
+                    injected: bit(2),
+                    sensor_alarm: bit(3),
+                    sensor_judged: !bit(4),
+                    plausibility_alarm: bit(5),
+                });
+            }
+        }
+        let (m, tracks) = score_by_track(&outs, 2, 50, 0);
+        assert_eq!(m, score(&outs, 2, 50, 0));
+        let sum = |f: fn(&TrackTally) -> u64| tracks.iter().map(f).sum::<u64>();
+        assert_eq!(
+            (sum(|t| t.verifiable), sum(|t| t.detected), sum(|t| t.alarms), sum(|t| t.true_alarms)),
+            (m.sensor_verifiable.injected, m.sensor_verifiable.detected, m.sensor.alarms, m.sensor.true_alarms)
+        );
+        assert!(m.sensor_verifiable.injected > 0 && m.sensor.alarms > m.sensor.true_alarms);
+        assert_eq!(tracks.iter().map(|t| t.id).collect::<Vec<_>>(), [3, 4, 8, 17, 99, 1000]);
     }
 
     fn o(frame: u64, injected: bool, s: bool, p: bool) -> Outcome {

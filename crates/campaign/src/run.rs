@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::inject::{Injection, InjectionConfig, Injector};
-use crate::metrics::{score, Metrics, Outcome};
+use crate::metrics::{score_by_track, Metrics, Outcome, TrackTally};
 
 /// Frames to evaluate on: clean object lists (ground truth with their nominal uncertainty), clouds and ROI.
 #[derive(Clone, Debug)]
@@ -65,6 +65,10 @@ pub struct Example {
 pub struct RunResult {
     /// Scores.
     pub metrics: Metrics,
+    /// The sensor checks' counts per track, sorted by id ([`crate::metrics::score_by_track`]): the clusters of the
+    /// intervals by track. Empty in results written before they were kept.
+    #[serde(default)]
+    pub tracks: Vec<TrackTally>,
     /// First injected error the sensor checks detected.
     pub detected_example: Option<Example>,
     /// First injected error the sensor checks judged and missed.
@@ -247,8 +251,10 @@ pub fn run_one_with(scene: &Scene, spec: &RunSpec, injector: Injector) -> Result
     })?;
     times.sort_by(f64::total_cmp);
     let check_median_us = times.get(times.len() / 2).copied().unwrap_or(f64::NAN);
+    let (metrics, tracks) = score_by_track(&outcomes, spec.window, scene.frames.len() as u64, missed);
     Ok(RunResult {
-        metrics: score(&outcomes, spec.window, scene.frames.len() as u64, missed),
+        metrics,
+        tracks,
         detected_example,
         missed_example,
         false_alarm_example,

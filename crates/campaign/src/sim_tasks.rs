@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::experiments::{run_identity, PlannedRun};
 use crate::inject::InjectionConfig;
-use crate::metrics::Metrics;
+use crate::metrics::{Metrics, TrackTally};
 use crate::run::{run_one, Example, RunResult, RunSpec, Scene};
 
 /// `format` of a task description.
@@ -202,6 +202,9 @@ pub fn tasks(planned: &[PlannedRun], scenes: &[SceneSpec]) -> Result<TaskPlan, S
 pub struct TaskOutput {
     /// Counts (integers only).
     pub metrics: Metrics,
+    /// The sensor checks' counts per track, sorted by id (empty in results written before they were kept).
+    #[serde(default)]
+    pub tracks: Vec<TrackTally>,
     /// First injected error the sensor checks detected.
     pub detected_example: Option<Example>,
     /// First injected error the sensor checks judged and missed.
@@ -218,6 +221,7 @@ impl TaskOutput {
     pub fn to_run_result(&self) -> RunResult {
         RunResult {
             metrics: self.metrics,
+            tracks: self.tracks.clone(),
             detected_example: self.detected_example,
             missed_example: self.missed_example,
             false_alarm_example: self.false_alarm_example,
@@ -261,6 +265,7 @@ pub fn run_task(task: &SimTask, scene: &Scene) -> TaskResult {
     })) {
         Ok(Ok(r)) => Outcome::Ok(Box::new(TaskOutput {
             metrics: r.metrics,
+            tracks: r.tracks,
             detected_example: r.detected_example,
             missed_example: r.missed_example,
             false_alarm_example: r.false_alarm_example,
@@ -408,6 +413,21 @@ mod tests {
         let Outcome::Ok(out) = r.outcome else { panic!("{text}") };
         assert_eq!(out.metrics, direct.metrics);
         assert!(out.metrics.sensor.injected > 0);
+        // The per-track counts travel too, sorted by id, and add up to the run's totals.
+        assert_eq!(out.tracks, direct.tracks);
+        assert!(out.tracks.windows(2).all(|w| w[0].id < w[1].id) && !out.tracks.is_empty());
+        let sum = |f: fn(&TrackTally) -> u64| out.tracks.iter().map(f).sum::<u64>();
+        let (m, v) = (out.metrics.sensor, out.metrics.sensor_verifiable);
+        assert_eq!(
+            (sum(|t| t.verifiable), sum(|t| t.detected), sum(|t| t.alarms), sum(|t| t.true_alarms)),
+            (v.injected, v.detected, m.alarms, m.true_alarms)
+        );
+        // A result written before the per-track counts were kept still reads (with none).
+        let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+        old["outcome"]["ok"].as_object_mut().unwrap().remove("tracks").unwrap();
+        let old: TaskResult = serde_json::from_value(old).unwrap();
+        let Outcome::Ok(old) = old.outcome else { panic!("{text}") };
+        assert!(old.tracks.is_empty() && old.metrics == direct.metrics);
         // A scene that cannot be made is an error result naming the task, not a failure of the call.
         let mut bad = task.clone();
         bad.scene.name = "moon".into();

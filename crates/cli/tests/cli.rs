@@ -263,6 +263,7 @@ fn reproduce_writes_a_report_derived_from_the_runs() {
             "permanent_position.png",
             "permanent_position.csv",
             "permanent_position_paper.png",
+            "permanent_position_one_tracks.csv",
             "latency.png",
             "dv_theory_transient.png",
         ] {

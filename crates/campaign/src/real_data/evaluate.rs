@@ -824,7 +824,7 @@ pub fn merge(tasks: &[LogTask], results: &BTreeMap<String, TaskResult>) -> Evalu
                     .map(|c| Curve {
                         label: c.label,
                         dashed: c.dashed,
-                        points: c.points.into_iter().map(|(x, k, n)| Point { x, rate: Rate::wilson(k, n) }).collect(),
+                        points: c.points.into_iter().map(|(x, k, n)| Point::new(x, Rate::wilson(k, n))).collect(),
                     })
                     .collect(),
             }

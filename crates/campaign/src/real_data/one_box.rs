@@ -439,7 +439,7 @@ pub(super) fn after_sweep_curve(mode: AfterSweep, mags: &[f64], v: &[Option<OneB
         .filter_map(|(&x, r)| {
             let r = r.as_ref().filter(|r| r.frames > 0)?;
             let x = mags.iter().copied().find(|&y| (y - x).abs() < 1e-9)?;
-            Some(Point { x, rate: r.recall() })
+            Some(Point::new(x, r.recall()))
         })
         .collect();
     (!points.is_empty()).then(|| Curve { label: mode.spec().curve_label.into(), points, dashed: false })

@@ -453,7 +453,7 @@ pub(super) fn plausibility_experiments(
         let series = |kind: PlausKind, mags: &[f64], measure: Measure| -> Vec<Point> {
             mags.iter()
                 .enumerate()
-                .filter_map(|(m, &x)| pooled.get(&(*fam, kind as u8, m)).map(|mt| Point { x, rate: measure.of(mt) }))
+                .filter_map(|(m, &x)| pooled.get(&(*fam, kind as u8, m)).map(|mt| Point::new(x, measure.of(mt))))
                 .collect()
         };
         let sp = &opts.speed_magnitudes_mps;

@@ -586,7 +586,7 @@ fn sensor_experiments_in_passes(
         // Figure.
         let curve = |label: String, dashed: bool, rate: &dyn Fn(usize) -> Option<Rate>| Curve {
             label,
-            points: mags.iter().enumerate().filter_map(|(m, &x)| Some(Point { x, rate: rate(m)? })).collect(),
+            points: mags.iter().enumerate().filter_map(|(m, &x)| Some(Point::new(x, rate(m)?))).collect(),
             dashed,
         };
         let all_m = |m: usize, measure: Measure| all_runs.get(m).copied().flatten().map(|r| measure.of(&r.metrics));
