@@ -68,7 +68,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "seed {seed}: pedestrians scene, {} frames, {} tracks, {per_frame:.1} objects per frame; isolation {} m",
         scene.frames.len(),
         tracks.len(),
-        experiments::ISOLATION_M
+        std::env::var("ISOLATION").ok().and_then(|v| v.parse::<f32>().ok()).unwrap_or(experiments::ISOLATION_M)
     );
     for &m in &mags {
         for run in plan
