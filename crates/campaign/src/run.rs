@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::inject::{Injection, InjectionConfig, Injector};
-use crate::metrics::{score_by_track, Metrics, Outcome, TrackTally};
+use crate::metrics::{score, score_by_track, Metrics, Outcome, TrackTally};
 
 /// Frames to evaluate on: clean object lists (ground truth with their nominal uncertainty), clouds and ROI.
 #[derive(Clone, Debug)]
@@ -197,7 +197,24 @@ pub fn run_one(scene: &Scene, spec: &RunSpec) -> Result<RunResult, String> {
 /// # Errors
 /// As [`run_one`].
 pub fn run_one_with(scene: &Scene, spec: &RunSpec, injector: Injector) -> Result<RunResult, String> {
+    run_one_split(scene, spec, injector, &BTreeSet::new()).map(|(r, _)| r)
+}
+
+/// [`run_one_with`], its object states split by track: the result over the tracks not in `apart`, and the
+/// [`Metrics`] of the states of the tracks in `apart` scored on their own (with the same window; they count in
+/// neither the examples nor the timings, and every missed-object alarm goes to the first). With `apart` empty, the
+/// first is [`run_one_with`]'s result.
+///
+/// # Errors
+/// As [`run_one`].
+pub fn run_one_split(
+    scene: &Scene,
+    spec: &RunSpec,
+    injector: Injector,
+    apart: &BTreeSet<u64>,
+) -> Result<(RunResult, Metrics), String> {
     let mut outcomes = Vec::new();
+    let mut apart_outcomes = Vec::new();
     let mut missed = 0u64;
     let mut times = Vec::with_capacity(scene.frames.len());
     let (mut detected_example, mut missed_example, mut false_alarm_example, mut occluded_example) =
@@ -216,6 +233,7 @@ pub fn run_one_with(scene: &Scene, spec: &RunSpec, injector: Injector) -> Result
         missed += p.clusters.iter().filter(|c| c.is_missed_object()).count() as u64;
         for (i, r) in p.reports.iter().enumerate() {
             let in_scope = in_scope(r.sensor.verdict);
+            let set_apart = apart.contains(&r.id);
             let sensor_alarm = matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
             let inj = injected.get(i).copied().unwrap_or(false);
             let o = Outcome {
@@ -227,6 +245,10 @@ pub fn run_one_with(scene: &Scene, spec: &RunSpec, injector: Injector) -> Result
                 sensor_judged: p.confirmed.get(i).copied().unwrap_or(false),
                 plausibility_alarm: matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Implausible(_)),
             };
+            if set_apart {
+                apart_outcomes.push(o);
+                continue;
+            }
             if in_scope {
                 let ex = Some(Example { frame: k as u64, id: r.id });
                 if inj && sensor_alarm && detected_example.is_none() {
@@ -251,20 +273,31 @@ pub fn run_one_with(scene: &Scene, spec: &RunSpec, injector: Injector) -> Result
     })?;
     times.sort_by(f64::total_cmp);
     let check_median_us = times.get(times.len() / 2).copied().unwrap_or(f64::NAN);
-    let (metrics, tracks) = score_by_track(&outcomes, spec.window, scene.frames.len() as u64, missed);
-    Ok(RunResult {
-        metrics,
-        tracks,
-        detected_example,
-        missed_example,
-        false_alarm_example,
-        occluded_example,
-        check_median_us,
-    })
+    let frames = scene.frames.len() as u64;
+    let (metrics, tracks) = score_by_track(&outcomes, spec.window, frames, missed);
+    Ok((
+        RunResult {
+            metrics,
+            tracks,
+            detected_example,
+            missed_example,
+            false_alarm_example,
+            occluded_example,
+            check_median_us,
+        },
+        score(&apart_outcomes, spec.window, frames, 0),
+    ))
 }
 
 /// What running each of `tracks` alone (the only faulty track of the run, [`Injector::with_faulty_tracks`])
 /// scores, summed: the check that a run of one object at a time ([`InjectionConfig::isolation_m`]) is that.
+///
+/// Like is compared with like: every object state of the set's run is scored in the single run that stands for it.
+/// A state of a track of the set is an error there, so it is scored in that track's own run (its detections and
+/// true alarms); a state of any other track is clean in every run, so it is scored in the clean run, plus what
+/// each single run changes there (the false alarms). An alarm that track A's run raises on another track B of the
+/// set (clean in A's run) is therefore not one of A's false alarms: in the set's run that state is B's error,
+/// judged in B's own run. Such alarms are counted apart (`alarms_on_the_set`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct AloneSums {
     /// Verifiable errors, summed over the runs.
@@ -273,17 +306,25 @@ pub struct AloneSums {
     pub verifiable_detected: u64,
     /// Alarms explained by an injection, summed.
     pub true_alarms: u64,
-    /// False alarms: each run's less the clean run's, summed, plus the clean run's once.
+    /// False alarms on the tracks not in the set: each run's less the clean run's, summed, plus the clean run's
+    /// once.
     pub false_alarms: u64,
-    /// The false alarms of the run with no faulty track.
+    /// The false alarms of the run with no faulty track on the tracks not in the set.
     pub baseline_false_alarms: u64,
-    /// Runs with fewer false alarms than the clean run (a faulty track that silenced a clean run's alarm; counted
-    /// as 0 in `false_alarms`).
+    /// Runs with fewer such false alarms than the clean run (a faulty track that silenced a clean run's alarm;
+    /// counted as 0 in `false_alarms`).
     pub below_baseline: u64,
+    /// Alarms each single run raises on the other tracks of the set (clean in that run), summed over the runs:
+    /// left out of `false_alarms` (see above). Beyond the clean run's alarms on them, they are effects of one
+    /// faulty track on another one of the set.
+    pub alarms_on_the_set: u64,
+    /// The clean run's alarms on the tracks of the set, times the number of single runs less one (what
+    /// `alarms_on_the_set` holds when no single run changes another track of the set).
+    pub baseline_alarms_on_the_set: u64,
 }
 
 /// Runs `spec` on `scene` once per track of `tracks` with that track alone faulty, and once with none (in parallel;
-/// the sums do not depend on the order), and sums their scores ([`AloneSums`]).
+/// the sums do not depend on the order), and sums their scores, like with like ([`AloneSums`]).
 ///
 /// # Errors
 /// As [`run_one`].
@@ -292,18 +333,26 @@ pub fn each_track_alone(scene: &Scene, spec: &RunSpec, tracks: &BTreeSet<u64>) -
         tracks.iter().map(|&id| BTreeSet::from([id])).chain(std::iter::once(BTreeSet::new())).collect();
     let metrics = sets
         .into_par_iter()
-        .map(|set| run_one_with(scene, spec, Injector::with_faulty_tracks(spec.injection, set)).map(|r| r.metrics))
+        .map(|set| {
+            // The other tracks of the set are scored apart.
+            let apart: BTreeSet<u64> = tracks.difference(&set).copied().collect();
+            run_one_split(scene, spec, Injector::with_faulty_tracks(spec.injection, set), &apart)
+                .map(|(r, on_set)| (r.metrics, on_set))
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let (singles, baseline) = metrics.split_at(metrics.len().saturating_sub(1));
-    let fa0 = baseline.first().map_or(0, |b| b.sensor.false_alarms());
-    let sum = |f: &dyn Fn(&Metrics) -> u64| singles.iter().map(f).sum::<u64>();
+    let fa0 = baseline.first().map_or(0, |b| b.0.sensor.false_alarms());
+    let on_set0 = baseline.first().map_or(0, |b| b.1.sensor.alarms);
+    let sum = |f: &dyn Fn(&(Metrics, Metrics)) -> u64| singles.iter().map(f).sum::<u64>();
     Ok(AloneSums {
-        verifiable_injected: sum(&|m| m.sensor_verifiable.injected),
-        verifiable_detected: sum(&|m| m.sensor_verifiable.detected),
-        true_alarms: sum(&|m| m.sensor.true_alarms),
-        false_alarms: sum(&|m| m.sensor.false_alarms().saturating_sub(fa0)) + fa0,
+        verifiable_injected: sum(&|m| m.0.sensor_verifiable.injected),
+        verifiable_detected: sum(&|m| m.0.sensor_verifiable.detected),
+        true_alarms: sum(&|m| m.0.sensor.true_alarms),
+        false_alarms: sum(&|m| m.0.sensor.false_alarms().saturating_sub(fa0)) + fa0,
         baseline_false_alarms: fa0,
-        below_baseline: sum(&|m| u64::from(m.sensor.false_alarms() < fa0)),
+        below_baseline: sum(&|m| u64::from(m.0.sensor.false_alarms() < fa0)),
+        alarms_on_the_set: sum(&|m| m.1.sensor.alarms),
+        baseline_alarms_on_the_set: on_set0 * (singles.len() as u64).saturating_sub(1),
     })
 }
 
