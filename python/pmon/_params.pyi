@@ -31,6 +31,7 @@ class Params:
     memory_gate: bool
     front_cluster: bool
     memory_hold_s: float
+    shadow_gate: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

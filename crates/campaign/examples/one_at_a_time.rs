@@ -22,7 +22,8 @@
 //! (its id, distance centre to centre between the reported boxes, verdict and true place) and whose true place the
 //! cluster taken lies nearest. Then which faulty tracks the difference needs (the set's run repeated without one
 //! track at a time: the state returns to its one-at-a-time verdict without the errors listed), and, per single run,
-//! the states whose verdict it changes against the clean run. `MEMGATE=1` sets the params key `memory_gate`.
+//! the states whose verdict it changes against the clean run. `MEMGATE=1` sets the params key `memory_gate`, `SHADOWGATE=1` the key
+//! `shadow_gate`.
 use std::collections::{BTreeMap, BTreeSet};
 
 use pmon_campaign::experiments::{self, Scale, SceneIds};
@@ -83,6 +84,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // `MEMGATE=1`: with the params key `memory_gate` (docs/attribution.md, "Evidence beyond the gate").
             if std::env::var_os("MEMGATE").is_some() {
                 spec.params.memory_gate = true;
+            }
+            // `SHADOWGATE=1`: with the params key `shadow_gate` (docs/attribution.md, "The shadow of far evidence").
+            if std::env::var_os("SHADOWGATE").is_some() {
+                spec.params.shadow_gate = true;
             }
             let spec = &spec;
             let cells = spec.params.cell_size_m;

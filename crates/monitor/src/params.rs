@@ -360,6 +360,15 @@ pub struct MonitorParams {
     /// the transient errors' combined precision by up to 0.9 (the rule fixed before measuring allowed 0.5). Must be
     /// in [0, 10] s. Costs nothing per frame beyond step 8's walk for such a hidden track.
     pub memory_hold_s: f64,
+    /// Off by default. Bounds "behind evidence nobody explains" by the gate (docs/attribution.md, "The shadow of far
+    /// evidence"): a footprint cell shadowed by unexplained evidence counts as contradicted (`unexplained_shadow`:
+    /// the object's own displaced evidence may stand in front of it) only when the conflict cell that shadows it has
+    /// its centre within `conflict_association_m` + the region's larger margin + one cell diagonal of the
+    /// footprint point looked at; farther evidence cannot be this object's, so the cell is merely hidden. Without
+    /// it a clean box 15-35 m behind another faulty track's unexplained evidence on its bearing counts as
+    /// contradicted, is offered every cluster within the full gate and may take a neighbour's. Costs one distance
+    /// per shadowed footprint cell.
+    pub shadow_gate: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -457,6 +466,7 @@ impl MonitorParams {
         memory_gate: false,
         front_cluster: false,
         memory_hold_s: 0.0,
+        shadow_gate: false,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {

@@ -1170,3 +1170,32 @@ fn a_box_confirmed_by_scenery_takes_the_cluster_of_its_shape_in_front_of_it() {
         assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "key {front_cluster}, clean: {:?}", r[0].sensor);
     }
 }
+
+/// Only evidence within reach contradicts a box it hides (params key `shadow_gate`, off by default; docs/attribution.md,
+/// "The shadow of far evidence"). A clean pedestrian 30 m out, hidden behind an unlisted post 10 m out (no returns of
+/// its own), with a small unlisted post 2 m beside it in plain sight. Without the key the box counts as contradicted
+/// (its place lies behind evidence nobody explains, 20 m in front of it), is offered every cluster within the full
+/// gate and takes the small post beside it (`position_error`). With the key the post 10 m out is too far to be the
+/// box displaced: its footprint is merely hidden, and the small post is not its.
+#[test]
+fn far_evidence_in_front_does_not_open_the_gate_of_a_hidden_box() {
+    let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
+    let bearing = 0.5f32.atan2(10.15);
+    let hidden = object(1, 30.0, 30.0 * bearing.tan(), 0.0, 0.6, 0.6);
+    let beside = object(91, 30.0, hidden.y_m + 2.0, 0.0, 0.2, 0.2);
+    let mut pts = visible_face_points(&post, 0.05);
+    pts.extend(visible_face_points(&beside, 0.05));
+    pts.extend(ground_points(45.0));
+    for shadow_gate in [false, true] {
+        let mut m = Monitor::new(MonitorParams { shadow_gate, ..MonitorParams::default() }).unwrap();
+        let r = check_at(&mut m, 0.0, &[hidden], &pts, Pose2::default());
+        let h = &r[0].sensor;
+        eprintln!("shadow_gate {shadow_gate}: {h:?}");
+        if shadow_gate {
+            assert_ne!(h.verdict, SensorVerdict::PositionError, "with the key: {h:?}");
+        } else {
+            assert_eq!(h.verdict, SensorVerdict::PositionError, "without the key: {h:?}");
+            assert!(h.offset_m[1].abs() > 0.8 && h.offset_m[0].abs() < 1.0, "the post beside it: {h:?}");
+        }
+    }
+}

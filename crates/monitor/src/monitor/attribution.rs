@@ -135,9 +135,10 @@ impl Monitor {
                     sight.visible += 1;
                 }
             }
-            // Behind evidence nobody explains, in the region of interest.
+            // Behind evidence nobody explains, in the region of interest (with `shadow_gate`, only evidence
+            // within reach of the point: farther evidence cannot be this object displaced; the cell is hidden).
             (Sight::Shadowed(c), _) => {
-                if let Some(k) = self.unexplained_at(c) {
+                if let Some(k) = self.unexplained_at(c).filter(|&k| self.shadow_within_gate(k, margin, px, py)) {
                     sight.unexplained_shadow += 1;
                     sight.occluder = k;
                     let n = sight.occluders_len.min(OCCLUDERS);
@@ -153,6 +154,21 @@ impl Monitor {
             }
             (Sight::Unreached, _) => {}
         }
+    }
+
+    /// With `shadow_gate`: whether conflict cell `k`, which shadows footprint point `(px, py)`, has its centre within
+    /// `conflict_association_m` + `margin` (the region's larger margin) + one cell diagonal of the point, so that
+    /// it may be the object's own displaced evidence. Always true without the key.
+    #[inline(always)]
+    fn shadow_within_gate(&self, k: u32, margin: f32, px: f32, py: f32) -> bool {
+        if !self.params.shadow_gate {
+            return true;
+        }
+        let geometry = self.grid.geometry;
+        let reach = self.params.conflict_association_m + margin + core::f32::consts::SQRT_2 * geometry.cell_size_m;
+        let (x, y) = geometry.cell_center(k);
+        let (dx, dy) = (x - px, y - py);
+        dx * dx + dy * dy <= reach * reach
     }
 
     /// [`Monitor::hidden_within_margin`]'s test of one placement `moved`: the footprint's sight there, brought up
