@@ -162,6 +162,10 @@ pub struct BenchOptions {
     /// Check with the params key `memory_gate` on (evidence beyond `conflict_association_m` of a box is never its:
     /// step 8 and the occluder rule bounded; docs/attribution.md). Off: the default parameters.
     pub memory_gate: bool,
+    /// Check with the params key `shadow_gate` on (the shadow of unexplained evidence contradicts a box only within
+    /// its gate; a box hidden only by farther evidence takes the free evidence beyond it on its line of sight;
+    /// docs/attribution.md, "The shadow of far evidence"). Off: the default parameters.
+    pub shadow_gate: bool,
     /// Check with the params key `front_cluster` on (a free cluster in front of a confirmed box whose confirming
     /// evidence runs on beyond it goes to it; docs/attribution.md, "One box displaced 2 m in a single sweep"). Off:
     /// the default parameters.
@@ -200,6 +204,7 @@ impl Default for BenchOptions {
             no_jump_first_return: false,
             seen_body: false,
             memory_gate: false,
+            shadow_gate: false,
             front_cluster: false,
             roi_graze: false,
             no_roi_graze: false,
@@ -760,6 +765,7 @@ fn apply_keys(p: &mut MonitorParams, opts: &BenchOptions) {
     }
     p.seen_body |= opts.seen_body;
     p.memory_gate |= opts.memory_gate;
+    p.shadow_gate |= opts.shadow_gate;
     p.front_cluster |= opts.front_cluster;
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
@@ -783,6 +789,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("jump_first_return", d.jump_first_return, p.jump_first_return),
         ("seen_body", d.seen_body, p.seen_body),
         ("memory_gate", d.memory_gate, p.memory_gate),
+        ("shadow_gate", d.shadow_gate, p.shadow_gate),
         ("front_cluster", d.front_cluster, p.front_cluster),
         ("jump_evidence_at_prediction", d.jump_evidence_at_prediction, p.jump_evidence_at_prediction),
         ("jump_coincident_boxes", d.jump_coincident_boxes, p.jump_coincident_boxes),

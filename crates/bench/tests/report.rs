@@ -23,6 +23,7 @@ fn quick() -> BenchOptions {
         no_jump_first_return: false,
         seen_body: false,
         memory_gate: false,
+        shadow_gate: false,
         front_cluster: false,
         roi_graze: false,
         no_roi_graze: false,

@@ -131,6 +131,10 @@ enum Command {
         /// never its (step 8 and the occluder rule bounded; docs/attribution.md).
         #[arg(long)]
         memory_gate: bool,
+        /// Check with the params key `shadow_gate` on: the shadow of unexplained evidence contradicts a box only
+        /// within its gate (docs/attribution.md, "The shadow of far evidence").
+        #[arg(long)]
+        shadow_gate: bool,
         /// Check with the params key `front_cluster` on: a free cluster in front of a confirmed box, fitting it and
         /// outweighing its own cells, goes to it when the evidence confirming the box runs on beyond it
         /// (docs/attribution.md, "One box displaced 2 m in a single sweep").
@@ -257,6 +261,7 @@ fn main() -> ExitCode {
             no_jump_first_return,
             seen_body,
             memory_gate,
+            shadow_gate,
             front_cluster,
             roi_graze,
             no_roi_graze,
@@ -284,6 +289,7 @@ fn main() -> ExitCode {
                 no_jump_first_return,
                 seen_body,
                 memory_gate,
+                shadow_gate,
                 front_cluster,
                 roi_graze,
                 no_roi_graze,

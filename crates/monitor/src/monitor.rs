@@ -1103,6 +1103,12 @@ impl Monitor {
                         if let Some(at) = self.followed_evidence(j, &region) {
                             followed = Some(at);
                             occluded = false;
+                        } else if let Some(k) = self.near_cluster_for_far_shadow(&sight, &region) {
+                            // With `shadow_gate`: hidden only because the evidence that shadows it stands beyond
+                            // the gate; free evidence within the gate is what it may be, displaced.
+                            self.give(k, j);
+                            cluster = Some(k);
+                            occluded = false;
                         }
                     } else if open < self.params.ghost_visible_fraction && s_eta(&self.reports, j) >= tau_tp {
                         // Its place is taken by evidence another object owns and no displaced evidence came its

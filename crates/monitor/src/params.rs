@@ -366,8 +366,12 @@ pub struct MonitorParams {
     /// its centre within `conflict_association_m` + the region's larger margin + one cell diagonal of the
     /// footprint point looked at; farther evidence cannot be this object's, so the cell is merely hidden. Without
     /// it a clean box 15-35 m behind another faulty track's unexplained evidence on its bearing counts as
-    /// contradicted, is offered every cluster within the full gate and may take a neighbour's. Costs one distance
-    /// per shadowed footprint cell.
+    /// contradicted, is offered every cluster within the full gate and may take a neighbour's. A box without
+    /// evidence of its own that the cells set aside would have contradicted (it is hidden only by evidence beyond
+    /// the gate) takes the nearest free cluster in the region of interest that stands beyond it on its line of
+    /// sight, within `conflict_association_m` of its grown region (a box displaced towards the sensor into the
+    /// shadow, its own returns seen over the occluder), and is occluded when there is none. Costs one distance per
+    /// shadowed footprint cell, and one pass over the clusters for such a hidden box.
     pub shadow_gate: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of

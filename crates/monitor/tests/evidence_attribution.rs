@@ -1199,3 +1199,30 @@ fn far_evidence_in_front_does_not_open_the_gate_of_a_hidden_box() {
         }
     }
 }
+
+/// The other half of `shadow_gate`: a pedestrian displaced 1.8 m towards the sensor, whose place is hidden behind an
+/// unlisted post 10 m out (the shadow the gate sets aside), while its own returns stand 1.8 m beyond the box on the
+/// same bearing (seen over the post). Without the key the box is contradicted by the post's shadow and is offered
+/// every cluster within the gate, and takes its own. With the key the post is beyond the gate and the box is merely
+/// hidden, so it would be occluded; it takes the free evidence beyond it on its line of sight, within the gate, as
+/// its displaced evidence: `position_error` either way, the offset about 1.5 m.
+#[test]
+fn a_box_hidden_behind_far_evidence_takes_the_free_evidence_beyond_it() {
+    let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
+    let bearing = 0.5f32.atan2(10.15);
+    let (r_true, r_box) = (30.0f32, 28.2f32);
+    let truth = object(1, r_true * bearing.cos(), r_true * bearing.sin(), 0.0, 0.6, 0.6);
+    let shown = object(1, r_box * bearing.cos(), r_box * bearing.sin(), 0.0, 0.6, 0.6);
+    let mut pts = visible_face_points(&post, 0.05);
+    pts.extend(visible_face_points(&truth, 0.05));
+    pts.extend(ground_points(45.0));
+    for shadow_gate in [false, true] {
+        let mut m = Monitor::new(MonitorParams { shadow_gate, ..MonitorParams::default() }).unwrap();
+        let r = check_at(&mut m, 0.0, &[shown], &pts, Pose2::default());
+        let h = &r[0].sensor;
+        eprintln!("shadow_gate {shadow_gate}: {h:?}");
+        assert_eq!(h.verdict, SensorVerdict::PositionError, "shadow_gate {shadow_gate}: {h:?}");
+        let offset = h.offset_m[0].hypot(h.offset_m[1]);
+        assert!((1.0..2.5).contains(&offset), "shadow_gate {shadow_gate}, its own returns beyond it: {h:?}");
+    }
+}

@@ -22,6 +22,8 @@ pub(super) struct FootprintSight {
     pub(super) visible: u32,
     /// Shadowed by evidence no object explains, in the region of interest (likely this object, displaced).
     pub(super) unexplained_shadow: u32,
+    /// With `shadow_gate`: shadowed by unexplained evidence beyond the gate (hidden; counted in no other field).
+    pub(super) far_shadow: u32,
     /// Occupied by evidence that another object owns, with the cell's centre inside that object's footprint:
     /// two objects cannot stand in one place.
     pub(super) foreign: u32,
@@ -138,7 +140,10 @@ impl Monitor {
             // Behind evidence nobody explains, in the region of interest (with `shadow_gate`, only evidence
             // within reach of the point: farther evidence cannot be this object displaced; the cell is hidden).
             (Sight::Shadowed(c), _) => {
-                if let Some(k) = self.unexplained_at(c).filter(|&k| self.shadow_within_gate(k, margin, px, py)) {
+                let Some(k) = self.unexplained_at(c) else { return };
+                if !self.shadow_within_gate(k, margin, px, py) {
+                    sight.far_shadow += 1;
+                } else {
                     sight.unexplained_shadow += 1;
                     sight.occluder = k;
                     let n = sight.occluders_len.min(OCCLUDERS);
@@ -169,6 +174,51 @@ impl Monitor {
         let (x, y) = geometry.cell_center(k);
         let (dx, dy) = (x - px, y - py);
         dx * dx + dy * dy <= reach * reach
+    }
+
+    /// With `shadow_gate`, for a box without evidence of its own that is hidden: when the shadows the gate set
+    /// aside (evidence beyond it) would have contradicted the box without the key, the free cluster in the region
+    /// of interest nearest to the grown region within `conflict_association_m` (lowest index on ties), if any. Without
+    /// the key such a box takes the far cluster that shadows it (a clean box hidden behind a displaced neighbour's
+    /// evidence, most often); with it, only free evidence within the gate, which may be its own, displaced.
+    pub(super) fn near_cluster_for_far_shadow(&self, sight: &FootprintSight, region: &Region) -> Option<usize> {
+        if !self.params.shadow_gate || sight.far_shadow == 0 {
+            return None;
+        }
+        let fraction = self.params.ghost_visible_fraction;
+        let contradicted = sight.fraction(sight.visible + sight.unexplained_shadow + sight.foreign + sight.far_shadow);
+        let open = sight.fraction(sight.visible + sight.unexplained_shadow + sight.far_shadow);
+        if contradicted < fraction || open < fraction {
+            return None;
+        }
+        let gate = self.params.conflict_association_m;
+        // On the box's line of sight, beyond it: a cluster centre farther from the sensor than the box's centre, in
+        // front of the sensor, and within the box's half diagonal + half a cell of the ray through the box's centre
+        // (|cross| / rf is that distance). Squares only: no root per cluster.
+        let footprint = &region.footprint;
+        let o = self.visibility.origin();
+        let (fx, fy) = (footprint.cx - o[0], footprint.cy - o[1]);
+        let rf2 = fx * fx + fy * fy;
+        let reach = libm::hypotf(footprint.half_length, footprint.half_width) + 0.5 * self.grid.geometry.cell_size_m;
+        let grown = region.grown.aabb();
+        let mut best: Option<(f32, usize)> = None;
+        for (k, c) in self.clusters.iter().enumerate() {
+            if !c.in_roi || c.object.is_some() || self.far_apart(c.bounds_m, grown, gate) {
+                continue;
+            }
+            let (px, py) = (c.centroid_m[0] - o[0], c.centroid_m[1] - o[1]);
+            let (cross, dot) = (fx * py - fy * px, fx * px + fy * py);
+            let beyond = px * px + py * py > rf2 && dot > 0.0 && cross * cross <= reach * reach * rf2;
+            if !beyond {
+                continue;
+            }
+            if let Some(d) = self.cluster_distance(k, &region.grown, gate) {
+                if best.is_none_or(|(b, _)| d < b) {
+                    best = Some((d, k));
+                }
+            }
+        }
+        best.map(|(_, k)| k)
     }
 
     /// [`Monitor::hidden_within_margin`]'s test of one placement `moved`: the footprint's sight there, brought up
