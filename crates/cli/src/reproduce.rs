@@ -278,9 +278,14 @@ fn theory_checks(params: &MonitorParams) -> Result<Vec<TheoryCheck>> {
     Ok(out)
 }
 
+/// A curve's series: its points, and as the shaded band its 95 % interval by track when every point has one (the
+/// states of a track are not independent, docs/evaluation.md, "Scoring"), the interval over states otherwise.
 fn series_of(curve: &experiments::Curve, color: usize) -> Series {
-    let pts = curve.points.iter().filter(|p| p.rate.n > 0).map(|p| (p.x, p.rate.value)).collect();
-    let band = curve.points.iter().filter(|p| p.rate.n > 0).map(|p| (p.x, p.rate.lo, p.rate.hi)).collect();
+    let shown = || curve.points.iter().filter(|p| p.rate.n > 0);
+    let pts = shown().map(|p| (p.x, p.rate.value)).collect();
+    let by_track: Option<Vec<_>> = shown().map(|p| p.by_track.as_ref().map(|t| (p.x, t.lo, t.hi))).collect();
+    let band =
+        by_track.filter(|b| !b.is_empty()).unwrap_or_else(|| shown().map(|p| (p.x, p.rate.lo, p.rate.hi)).collect());
     let mut s = Series::new(curve.label.clone(), pts)
         .with_band(band)
         .with_markers()
@@ -671,7 +676,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         .collect();
     html.table(&["scene", "source", "frames", "object states", "LiDAR points per frame"], &rows);
     html.heading("Figures");
-    html.paragraph("Shaded bands are 95 % Wilson intervals over object states. Where the data (CSV) has the columns tracks, ci95_tracks_lo and ci95_tracks_hi, the second interval counts the states of a track as one cluster (effective sample size, docs/evaluation.md, \"Scoring\"): the honest one, as the states of a track are not independent; its clusters are in <figure>_tracks.csv. Precision curves are dashed. Plausibility checks may flag an error in its frame or the next (the paper's rule). Permanent faults affect half of the tracks (chosen by seed), so that precision is measured against clean tracks.");
+    html.paragraph("Shaded bands are 95 % intervals. Where the data (CSV) has the columns tracks, ci95_tracks_lo and ci95_tracks_hi, the band is that interval, which counts the states of a track as one cluster (effective sample size, docs/evaluation.md, \"Scoring\"): the honest one, as the states of a track are not independent; its clusters are in <figure>_tracks.csv, and the narrower Wilson interval over object states is in the CSV's ci95 columns. Other curves' bands are the Wilson intervals over object states (or frames). Precision curves are dashed. Plausibility checks may flag an error in its frame or the next (the paper's rule). Permanent faults affect half of the tracks (chosen by seed), so that precision is measured against clean tracks.");
     for f in &figures {
         html.figure_with_data(
             &format!("{}.png", f.spec.id),
@@ -777,4 +782,34 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     }
     println!("\nreport: {}", args.out.join("index.html").display());
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod band_tests {
+    use super::*;
+    use pmon_campaign::{ClusteredRate, Rate};
+
+    fn point(x: f64, k: u64, n: u64, by_track: Option<(f64, f64)>) -> experiments::Point {
+        let mut p = experiments::Point::new(x, Rate::wilson(k, n));
+        p.by_track = by_track.map(|(lo, hi)| ClusteredRate { clusters: 5, deff: 3.0, n_eff: n as f64 / 3.0, lo, hi });
+        p
+    }
+
+    #[test]
+    fn the_band_is_the_interval_by_track_when_every_point_has_one() {
+        let curve = |points| experiments::Curve { label: "c".into(), points, dashed: false };
+        let both = curve(vec![
+            point(1.0, 80, 100, Some((0.6, 0.9))),
+            point(2.0, 0, 0, None),
+            point(3.0, 90, 100, Some((0.7, 0.97))),
+        ]);
+        assert_eq!(series_of(&both, 0).band, Some(vec![(1.0, 0.6, 0.9), (3.0, 0.7, 0.97)]));
+        // One point without it: the interval over states for the whole curve, never a mix.
+        let mixed = curve(vec![point(1.0, 80, 100, Some((0.6, 0.9))), point(3.0, 90, 100, None)]);
+        let states = Rate::wilson(80, 100);
+        let band = series_of(&mixed, 0).band.unwrap_or_default();
+        assert_eq!(band.len(), 2);
+        assert_eq!(band[0], (1.0, states.lo, states.hi));
+        assert!(band[0].1 > 0.6, "the per-state interval is narrower: {band:?}");
+    }
 }
