@@ -42,7 +42,13 @@ def effective_n_wilson(k, n):
 
 def test_the_intervals_by_track_are_the_effective_n_wilson_intervals(reproduce_local):
     figures = sorted(p.name[: -len("_tracks.csv")] for p in reproduce_local.glob("*_tracks.csv"))
-    for must in ("permanent_position", "permanent_position_one", "permanent_position_paper", "position_direction"):
+    for must in (
+        "permanent_position",
+        "permanent_position_one",
+        "permanent_position_paper",
+        "position_direction",
+        "position_offset",
+    ):
         assert must in figures, figures
     wider = 0
     for fig in figures:

@@ -16,7 +16,10 @@ pub mod tracker;
 pub mod tracker_eval;
 
 pub use inject::{Direction, Fault, Injection, InjectionConfig, Injector};
-pub use metrics::{clustered_wilson, score, score_by_track, ClusteredRate, Metrics, Outcome, Rate, Score, TrackTally};
+pub use metrics::{
+    clustered_wilson, offset_agrees, score, score_by_track, ClusteredRate, Metrics, OffsetTally, Outcome, Rate, Score,
+    TrackTally,
+};
 pub use run::{
     confirmed_by_own_evidence, in_scope, paired_frames, replay_to, run_all, run_one, Example, PairedFrame, Replay,
     RunResult, RunSpec, Scene,

@@ -154,6 +154,40 @@ pub struct Outcome {
     pub sensor_judged: bool,
     /// Plausibility checks raised an alarm.
     pub plausibility_alarm: bool,
+    /// For an injected position error the sensor checks flagged: whether the verdict reports the displacement
+    /// the error made, `position_error` with an offset (box minus its evidence) within 45 degrees of the injected
+    /// offset ([`offset_agrees`]). `None` when no position error was injected, nothing was flagged, or the offset
+    /// was not looked at.
+    pub sensor_offset_agrees: Option<bool>,
+}
+
+/// Whether a reported offset (from the evidence to the box, the verdict's `offset_m`) points the way the box was
+/// displaced (`injected`, box minus truth): within 45 degrees of it. A zero offset (nothing reported) never agrees,
+/// and neither does any offset for a zero displacement.
+#[must_use]
+pub fn offset_agrees(reported: [f32; 2], injected: [f32; 2]) -> bool {
+    let (r, d) = ([f64::from(reported[0]), f64::from(reported[1])], [f64::from(injected[0]), f64::from(injected[1])]);
+    let dot = r[0] * d[0] + r[1] * d[1];
+    let norms = r[0].hypot(r[1]) * d[0].hypot(d[1]);
+    norms > 0.0 && dot >= core::f64::consts::FRAC_1_SQRT_2 * norms
+}
+
+/// How often the sensor checks report the displacement of the position errors they flag (see
+/// [`Outcome::sensor_offset_agrees`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OffsetTally {
+    /// Verifiable injected position errors in scope that the sensor checks flagged and whose offset was looked at.
+    pub flagged: u64,
+    /// Of those, reported as `position_error` with an offset within 45 degrees of the injected one.
+    pub agrees: u64,
+}
+
+impl OffsetTally {
+    /// `agrees / flagged`.
+    #[must_use]
+    pub fn rate(&self) -> Rate {
+        Rate::wilson(self.agrees, self.flagged)
+    }
 }
 
 /// Detection and alarm counts of one check.
@@ -211,6 +245,9 @@ pub struct Metrics {
     pub sensor_verifiable: Score,
     /// Missed-object alarms (unattributed conflict clusters in the region of interest).
     pub missed_object_alarms: u64,
+    /// The displacement the sensor checks report for the verifiable position errors they flag.
+    #[serde(default)]
+    pub sensor_offset: OffsetTally,
 }
 
 impl Metrics {
@@ -234,6 +271,12 @@ pub struct TrackTally {
     pub alarms: u64,
     /// Of those, explained by an injection.
     pub true_alarms: u64,
+    /// Its share of [`Metrics::sensor_offset`]`.flagged`.
+    #[serde(default)]
+    pub offset_flagged: u64,
+    /// Its share of [`Metrics::sensor_offset`]`.agrees`.
+    #[serde(default)]
+    pub offset_agrees: u64,
 }
 
 /// Scores a run's outcomes (any order) with a plausibility window of `window >= 1` frames.
@@ -261,6 +304,10 @@ pub fn score_by_track(
             if o.injected && o.sensor_judged {
                 t.verifiable += 1;
                 t.detected += u64::from(o.sensor_alarm);
+                if let (true, Some(agrees)) = (o.sensor_alarm, o.sensor_offset_agrees) {
+                    t.offset_flagged += 1;
+                    t.offset_agrees += u64::from(agrees);
+                }
             }
             if o.sensor_alarm {
                 t.alarms += 1;
@@ -285,6 +332,10 @@ pub fn score_by_track(
             if o.sensor_judged {
                 m.sensor_verifiable.injected += 1;
                 m.sensor_verifiable.detected += u64::from(o.sensor_alarm);
+                if let (true, Some(agrees)) = (o.sensor_alarm, o.sensor_offset_agrees) {
+                    m.sensor_offset.flagged += 1;
+                    m.sensor_offset.agrees += u64::from(agrees);
+                }
             } else {
                 m.not_verifiable += 1;
             }
@@ -461,6 +512,7 @@ mod tests {
                     sensor_alarm: bit(3),
                     sensor_judged: !bit(4),
                     plausibility_alarm: bit(5),
+                    sensor_offset_agrees: bit(2).then(|| bit(3)),
                 });
             }
         }
@@ -471,12 +523,39 @@ mod tests {
             (sum(|t| t.verifiable), sum(|t| t.detected), sum(|t| t.alarms), sum(|t| t.true_alarms)),
             (m.sensor_verifiable.injected, m.sensor_verifiable.detected, m.sensor.alarms, m.sensor.true_alarms)
         );
+        assert_eq!(
+            (sum(|t| t.offset_flagged), sum(|t| t.offset_agrees)),
+            (m.sensor_offset.flagged, m.sensor_offset.agrees)
+        );
+        assert!(m.sensor_offset.flagged > m.sensor_offset.agrees && m.sensor_offset.agrees > 0);
+        assert!(m.sensor_offset.flagged <= m.sensor_verifiable.detected);
         assert!(m.sensor_verifiable.injected > 0 && m.sensor.alarms > m.sensor.true_alarms);
         assert_eq!(tracks.iter().map(|t| t.id).collect::<Vec<_>>(), [3, 4, 8, 17, 99, 1000]);
     }
 
+    /// Within 45 degrees, either way round; nothing reported, or no displacement, never agrees.
+    #[test]
+    fn offsets_agree_within_45_degrees() {
+        assert!(offset_agrees([0.7, 0.0], [1.0, 0.0]));
+        assert!(offset_agrees([0.5, 0.49], [2.0, 0.0]));
+        assert!(!offset_agrees([0.5, 0.51], [2.0, 0.0]));
+        assert!(!offset_agrees([-0.7, 0.0], [1.0, 0.0]));
+        assert!(!offset_agrees([0.0, 0.0], [1.0, 0.0]));
+        assert!(!offset_agrees([1.0, 0.0], [0.0, 0.0]));
+        assert!(!offset_agrees([f32::NAN, 0.0], [1.0, 0.0]));
+    }
+
     fn o(frame: u64, injected: bool, s: bool, p: bool) -> Outcome {
-        Outcome { frame, id: 1, in_scope: true, injected, sensor_alarm: s, sensor_judged: true, plausibility_alarm: p }
+        Outcome {
+            frame,
+            id: 1,
+            in_scope: true,
+            injected,
+            sensor_alarm: s,
+            sensor_judged: true,
+            plausibility_alarm: p,
+            sensor_offset_agrees: None,
+        }
     }
 
     #[test]

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::inject::{Injection, InjectionConfig, Injector};
-use crate::metrics::{score, score_by_track, Metrics, Outcome, TrackTally};
+use crate::metrics::{offset_agrees, score, score_by_track, Metrics, Outcome, TrackTally};
 
 /// Frames to evaluate on: clean object lists (ground truth with their nominal uncertainty), clouds and ROI.
 #[derive(Clone, Debug)]
@@ -220,13 +220,19 @@ pub fn run_one_split(
     let (mut detected_example, mut missed_example, mut false_alarm_example, mut occluded_example) =
         (None, None, None, None);
     let mut injected = Vec::new();
+    let mut offsets: Vec<[f32; 2]> = Vec::new();
     paired_frames_with(scene, spec, injector, |p| {
         let k = p.k;
         injected.clear();
         injected.resize(p.objects.len(), false);
+        offsets.clear();
+        offsets.resize(p.objects.len(), [0.0f32; 2]);
         for i in p.injections {
             if let Some(x) = injected.get_mut(i.index as usize) {
                 *x = true;
+            }
+            if let Some(x) = offsets.get_mut(i.index as usize) {
+                *x = i.offset_m;
             }
         }
         times.push(p.check_us);
@@ -244,6 +250,11 @@ pub fn run_one_split(
                 sensor_alarm,
                 sensor_judged: p.confirmed.get(i).copied().unwrap_or(false),
                 plausibility_alarm: matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Implausible(_)),
+                // A position error flagged: does the verdict report its displacement?
+                sensor_offset_agrees: offsets
+                    .get(i)
+                    .filter(|d| inj && sensor_alarm && (d[0] != 0.0 || d[1] != 0.0))
+                    .map(|&d| r.sensor.verdict == SensorVerdict::PositionError && offset_agrees(r.sensor.offset_m, d)),
             };
             if set_apart {
                 apart_outcomes.push(o);

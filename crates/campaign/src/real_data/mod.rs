@@ -325,7 +325,11 @@ impl RunState {
         let objects = &mut self.objects;
         objects.clone_from(&clean.objects);
         let mut injected = vec![false; objects.len()];
+        let mut offsets = vec![[0.0f32; 2]; objects.len()];
         for i in self.injector.apply(k as u64, objects) {
+            if let Some(x) = offsets.get_mut(i.index as usize) {
+                *x = i.offset_m;
+            }
             if let Some(x) = injected.get_mut(i.index as usize) {
                 *x = true;
             }
@@ -348,14 +352,22 @@ impl RunState {
                     step.nv_no_points += 1;
                 }
             }
+            let sensor_alarm = matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
             step.outcomes.push(Outcome {
                 frame: k as u64,
                 id: r.id,
                 in_scope,
                 injected: inj,
-                sensor_alarm: matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError),
+                sensor_alarm,
                 sensor_judged: monitor_judged && !no_points,
                 plausibility_alarm: matches!(r.motion.verdict, MotionVerdict::Implausible(_)),
+                sensor_offset_agrees: offsets
+                    .get(i)
+                    .filter(|d| inj && sensor_alarm && (d[0] != 0.0 || d[1] != 0.0))
+                    .map(|&d| {
+                        r.sensor.verdict == SensorVerdict::PositionError
+                            && crate::metrics::offset_agrees(r.sensor.offset_m, d)
+                    }),
             });
             if details {
                 let object = objects.get(i).copied().unwrap_or_else(|| clean.objects.get(i).copied().unwrap_or(OBJ0));
@@ -432,6 +444,7 @@ fn add_metrics(a: &mut Metrics, b: &Metrics) {
         not_verifiable,
         sensor_verifiable,
         missed_object_alarms,
+        sensor_offset,
     } = b;
     a.frames += frames;
     a.states_in_scope += states_in_scope;
@@ -442,6 +455,8 @@ fn add_metrics(a: &mut Metrics, b: &Metrics) {
     a.not_verifiable += not_verifiable;
     add_score(&mut a.sensor_verifiable, sensor_verifiable);
     a.missed_object_alarms += missed_object_alarms;
+    a.sensor_offset.flagged += sensor_offset.flagged;
+    a.sensor_offset.agrees += sensor_offset.agrees;
 }
 
 fn fmt_rate(r: &Rate) -> String {
