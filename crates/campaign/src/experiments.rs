@@ -37,8 +37,8 @@ pub enum Measure {
     SensorFalseAlarmRate,
     /// False-alarm rate of the plausibility checks on clean object states.
     PlausibilityFalseAlarmRate,
-    /// Of the verifiable position errors the sensor checks flag, the share reported as `position_error` with an
-    /// offset within 45 degrees of the injected displacement ([`Metrics::sensor_offset`]).
+    /// Of the verifiable position errors the sensor checks flag, the share reported as `position_error` on the
+    /// object's own evidence ([`Metrics::sensor_offset`], [`crate::metrics::reported_displacement_agrees`]).
     SensorOffsetAgrees,
 }
 
@@ -362,7 +362,7 @@ pub fn figure_specs() -> Vec<FigureSpec> {
         ),
         fig(
             "position_offset",
-            "Detected permanent position errors: reported with their displacement (position error, offset within 45 degrees of the injected one; pedestrian scenario)",
+            "Detected permanent position errors: reported as the displacement they are (position error on the object's own evidence; pedestrian scenario)",
             "beyond the paper (issue #10: the displaced object gets position_error with the estimated displacement)",
             "position error [m]",
             "share of detections",

@@ -154,15 +154,54 @@ pub struct Outcome {
     pub sensor_judged: bool,
     /// Plausibility checks raised an alarm.
     pub plausibility_alarm: bool,
-    /// For an injected position error the sensor checks flagged: whether the verdict reports the displacement
-    /// the error made, `position_error` with an offset (box minus its evidence) within 45 degrees of the injected
-    /// offset ([`offset_agrees`]). `None` when no position error was injected, nothing was flagged, or the offset
-    /// was not looked at.
+    /// For an injected position error the sensor checks flagged: whether the verdict reports it as the displacement
+    /// it is, on the object's own evidence ([`reported_displacement_agrees`]). `None` when no position error was
+    /// injected, nothing was flagged, or the offset was not looked at.
     pub sensor_offset_agrees: Option<bool>,
 }
 
+/// How near the true box the centroid of the cluster a verdict attributes must stand for that evidence to count as
+/// the object's own (metres): returns lie on the object's surface, and a cluster's centroid is that of its cells.
+pub const OWN_EVIDENCE_TOLERANCE_M: f32 = 0.5;
+
+/// Whether a flagged position error is reported as the displacement it is: the verdict is `position_error`, and
+/// the evidence it rests on is the object's own: the attributed cluster's centroid within
+/// [`OWN_EVIDENCE_TOLERANCE_M`] of the true box (`truth`, the object without the error), or, for a verdict without
+/// a cluster (free space seen through the box, a jump from remembered evidence), its offset pointing the way the
+/// box was displaced ([`offset_agrees`]). A ghost verdict never agrees: it says there is no object.
+#[must_use]
+pub fn reported_displacement_agrees(
+    sensor: &pmon_monitor::SensorOutcome,
+    clusters: &[pmon_monitor::ClusterReport],
+    truth: &pmon_monitor::ObjectState,
+    injected: [f32; 2],
+) -> bool {
+    if sensor.verdict != pmon_monitor::SensorVerdict::PositionError {
+        return false;
+    }
+    match sensor.cluster.and_then(|k| clusters.get(usize::from(k))) {
+        Some(c) => distance_to_box(c.centroid_m, truth) <= OWN_EVIDENCE_TOLERANCE_M,
+        None => offset_agrees(sensor.offset_m, injected),
+    }
+}
+
+/// Distance from a point to an object's box (0 inside), metres; NaN in, NaN out.
+#[must_use]
+pub fn distance_to_box(p: [f32; 2], o: &pmon_monitor::ObjectState) -> f32 {
+    let (dx, dy) = (p[0] - o.x_m, p[1] - o.y_m);
+    let (s, c) = o.heading_rad.sin_cos();
+    let (u, v) = (dx * c + dy * s, -dx * s + dy * c);
+    let (ou, ov) = ((u.abs() - 0.5 * o.length_m).max(0.0), (v.abs() - 0.5 * o.width_m).max(0.0));
+    if u.is_nan() || v.is_nan() {
+        return f32::NAN;
+    }
+    ou.hypot(ov)
+}
+
 /// Whether a reported offset (from the evidence to the box, the verdict's `offset_m`) points the way the box was
-/// displaced (`injected`, box minus truth): within 45 degrees of it. A zero offset (nothing reported) never agrees,
+/// displaced (`injected`, box minus truth): within 45 degrees of it (for verdicts without a cluster; with one, the
+/// offset runs to the box's nearest point and can stand at any angle to a diagonal displacement of a long box,
+/// so [`reported_displacement_agrees`] looks at the cluster itself). A zero offset (nothing reported) never agrees,
 /// and neither does any offset for a zero displacement.
 #[must_use]
 pub fn offset_agrees(reported: [f32; 2], injected: [f32; 2]) -> bool {
@@ -178,7 +217,7 @@ pub fn offset_agrees(reported: [f32; 2], injected: [f32; 2]) -> bool {
 pub struct OffsetTally {
     /// Verifiable injected position errors in scope that the sensor checks flagged and whose offset was looked at.
     pub flagged: u64,
-    /// Of those, reported as `position_error` with an offset within 45 degrees of the injected one.
+    /// Of those, reported as the displacement they are ([`reported_displacement_agrees`]).
     pub agrees: u64,
 }
 
@@ -543,6 +582,80 @@ mod tests {
         assert!(!offset_agrees([0.0, 0.0], [1.0, 0.0]));
         assert!(!offset_agrees([1.0, 0.0], [0.0, 0.0]));
         assert!(!offset_agrees([f32::NAN, 0.0], [1.0, 0.0]));
+    }
+
+    /// The cluster decides when there is one (its centroid on the true box, within the tolerance), the offset's
+    /// direction when there is none; a ghost never agrees.
+    #[test]
+    fn a_displacement_is_reported_on_the_objects_own_evidence() {
+        use pmon_monitor::{ClusterReport, ObjectClass, ObjectState, SensorOutcome, SensorVerdict};
+        let truth = ObjectState {
+            id: 1,
+            class: ObjectClass::Car,
+            x_m: 10.0,
+            y_m: 0.0,
+            heading_rad: core::f32::consts::FRAC_PI_2,
+            speed_mps: 0.0,
+            length_m: 4.0,
+            width_m: 2.0,
+            uncertainty: None,
+        };
+        assert!((distance_to_box([10.0, 2.5], &truth) - 0.5).abs() < 1e-5);
+        assert!((distance_to_box([11.6, 0.0], &truth) - 0.6).abs() < 1e-5);
+        assert_eq!(distance_to_box([10.2, -1.0], &truth), 0.0);
+        let cluster = |at: [f32; 2]| ClusterReport {
+            cells: 4,
+            centroid_m: at,
+            bounds_m: [at[0], at[1], at[0], at[1]],
+            in_roi: true,
+            roi: pmon_monitor::RoiStatus::NoRoi,
+            object: Some(0),
+        };
+        let clusters = [cluster([10.9, 1.0]), cluster([13.0, 0.0])];
+        let flagged = |verdict, cluster, offset_m| SensorOutcome {
+            verdict,
+            eta: 0.5,
+            eta_own: 0.5,
+            margin_length_m: 0.4,
+            margin_width_m: 0.4,
+            visible_fraction: 1.0,
+            cluster,
+            offset_m,
+        };
+        let d = [1.5, 1.5];
+        // Its own returns, whatever the angle of the offset to the box's nearest point.
+        assert!(reported_displacement_agrees(
+            &flagged(SensorVerdict::PositionError, Some(0), [0.0, -0.4]),
+            &clusters,
+            &truth,
+            d
+        ));
+        // A neighbour's, even with an offset that points the right way.
+        assert!(!reported_displacement_agrees(
+            &flagged(SensorVerdict::PositionError, Some(1), [1.0, 1.0]),
+            &clusters,
+            &truth,
+            d
+        ));
+        // No cluster: the offset's direction.
+        assert!(reported_displacement_agrees(
+            &flagged(SensorVerdict::PositionError, None, [0.8, 1.0]),
+            &clusters,
+            &truth,
+            d
+        ));
+        assert!(!reported_displacement_agrees(
+            &flagged(SensorVerdict::PositionError, None, [-0.8, 1.0]),
+            &clusters,
+            &truth,
+            d
+        ));
+        assert!(!reported_displacement_agrees(
+            &flagged(SensorVerdict::Ghost, Some(0), [0.0, 0.0]),
+            &clusters,
+            &truth,
+            d
+        ));
     }
 
     fn o(frame: u64, injected: bool, s: bool, p: bool) -> Outcome {

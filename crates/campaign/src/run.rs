@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::inject::{Injection, InjectionConfig, Injector};
-use crate::metrics::{offset_agrees, score, score_by_track, Metrics, Outcome, TrackTally};
+use crate::metrics::{reported_displacement_agrees, score, score_by_track, Metrics, Outcome, TrackTally};
 
 /// Frames to evaluate on: clean object lists (ground truth with their nominal uncertainty), clouds and ROI.
 #[derive(Clone, Debug)]
@@ -254,7 +254,8 @@ pub fn run_one_split(
                 sensor_offset_agrees: offsets
                     .get(i)
                     .filter(|d| inj && sensor_alarm && (d[0] != 0.0 || d[1] != 0.0))
-                    .map(|&d| r.sensor.verdict == SensorVerdict::PositionError && offset_agrees(r.sensor.offset_m, d)),
+                    .zip(p.clean.objects.get(i))
+                    .map(|(&d, truth)| reported_displacement_agrees(&r.sensor, p.clusters, truth, d)),
             };
             if set_apart {
                 apart_outcomes.push(o);

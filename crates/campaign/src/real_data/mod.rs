@@ -364,9 +364,9 @@ impl RunState {
                 sensor_offset_agrees: offsets
                     .get(i)
                     .filter(|d| inj && sensor_alarm && (d[0] != 0.0 || d[1] != 0.0))
-                    .map(|&d| {
-                        r.sensor.verdict == SensorVerdict::PositionError
-                            && crate::metrics::offset_agrees(r.sensor.offset_m, d)
+                    .zip(clean.objects.get(i))
+                    .map(|(&d, truth)| {
+                        crate::metrics::reported_displacement_agrees(&r.sensor, report.clusters, truth, d)
                     }),
             });
             if details {
