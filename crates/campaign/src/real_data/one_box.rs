@@ -35,7 +35,7 @@ use pmon_monitor::{Monitor, MonitorParams, NotMonitoredReason, ObjectState, Sens
 use super::short_rate;
 use crate::experiments::{Curve, Point};
 use crate::inject::{Direction, Fault, InjectionConfig, Injector};
-use crate::metrics::Rate;
+use crate::metrics::{reported_displacement_agrees, Rate};
 
 /// Outcome of the one-box runs at one magnitude.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -44,6 +44,9 @@ pub(super) struct OneBox {
     pub(super) displaced: u64,
     /// Of those, flagged (`ghost` or `position_error`).
     pub(super) detected: u64,
+    /// Of the flagged, reported as the displacement they are: `position_error` on the box's own evidence
+    /// ([`crate::metrics::reported_displacement_agrees`]).
+    pub(super) own: u64,
     /// Of those, judged not monitored (occluded) once displaced.
     pub(super) occluded: u64,
     /// Other boxes flagged in the same checks and not flagged on the clean frame.
@@ -195,6 +198,9 @@ impl OneBoxRun {
                 }
                 out.displaced += 1;
                 out.detected += u64::from(alarm(mine.sensor.verdict));
+                out.own += u64::from(clean.objects.get(i).is_some_and(|truth| {
+                    reported_displacement_agrees(&mine.sensor, rep.clusters, truth, inj.offset_m)
+                }));
                 out.occluded +=
                     u64::from(matches!(mine.sensor.verdict, SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)));
             }
@@ -240,6 +246,9 @@ impl OneBoxRun {
             }
             out.displaced += 1;
             out.detected += u64::from(alarm(mine.sensor.verdict));
+            out.own += u64::from(clean.objects.get(i).is_some_and(|truth| {
+                reported_displacement_agrees(&mine.sensor, rep.clusters, truth, [magnitude_m * ux, magnitude_m * uy])
+            }));
             out.occluded +=
                 u64::from(matches!(mine.sensor.verdict, SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)));
             out.collateral += rep
@@ -311,8 +320,8 @@ impl AfterSweep {
                     curve_label: "sensor recall, boxes consistent on the clean frame (one box displaced after a \
                                   clean sweep)",
                     column: format!(
-                        "recall, boxes consistent on the clean frame, {name} (occluded; collateral alarms on clean \
-                         neighbours)"
+                        "recall, boxes consistent on the clean frame, {name} (flagged on their own evidence; occluded; \
+                         collateral alarms on clean neighbours)"
                     ),
                     note: format!(
                         "Real sensor, {name}: a condition beside the single sweep, reported apart from the claims. \
@@ -326,11 +335,17 @@ impl AfterSweep {
                     ),
                     cell: |x, r| {
                         let rate = short_rate(Some(r.recall()));
-                        format!("{x:.1} m: {rate}, {} occluded, {} collateral", r.occluded, r.collateral)
+                        format!(
+                            "{x:.1} m: {rate}, {} on its own evidence, {} occluded, {} collateral",
+                            r.own, r.occluded, r.collateral
+                        )
                     },
                     text: |x, r| {
                         let rate = short_rate(Some(r.recall()));
-                        format!("{x:.1} m: {rate} ({} collateral alarms)", r.collateral)
+                        format!(
+                            "{x:.1} m: {rate} ({} on their own evidence, {} collateral alarms)",
+                            r.own, r.collateral
+                        )
                     },
                 }
             }
@@ -342,7 +357,8 @@ impl AfterSweep {
                     curve_label: "sensor recall, boxes consistent on the clean frame (every box displaced at once \
                                   after a clean sweep)",
                     column: format!(
-                        "recall, boxes consistent on the clean frame, {name} (95 % Wilson interval; occluded)"
+                        "recall, boxes consistent on the clean frame, {name} (95 % Wilson interval; flagged on their \
+                         own evidence; occluded)"
                     ),
                     note: format!(
                         "Real sensor, {name}: the paper displaces every box of the frame at once; this is that form \
@@ -357,9 +373,21 @@ impl AfterSweep {
                     ),
                     cell: |x, r| {
                         let rate = short_rate(Some(r.recall()));
-                        format!("{x:.1} m: {rate} {}, {} occluded", interval(r), r.occluded)
+                        format!(
+                            "{x:.1} m: {rate} {}, {} on their own evidence, {} occluded",
+                            interval(r),
+                            r.own,
+                            r.occluded
+                        )
                     },
-                    text: |x, r| format!("{x:.1} m: {} {}", short_rate(Some(r.recall())), interval(r)),
+                    text: |x, r| {
+                        format!(
+                            "{x:.1} m: {} {} ({} on their own evidence)",
+                            short_rate(Some(r.recall())),
+                            interval(r),
+                            r.own
+                        )
+                    },
                 }
             }
         }
@@ -626,7 +654,7 @@ mod tests {
         assert_eq!((after.displaced, after.detected, after.collateral), (1, 1, 0), "{after:?}");
         assert_eq!(
             after_sweep_text(AfterSweep::OneBox, &[Some(after), None]),
-            "1.0 m: 100 % (1/1) (0 collateral alarms) (1 frame after a sweep)"
+            "1.0 m: 100 % (1/1) (1 on their own evidence, 0 collateral alarms) (1 frame after a sweep)"
         );
         // The single-sweep run over both sweeps counts each on its own, as before.
         assert_eq!(one_box_at(&car_only, &params, 1.0).unwrap().displaced, 2);
@@ -677,11 +705,12 @@ mod tests {
         let v = [Some(every), Some(near)];
         assert_eq!(
             after_sweep_cell(AfterSweep::EveryBox, &v),
-            "1.0 m: 100 % (2/2) [34.2, 100.0], 0 occluded; 2.0 m: 0 % (0/2) [0.0, 65.8], 0 occluded"
+            "1.0 m: 100 % (2/2) [34.2, 100.0], 2 on their own evidence, 0 occluded; 2.0 m: 0 % (0/2) [0.0, 65.8], 0 on \
+             their own evidence, 0 occluded"
         );
         assert_eq!(
             after_sweep_text(AfterSweep::EveryBox, &[Some(every), None]),
-            "1.0 m: 100 % (2/2) [34.2, 100.0] (1 frame after a sweep)"
+            "1.0 m: 100 % (2/2) [34.2, 100.0] (2 on their own evidence) (1 frame after a sweep)"
         );
         let curve = after_sweep_curve(AfterSweep::EveryBox, &[0.5, 1.0, 2.0], &v).unwrap();
         assert_eq!(

@@ -705,8 +705,9 @@ fn sensor_experiments_in_passes(
                         let m = mags.iter().position(|&y| (y - x).abs() < 1e-9)?;
                         let r = v.get(m)?;
                         Some(format!(
-                            "{x:.1} m: {}, {} occluded, {} collateral",
+                            "{x:.1} m: {}, {} on its own evidence, {} occluded, {} collateral",
                             short_rate(Some(r.recall())),
+                            r.own,
                             r.occluded,
                             r.collateral
                         ))
@@ -752,8 +753,8 @@ fn sensor_experiments_in_passes(
         "recall, all boxes",
         "recall, verifiable boxes",
         "recall, boxes consistent on the clean frame",
-        "recall, boxes consistent on the clean frame, one box displaced at a time (occluded; collateral alarms \
-         on clean neighbours)",
+        "recall, boxes consistent on the clean frame, one box displaced at a time (flagged on their own evidence; \
+         occluded; collateral alarms on clean neighbours)",
         "verifiable recall > 90 % from",
         "precision, half the boxes displaced (seeds pooled)",
         "not detected at the largest error, by cause",
@@ -943,7 +944,12 @@ fn one_box_text(v: &[Option<OneBox>; 2]) -> String {
         .zip(v)
         .filter_map(|(x, r)| {
             let r = r.as_ref()?;
-            Some(format!("{x:.1} m: {} ({} collateral alarms)", short_rate(Some(r.recall())), r.collateral))
+            Some(format!(
+                "{x:.1} m: {} ({} on their own evidence, {} collateral alarms)",
+                short_rate(Some(r.recall())),
+                r.own,
+                r.collateral
+            ))
         })
         .collect();
     if parts.is_empty() {
