@@ -69,7 +69,7 @@ def test_dask_gives_the_single_process_bytes_and_resumes(pmon_bin, cluster, tmp_
     assert report(out) == local_report
     # The claims are the local run's (the masks hid nothing else) and the figures have points.
     res = json.loads((out / "results.json").read_text())
-    assert res["runs"] > 50 and len(res["figures"]) == 12 and all(f["curves"] for f in res["figures"])
+    assert res["runs"] > 50 and len(res["figures"]) == 13 and all(f["curves"] for f in res["figures"])
     # Resume: three results deleted; the runner runs those three only and writes the same bytes again.
     results = tmp_path / "dask.run" / "results"
     before = {f.name: f.read_bytes() for f in results.iterdir()}
