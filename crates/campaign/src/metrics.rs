@@ -185,6 +185,23 @@ pub fn reported_displacement_agrees(
     }
 }
 
+/// [`Outcome::sensor_offset_agrees`] of one object state: `injected` is the position offset injected into it
+/// (`None`: nothing injected), `truth` the object without the error. For a non-zero offset the sensor checks flagged
+/// (`ghost` or `position_error`), whether the verdict reports it as the displacement it is
+/// ([`reported_displacement_agrees`]); `None` otherwise.
+#[must_use]
+pub fn offset_outcome(
+    sensor: &pmon_monitor::SensorOutcome,
+    clusters: &[pmon_monitor::ClusterReport],
+    truth: Option<&pmon_monitor::ObjectState>,
+    injected: Option<[f32; 2]>,
+) -> Option<bool> {
+    let flagged =
+        matches!(sensor.verdict, pmon_monitor::SensorVerdict::Ghost | pmon_monitor::SensorVerdict::PositionError);
+    let d = injected.filter(|d| flagged && (d[0] != 0.0 || d[1] != 0.0))?;
+    truth.map(|t| reported_displacement_agrees(sensor, clusters, t, d))
+}
+
 /// Distance from a point to an object's box (0 inside), metres; NaN in, NaN out.
 #[must_use]
 pub fn distance_to_box(p: [f32; 2], o: &pmon_monitor::ObjectState) -> f32 {
@@ -622,40 +639,26 @@ mod tests {
             cluster,
             offset_m,
         };
-        let d = [1.5, 1.5];
+        let agrees = |verdict, cluster, offset_m| {
+            reported_displacement_agrees(&flagged(verdict, cluster, offset_m), &clusters, &truth, [1.5, 1.5])
+        };
         // Its own returns, whatever the angle of the offset to the box's nearest point.
-        assert!(reported_displacement_agrees(
-            &flagged(SensorVerdict::PositionError, Some(0), [0.0, -0.4]),
-            &clusters,
-            &truth,
-            d
-        ));
+        assert!(agrees(SensorVerdict::PositionError, Some(0), [0.0, -0.4]));
         // A neighbour's, even with an offset that points the right way.
-        assert!(!reported_displacement_agrees(
-            &flagged(SensorVerdict::PositionError, Some(1), [1.0, 1.0]),
-            &clusters,
-            &truth,
-            d
-        ));
+        assert!(!agrees(SensorVerdict::PositionError, Some(1), [1.0, 1.0]));
         // No cluster: the offset's direction.
-        assert!(reported_displacement_agrees(
-            &flagged(SensorVerdict::PositionError, None, [0.8, 1.0]),
-            &clusters,
-            &truth,
-            d
-        ));
-        assert!(!reported_displacement_agrees(
-            &flagged(SensorVerdict::PositionError, None, [-0.8, 1.0]),
-            &clusters,
-            &truth,
-            d
-        ));
-        assert!(!reported_displacement_agrees(
-            &flagged(SensorVerdict::Ghost, Some(0), [0.0, 0.0]),
-            &clusters,
-            &truth,
-            d
-        ));
+        assert!(agrees(SensorVerdict::PositionError, None, [0.8, 1.0]));
+        assert!(!agrees(SensorVerdict::PositionError, None, [-0.8, 1.0]));
+        assert!(!agrees(SensorVerdict::Ghost, Some(0), [0.0, 0.0]));
+        // What an outcome records: nothing without an injected offset or an alarm, the agreement otherwise.
+        let outcome = |verdict, injected| {
+            offset_outcome(&flagged(verdict, Some(0), [0.0, -0.4]), &clusters, Some(&truth), injected)
+        };
+        assert_eq!(outcome(SensorVerdict::PositionError, Some([1.5, 1.5])), Some(true));
+        assert_eq!(outcome(SensorVerdict::Ghost, Some([1.5, 1.5])), Some(false));
+        assert_eq!(outcome(SensorVerdict::PositionError, Some([0.0, 0.0])), None);
+        assert_eq!(outcome(SensorVerdict::PositionError, None), None);
+        assert_eq!(outcome(SensorVerdict::Consistent, Some([1.5, 1.5])), None);
     }
 
     fn o(frame: u64, injected: bool, s: bool, p: bool) -> Outcome {

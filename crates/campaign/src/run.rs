@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::inject::{Injection, InjectionConfig, Injector};
-use crate::metrics::{reported_displacement_agrees, score, score_by_track, Metrics, Outcome, TrackTally};
+use crate::metrics::{offset_outcome, score, score_by_track, Metrics, Outcome, TrackTally};
 
 /// Frames to evaluate on: clean object lists (ground truth with their nominal uncertainty), clouds and ROI.
 #[derive(Clone, Debug)]
@@ -219,20 +219,15 @@ pub fn run_one_split(
     let mut times = Vec::with_capacity(scene.frames.len());
     let (mut detected_example, mut missed_example, mut false_alarm_example, mut occluded_example) =
         (None, None, None, None);
-    let mut injected = Vec::new();
-    let mut offsets: Vec<[f32; 2]> = Vec::new();
+    // Per object of the frame: the position offset injected into it (`None`: nothing injected).
+    let mut injected: Vec<Option<[f32; 2]>> = Vec::new();
     paired_frames_with(scene, spec, injector, |p| {
         let k = p.k;
         injected.clear();
-        injected.resize(p.objects.len(), false);
-        offsets.clear();
-        offsets.resize(p.objects.len(), [0.0f32; 2]);
+        injected.resize(p.objects.len(), None);
         for i in p.injections {
             if let Some(x) = injected.get_mut(i.index as usize) {
-                *x = true;
-            }
-            if let Some(x) = offsets.get_mut(i.index as usize) {
-                *x = i.offset_m;
+                *x = Some(i.offset_m);
             }
         }
         times.push(p.check_us);
@@ -241,7 +236,8 @@ pub fn run_one_split(
             let in_scope = in_scope(r.sensor.verdict);
             let set_apart = apart.contains(&r.id);
             let sensor_alarm = matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
-            let inj = injected.get(i).copied().unwrap_or(false);
+            let offset = injected.get(i).copied().flatten();
+            let inj = offset.is_some();
             let o = Outcome {
                 frame: k as u64,
                 id: r.id,
@@ -251,11 +247,7 @@ pub fn run_one_split(
                 sensor_judged: p.confirmed.get(i).copied().unwrap_or(false),
                 plausibility_alarm: matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Implausible(_)),
                 // A position error flagged: does the verdict report its displacement?
-                sensor_offset_agrees: offsets
-                    .get(i)
-                    .filter(|d| inj && sensor_alarm && (d[0] != 0.0 || d[1] != 0.0))
-                    .zip(p.clean.objects.get(i))
-                    .map(|(&d, truth)| reported_displacement_agrees(&r.sensor, p.clusters, truth, d)),
+                sensor_offset_agrees: offset_outcome(&r.sensor, p.clusters, p.clean.objects.get(i), offset),
             };
             if set_apart {
                 apart_outcomes.push(o);

@@ -324,14 +324,11 @@ impl RunState {
         let clean = &df.frame;
         let objects = &mut self.objects;
         objects.clone_from(&clean.objects);
-        let mut injected = vec![false; objects.len()];
-        let mut offsets = vec![[0.0f32; 2]; objects.len()];
+        // Per object: the position offset injected into it (`None`: nothing injected).
+        let mut injected: Vec<Option<[f32; 2]>> = vec![None; objects.len()];
         for i in self.injector.apply(k as u64, objects) {
-            if let Some(x) = offsets.get_mut(i.index as usize) {
-                *x = i.offset_m;
-            }
             if let Some(x) = injected.get_mut(i.index as usize) {
-                *x = true;
+                *x = Some(i.offset_m);
             }
         }
         let mut polygons = Vec::new();
@@ -344,7 +341,8 @@ impl RunState {
             let in_scope = crate::run::in_scope(r.sensor.verdict);
             let monitor_judged = !matches!(r.sensor.verdict, SensorVerdict::NotMonitored(_));
             let no_points = df.extras.get(i).and_then(|e| e.num_points) == Some(0);
-            let inj = injected.get(i).copied().unwrap_or(false);
+            let offset = injected.get(i).copied().flatten();
+            let inj = offset.is_some();
             if in_scope && inj {
                 if !monitor_judged {
                     step.nv_monitor += 1;
@@ -352,22 +350,20 @@ impl RunState {
                     step.nv_no_points += 1;
                 }
             }
-            let sensor_alarm = matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError);
             step.outcomes.push(Outcome {
                 frame: k as u64,
                 id: r.id,
                 in_scope,
                 injected: inj,
-                sensor_alarm,
+                sensor_alarm: matches!(r.sensor.verdict, SensorVerdict::Ghost | SensorVerdict::PositionError),
                 sensor_judged: monitor_judged && !no_points,
                 plausibility_alarm: matches!(r.motion.verdict, MotionVerdict::Implausible(_)),
-                sensor_offset_agrees: offsets
-                    .get(i)
-                    .filter(|d| inj && sensor_alarm && (d[0] != 0.0 || d[1] != 0.0))
-                    .zip(clean.objects.get(i))
-                    .map(|(&d, truth)| {
-                        crate::metrics::reported_displacement_agrees(&r.sensor, report.clusters, truth, d)
-                    }),
+                sensor_offset_agrees: crate::metrics::offset_outcome(
+                    &r.sensor,
+                    report.clusters,
+                    clean.objects.get(i),
+                    offset,
+                ),
             });
             if details {
                 let object = objects.get(i).copied().unwrap_or_else(|| clean.objects.get(i).copied().unwrap_or(OBJ0));
