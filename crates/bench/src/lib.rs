@@ -168,8 +168,14 @@ pub struct BenchOptions {
     pub shadow_gate: bool,
     /// Check with the params key `front_cluster` on (a free cluster in front of a confirmed box whose confirming
     /// evidence runs on beyond it goes to it; docs/attribution.md, "One box displaced 2 m in a single sweep"). Off:
-    /// the default parameters.
+    /// the default parameters. The default since issue #10's round "Two rules together": kept for older commands.
     pub front_cluster: bool,
+    /// Check with `front_cluster` off (the default before issue #10's round "Two rules together"). Wins over
+    /// `front_cluster`.
+    pub no_front_cluster: bool,
+    /// Check with `memory_hold_s = 0` (a displaced track's offset lives one frame: the default before issue #10's
+    /// round "Two rules together", which made it 1 s).
+    pub no_memory_hold: bool,
     /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
     /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
     /// "The grazing rule"). Since the rule is the default (issue #10), the default parameters have it on already.
@@ -206,6 +212,8 @@ impl Default for BenchOptions {
             memory_gate: false,
             shadow_gate: false,
             front_cluster: false,
+            no_front_cluster: false,
+            no_memory_hold: false,
             roi_graze: false,
             no_roi_graze: false,
             no_machine_reference: false,
@@ -767,6 +775,12 @@ fn apply_keys(p: &mut MonitorParams, opts: &BenchOptions) {
     p.memory_gate |= opts.memory_gate;
     p.shadow_gate |= opts.shadow_gate;
     p.front_cluster |= opts.front_cluster;
+    if opts.no_front_cluster {
+        p.front_cluster = false;
+    }
+    if opts.no_memory_hold {
+        p.memory_hold_s = 0.0;
+    }
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
     }

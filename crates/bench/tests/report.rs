@@ -25,6 +25,8 @@ fn quick() -> BenchOptions {
         memory_gate: false,
         shadow_gate: false,
         front_cluster: false,
+        no_front_cluster: false,
+        no_memory_hold: false,
         roi_graze: false,
         no_roi_graze: false,
         no_machine_reference: false,
@@ -232,6 +234,11 @@ fn params_keys_changed_from_the_defaults_are_named_in_the_notes() {
     assert!(sums.ends_with(": jump_first_return = false"), "{sums}");
     let over = keys(BenchOptions { seen_over: true, no_roi_graze: true, ..quick() }).unwrap();
     assert!(over.ends_with(": seen_over = true, roi_graze_fraction = 0"), "{over}");
+    // The two keys of issue #10's round "Two rules together" are on by default; `--front-cluster` is kept and changes
+    // nothing, the `--no-` flags turn them off.
+    assert_eq!(keys(BenchOptions { front_cluster: true, ..quick() }), None);
+    let two = keys(BenchOptions { no_front_cluster: true, no_memory_hold: true, ..quick() }).unwrap();
+    assert!(two.ends_with(": front_cluster = false, memory_hold_s = 0"), "{two}");
 }
 
 #[test]

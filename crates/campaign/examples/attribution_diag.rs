@@ -7,7 +7,7 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
 //! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
@@ -1287,6 +1287,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.shadow_gate |= std::env::var_os("SHADOWGATE").is_some();
             // `FRONT=1`: a free cluster in front of a confirmed box confirmed by scenery (`front_cluster`).
             r.spec.params.front_cluster |= std::env::var_os("FRONT").is_some();
+            // `NOFRONT=1`: `front_cluster` off (the default since issue #10's round "Two rules together";
+            // `HOLD=0` turns the other key of that round off).
+            r.spec.params.front_cluster &= std::env::var_os("NOFRONT").is_none();
             // `HOLD=S`: a track flagged as displaced keeps its offset S seconds after its last alarm for step 8
             // (the params key `memory_hold_s`).
             if let Some(s) = std::env::var("HOLD").ok().and_then(|v| v.parse().ok()) {

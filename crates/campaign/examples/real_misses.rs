@@ -23,12 +23,14 @@
 //! without `jump_jumped_boxes` (all three the default since issue #10 too).
 //! `DETAIL=1` (with `ONE_BOX=1 HISTORY=1`) prints, for each clean box flagged beside a displaced one, where both stand
 //! and the cluster that flagged it.
-//! `FRONT=1` checks with the params key `front_cluster` (a free cluster in front of a confirmed box, fitting it, goes
-//! to it when the evidence confirming the box runs on beyond it). `WHERE=1` adds to each miss's cause where the clean
+//! `NOFRONT=1` checks with the params key `front_cluster` off (on by default since issue #10's round "Two rules
+//! together": a free cluster in front of a confirmed box, fitting it, goes to it when the evidence confirming the box
+//! runs on beyond it; `FRONT=1` is kept and changes nothing). `WHERE=1` adds to each miss's cause where the clean
 //! box's own returns went (to itself, a neighbour's region, a neighbour's cluster, a free cluster, or nowhere) and
 //! whose cells confirm it in its displaced region (its own clean returns, a neighbour's box, scenery).
 //! `GRAZE=f` checks with the grazing rule at `roi_graze_fraction = f` (`GRAZE=0`: off; unset: the default, 0.5).
-//! `HOLD=S` checks with the params key `memory_hold_s = S` (a displaced offset held over frames without an alarm).
+//! `HOLD=S` checks with the params key `memory_hold_s = S` (a displaced offset held over frames without an alarm; 1 s
+//! by default, `HOLD=0` turns it off).
 //! `SPILL=occupied` checks with `SpillOverFit::Occupied` (spill-over fitted over occupied cells only, the default
 //! before issue #10's clean-box round; the default now is every return).
 use std::collections::BTreeMap;
@@ -61,7 +63,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             && std::env::var_os("NOFIRST").is_none(),
         seen_body: std::env::var_os("BODY").is_some(),
         memory_gate: std::env::var_os("MEMGATE").is_some(),
-        front_cluster: std::env::var_os("FRONT").is_some(),
+        // The default since issue #10's round "Two rules together": `NOFRONT=1` turns it off (`HOLD=0` the other key).
+        front_cluster: (base.front_cluster || std::env::var_os("FRONT").is_some())
+            && std::env::var_os("NOFRONT").is_none(),
         memory_hold_s: std::env::var("HOLD").ok().and_then(|v| v.parse().ok()).unwrap_or(base.memory_hold_s),
         // Default since issue #10: `NOPRED=1` / `NOCOINC=1` turn them off.
         jump_evidence_at_prediction: base.jump_evidence_at_prediction && std::env::var_os("NOPRED").is_none(),

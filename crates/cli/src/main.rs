@@ -137,9 +137,17 @@ enum Command {
         shadow_gate: bool,
         /// Check with the params key `front_cluster` on: a free cluster in front of a confirmed box, fitting it and
         /// outweighing its own cells, goes to it when the evidence confirming the box runs on beyond it
-        /// (docs/attribution.md, "One box displaced 2 m in a single sweep").
+        /// (docs/attribution.md, "One box displaced 2 m in a single sweep"). The default since issue #10's round
+        /// "Two rules together"; kept for older commands.
         #[arg(long)]
         front_cluster: bool,
+        /// Check with `front_cluster` off (the default before issue #10's round "Two rules together").
+        #[arg(long)]
+        no_front_cluster: bool,
+        /// Check with `memory_hold_s = 0`: a displaced track's offset lives one frame (the default before issue
+        /// #10's round "Two rules together", which made it 1 s; docs/attribution.md, "Step 8 held over a gap").
+        #[arg(long)]
+        no_memory_hold: bool,
         /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
         /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
         /// outside it (docs/datasets.md, "The grazing rule"). The default since issue #10.
@@ -263,6 +271,8 @@ fn main() -> ExitCode {
             memory_gate,
             shadow_gate,
             front_cluster,
+            no_front_cluster,
+            no_memory_hold,
             roi_graze,
             no_roi_graze,
             no_machine_reference,
@@ -291,6 +301,8 @@ fn main() -> ExitCode {
                 memory_gate,
                 shadow_gate,
                 front_cluster,
+                no_front_cluster,
+                no_memory_hold,
                 roi_graze,
                 no_roi_graze,
                 no_machine_reference,

@@ -332,33 +332,34 @@ pub struct MonitorParams {
     /// 26 m in front of it once and was held displaced for 80 frames (docs/attribution.md, "Evidence beyond the
     /// gate"). Costs a distance per cell looked at by step 8 and one cluster distance per such box.
     pub memory_gate: bool,
-    /// Off by default. A single-frame rule for a box displaced away from its returns and confirmed by scenery
-    /// (docs/attribution.md, "One box displaced 2 m in a single sweep"): a free conflict cluster left after
-    /// spill-over (in the region of interest or not) goes to a *confirmed* box without a cluster when (1) it stands
-    /// on the box's line of sight, in front of it, within `conflict_association_m` of its grown region, (2) it fits
-    /// the box (as step 3's fit test) and holds at least as many cells as the occupied cells the box owns, and (3)
-    /// the evidence that confirms the box runs on beyond it: a hit cell it owns in its grown region is 8-adjacent
-    /// to a hit cell outside the region that no object explains or that is known scenery (the cluster's own cells
-    /// left out), so the region's edge cuts through something that continues past where the box could stand. The
-    /// box is then a `position_error` with that cluster. Not the default: on the quick plan of seed 7 it costs 0.9
-    /// points of precision under the paper's conditions (0.5 m cells, 1.6 m), against the rule fixed before it
-    /// was measured (at most 0.5); Argoverse 2, one box displaced in a single sweep: 21 / 32 -> 25 / 40 of 77 at
-    /// 1 / 2 m. Costs one
-    /// sight test per confirmed box near a free cluster, and one walk over the region's cells (and their 3 x 3
-    /// blocks) for a box the first two tests pass.
+    /// On by default since issue #10's round "Two rules together" (off before it; docs/attribution.md). A single-frame
+    /// rule for a box displaced away from its returns and confirmed by scenery (docs/attribution.md, "One box displaced
+    /// 2 m in a single sweep"): a free conflict cluster left after spill-over (in the region of interest or not) goes
+    /// to a *confirmed* box without a cluster when (1) it stands on the box's line of sight, in front of it, within
+    /// `conflict_association_m` of its grown region, (2) it fits the box (as step 3's fit test) and holds at least as
+    /// many cells as the occupied cells the box owns, and (3) the evidence that confirms the box runs on beyond it: a
+    /// hit cell it owns in its grown region is 8-adjacent to a hit cell outside the region that no object explains or
+    /// that is known scenery (the cluster's own cells left out), so the region's edge cuts through something that
+    /// continues past where the box could stand. The box is then a `position_error` with that cluster. Alone it cost
+    /// 0.9 points of precision under the paper's conditions (quick plan of seed 7, 0.5 m cells, 1.6 m), against the
+    /// rule fixed before it was measured (at most 0.5), and stayed off until the round of two rules; Argoverse 2, one
+    /// box displaced in a single sweep: 21 / 32 -> 25 / 40 of 77 at 1 / 2 m. Costs one sight test per confirmed box
+    /// near a free cluster, and one walk over the region's cells (and their 3 x 3 blocks) for a box the first two tests
+    /// pass.
     pub front_cluster: bool,
-    /// Seconds; 0 (off) by default. Step 8 over a gap (docs/attribution.md, "Step 8 held over a gap"): a track
-    /// that alarms found displaced in at least two consecutive frames keeps the offset from its box to that evidence
-    /// for this long after its last alarm, through frames in which it is not flagged, beside whatever evidence the
-    /// memory records for it then; whenever its box is hidden and the offset puts the evidence in front of it on its
-    /// line of sight, step 8 looks for its evidence there (occupied cells outside its region that a neighbour
-    /// explains only through its margin keep it a `position_error`). Without it the offset lives one frame: a
-    /// displaced box called occluded or consistent once (it stepped onto another body's evidence) loses it for good.
-    /// Only step 8 uses a held offset (not step 4's priority, not the claim penalty). Not the default: on the quick
-    /// plans of seeds 7, 11 and 23 it raises the hard-conditions recall by up to 4 points (0.5 m cells) with the
-    /// sensor false alarms up to 0.3 m noise unchanged, but lowers precision by up to 0.9 points at some points and
-    /// the transient errors' combined precision by up to 0.9 (the rule fixed before measuring allowed 0.5). Must be
-    /// in [0, 10] s. Costs nothing per frame beyond step 8's walk for such a hidden track.
+    /// Seconds; 1 by default since issue #10's round "Two rules together" (0, off, before it; docs/attribution.md).
+    /// Step 8 over a gap (docs/attribution.md, "Step 8 held over a gap"): a track that alarms found displaced in at
+    /// least two consecutive frames keeps the offset from its box to that evidence for this long after its last alarm,
+    /// through frames in which it is not flagged, beside whatever evidence the memory records for it then; whenever its
+    /// box is hidden and the offset puts the evidence in front of it on its line of sight, step 8 looks for its
+    /// evidence there (occupied cells outside its region that a neighbour explains only through its margin keep it a
+    /// `position_error`). Without it the offset lives one frame: a displaced box called occluded or consistent once (it
+    /// stepped onto another body's evidence) loses it for good. Only step 8 uses a held offset (not step 4's priority,
+    /// not the claim penalty). Alone, on the quick plans of seeds 7, 11 and 23, it raises the hard-conditions recall by
+    /// up to 4 points (0.5 m cells) with the sensor false alarms up to 0.3 m noise unchanged, but lowers precision by
+    /// up to 0.9 points at some points and the transient errors' combined precision by up to 0.9 (the rule fixed before
+    /// measuring allowed 0.5). Must be in [0, 10] s. Costs nothing per frame beyond step 8's walk for such a hidden
+    /// track.
     pub memory_hold_s: f64,
     /// Off by default. Bounds "behind evidence nobody explains" by the gate (docs/attribution.md, "The shadow of far
     /// evidence"): a footprint cell shadowed by unexplained evidence counts as contradicted (`unexplained_shadow`:
@@ -468,8 +469,8 @@ impl MonitorParams {
         jump_jumped_boxes: true,
         seen_body: false,
         memory_gate: false,
-        front_cluster: false,
-        memory_hold_s: 0.0,
+        front_cluster: true,
+        memory_hold_s: 1.0,
         shadow_gate: false,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
@@ -813,11 +814,14 @@ mod tests {
         assert!(MonitorParams { jump_first_return: false, ..d }.validate().is_ok());
     }
 
-    /// `memory_hold_s`: off (0) by default; any time in [0, 10] s is accepted, NaN, negative and longer times are not.
+    /// `memory_hold_s`: 1 s by default (issue #10's round "Two rules together"), with `front_cluster` on; any time
+    /// in [0, 10] s is accepted (0 turns it off), NaN, negative and longer times are not.
     #[test]
-    fn memory_hold_is_off_by_default_and_bounded() {
+    fn memory_hold_is_one_second_by_default_and_bounded() {
         let d = MonitorParams::default();
-        assert!(d.memory_hold_s == 0.0);
+        assert_eq!(d.memory_hold_s.to_bits(), 1.0f64.to_bits());
+        assert!(d.front_cluster);
+        assert!(!d.seen_over && !d.face_in_front && !d.seen_body && !d.memory_gate && !d.shadow_gate);
         for ok in [0.0, 0.5, 10.0] {
             assert!(MonitorParams { memory_hold_s: ok, ..d }.validate().is_ok(), "{ok}");
         }

@@ -199,6 +199,12 @@ fn a_hidden_object_is_no_ghost_while_its_uncertainty_allows_the_shadow() {
 }
 
 /// The uncertainty of a noisy object list: position sigma `s`, nothing else that grows the region.
+/// The defaults before issue #10's round "Two rules together" (`front_cluster` off, `memory_hold_s` 0): the base
+/// of the tests that show what one opt-in key changes alone.
+fn before_two_rules() -> MonitorParams {
+    MonitorParams { front_cluster: false, memory_hold_s: 0.0, ..MonitorParams::default() }
+}
+
 fn sigma(s: f32) -> pmon_monitor::Uncertainty {
     pmon_monitor::Uncertainty { x_m: s, y_m: s, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 }
 }
@@ -1046,13 +1052,16 @@ fn rays_that_pass_beside_the_body_and_end_on_a_post_behind_it_prove_nothing() {
     };
     let aside = pmon_monitor::ObjectState { y_m: 0.6, ..truth };
     let nearer = pmon_monitor::ObjectState { x_m: 8.5, ..truth };
-    let on = MonitorParams { seen_body: true, ..MonitorParams::default() };
+    let on = MonitorParams { seen_body: true, ..before_two_rules() };
     let m = Monitor::new(on).unwrap();
     let region = m.region_of(&aside).unwrap();
     assert!((region.margin_width_m - 1.0).abs() < 1e-4, "{region:?}");
-    for (params, aside_verdict) in
-        [(MonitorParams::default(), SensorVerdict::PositionError), (on, SensorVerdict::Consistent)]
-    {
+    // Without the key (the defaults, and those before the round of two rules) and with it.
+    for (params, aside_verdict) in [
+        (MonitorParams::default(), SensorVerdict::PositionError),
+        (before_two_rules(), SensorVerdict::PositionError),
+        (on, SensorVerdict::Consistent),
+    ] {
         let key = params.seen_body;
         let mut m = Monitor::new(params).unwrap();
         let r = run(&mut m, &[aside], &pts);
@@ -1103,7 +1112,7 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
     second.extend(visible_face_points(&beside_truth, 0.05));
     let occluded = SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded);
     for memory_gate in [false, true] {
-        let mut m = Monitor::new(MonitorParams { memory_gate, ..MonitorParams::default() }).unwrap();
+        let mut m = Monitor::new(MonitorParams { memory_gate, ..before_two_rules() }).unwrap();
         let r = check_at(&mut m, 0.0, &[hidden, displaced], &first, Pose2::default());
         let (h, d) = (&r[0].sensor, &r[1].sensor);
         assert_eq!(d.verdict, SensorVerdict::PositionError, "key {memory_gate}, first sweep, displaced: {d:?}");
@@ -1130,13 +1139,14 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
 }
 
 /// A free cluster in front of a confirmed box goes to it when the evidence that confirms the box is a piece of
-/// something larger than it (params key `front_cluster`, off by default; docs/attribution.md, "One box displaced
-/// 2 m in a single sweep"). A car reported 2 m further away than it stands, in one sweep (no history): its rear face
-/// is a free cluster 1.6 m in front of its displaced region, and the region's far corner covers the end of a wall
-/// that runs on for 7 m behind it. The wall's cells confirm the box (it owns them) and the rear face alone fits the
-/// car, but the wall with it does not, so spill-over refuses it: without the key the box is `consistent`, with it a
-/// `position_error` with the rear face. The clean car, reported where it stands with an unlabelled object of its
-/// size 2 m in front of it, stays `consistent` with the key: its own evidence ends within its box.
+/// something larger than it (params key `front_cluster`, on by default since the round "Two rules together";
+/// docs/attribution.md, "One box displaced 2 m in a single sweep"; here alone, on the defaults before that round). A
+/// car reported 2 m further away than it stands, in one sweep (no history): its rear face is a free cluster 1.6 m in
+/// front of its displaced region, and the region's far corner covers the end of a wall that runs on for 7 m behind it.
+/// The wall's cells confirm the box (it owns them) and the rear face alone fits the car, but the wall with it does not,
+/// so spill-over refuses it: without the key the box is `consistent`, with it a `position_error` with the rear face.
+/// The clean car, reported where it stands with an unlabelled object of its size 2 m in front of it, stays `consistent`
+/// with the key: its own evidence ends within its box.
 #[test]
 fn a_box_confirmed_by_scenery_takes_the_cluster_of_its_shape_in_front_of_it() {
     let truth = object(1, 15.0, 0.0, 0.0, 4.5, 1.8);
@@ -1153,7 +1163,7 @@ fn a_box_confirmed_by_scenery_takes_the_cluster_of_its_shape_in_front_of_it() {
     let mut reported = truth;
     reported.x_m += 2.0;
     for front_cluster in [false, true] {
-        let mut m = Monitor::new(MonitorParams { front_cluster, ..MonitorParams::default() }).unwrap();
+        let mut m = Monitor::new(MonitorParams { front_cluster, ..before_two_rules() }).unwrap();
         let r = run(&mut m, &[reported], &pts);
         let want = if front_cluster { SensorVerdict::PositionError } else { SensorVerdict::Consistent };
         assert_eq!(r[0].sensor.verdict, want, "key {front_cluster}: {:?}", r[0].sensor);
@@ -1171,12 +1181,12 @@ fn a_box_confirmed_by_scenery_takes_the_cluster_of_its_shape_in_front_of_it() {
     }
 }
 
-/// Only evidence within reach contradicts a box it hides (params key `shadow_gate`, off by default; docs/attribution.md,
-/// "The shadow of far evidence"). A clean pedestrian 30 m out, hidden behind an unlisted post 10 m out (no returns of
-/// its own), with a small unlisted post 2 m beside it in plain sight. Without the key the box counts as contradicted
-/// (its place lies behind evidence nobody explains, 20 m in front of it), is offered every cluster within the full
-/// gate and takes the small post beside it (`position_error`). With the key the post 10 m out is too far to be the
-/// box displaced: its footprint is merely hidden, and the small post is not its.
+/// Only evidence within reach contradicts a box it hides (params key `shadow_gate`, off by default;
+/// docs/attribution.md, "The shadow of far evidence"). A clean pedestrian 30 m out, hidden behind an unlisted post 10 m
+/// out (no returns of its own), with a small unlisted post 2 m beside it in plain sight. Without the key the box counts
+/// as contradicted (its place lies behind evidence nobody explains, 20 m in front of it), is offered every cluster
+/// within the full gate and takes the small post beside it (`position_error`). With the key the post 10 m out is too
+/// far to be the box displaced: its footprint is merely hidden, and the small post is not its.
 #[test]
 fn far_evidence_in_front_does_not_open_the_gate_of_a_hidden_box() {
     let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
@@ -1187,7 +1197,7 @@ fn far_evidence_in_front_does_not_open_the_gate_of_a_hidden_box() {
     pts.extend(visible_face_points(&beside, 0.05));
     pts.extend(ground_points(45.0));
     for shadow_gate in [false, true] {
-        let mut m = Monitor::new(MonitorParams { shadow_gate, ..MonitorParams::default() }).unwrap();
+        let mut m = Monitor::new(MonitorParams { shadow_gate, ..before_two_rules() }).unwrap();
         let r = check_at(&mut m, 0.0, &[hidden], &pts, Pose2::default());
         let h = &r[0].sensor;
         eprintln!("shadow_gate {shadow_gate}: {h:?}");
@@ -1217,7 +1227,7 @@ fn a_box_hidden_behind_far_evidence_takes_the_free_evidence_beyond_it() {
     pts.extend(visible_face_points(&truth, 0.05));
     pts.extend(ground_points(45.0));
     for shadow_gate in [false, true] {
-        let mut m = Monitor::new(MonitorParams { shadow_gate, ..MonitorParams::default() }).unwrap();
+        let mut m = Monitor::new(MonitorParams { shadow_gate, ..before_two_rules() }).unwrap();
         let r = check_at(&mut m, 0.0, &[shown], &pts, Pose2::default());
         let h = &r[0].sensor;
         eprintln!("shadow_gate {shadow_gate}: {h:?}");
