@@ -357,6 +357,35 @@ fn reset_between_frames_leaves_no_trace() {
     assert_eq!(second[0].sensor.verdict, SensorVerdict::Ghost);
 }
 
+/// `truth` reported displaced along `direction` by the smallest shift (0.02 m steps, at most 40 m) that puts all its
+/// evidence (its visible faces) at least dx_min from the reported footprint, plus `extra` metres; and the sweep: that
+/// evidence and the ground out to 49 m.
+fn displaced_beyond_dx_min(
+    params: &MonitorParams,
+    truth: pmon_monitor::ObjectState,
+    direction: f32,
+    extra: f32,
+) -> (pmon_monitor::ObjectState, Vec<[f32; 3]>) {
+    let evidence = visible_face_points(&truth, 0.05);
+    let delta_b = pmon_monitor::region::delta_b(&params.default_uncertainty, truth.heading_rad);
+    let bound = dx_min_m(params.cell_size_m, params.safety_margin_m, params.gamma_sens, delta_b);
+    let (dx, dy) = (direction.cos(), direction.sin());
+    let at = |s: f32| pmon_monitor::ObjectState { x_m: truth.x_m + s * dx, y_m: truth.y_m + s * dy, ..truth };
+    let clear = |s: f32| {
+        let o = at(s);
+        let r =
+            pmon_monitor::geometry::OrientedRect::new(o.x_m, o.y_m, o.heading_rad, o.length_m / 2.0, o.width_m / 2.0);
+        evidence.iter().all(|p| r.distance(p[0], p[1]) >= bound)
+    };
+    let mut shift = 0.0f32;
+    while !clear(shift) && shift < 40.0 {
+        shift += 0.02;
+    }
+    let mut pts = evidence.clone();
+    pts.extend(ground_points(49.0));
+    (at(shift + extra), pts)
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 200, .. ProptestConfig::default() })]
 
@@ -376,26 +405,8 @@ proptest! {
         let params = MonitorParams { cell_size_m: cell, ..MonitorParams::default() };
         let mut m = Monitor::new(params).unwrap();
         let truth = object(1, range * bearing.cos(), range * bearing.sin(), heading, length, width);
-        let evidence = visible_face_points(&truth, 0.05);
-        let u = params.default_uncertainty;
-        let delta_b = pmon_monitor::region::delta_b(&u, heading);
-        let bound = dx_min_m(cell, params.safety_margin_m, params.gamma_sens, delta_b);
-        // Smallest shift along `direction` that puts all evidence at least dx_min from the footprint.
-        let (dx, dy) = (direction.cos(), direction.sin());
-        let mut shift = 0.0f32;
-        let clear = |s: f32| {
-            let o = pmon_monitor::ObjectState { x_m: truth.x_m + s * dx, y_m: truth.y_m + s * dy, ..truth };
-            let r = pmon_monitor::geometry::OrientedRect::new(o.x_m, o.y_m, o.heading_rad, o.length_m / 2.0, o.width_m / 2.0);
-            evidence.iter().all(|p| r.distance(p[0], p[1]) >= bound)
-        };
-        while !clear(shift) && shift < 40.0 {
-            shift += 0.02;
-        }
-        shift += extra;
-        let reported = pmon_monitor::ObjectState { x_m: truth.x_m + shift * dx, y_m: truth.y_m + shift * dy, ..truth };
+        let (reported, pts) = displaced_beyond_dx_min(&params, truth, direction, extra);
         prop_assume!(reported.x_m.abs() < 40.0 && reported.y_m.abs() < 40.0);
-        let mut pts = evidence.clone();
-        pts.extend(ground_points(49.0));
         let r = run(&mut m, &[reported], &pts, &[]);
         prop_assert!(r[0].sensor.eta < params.tau_tp, "eta {} with evidence >= dx_min away", r[0].sensor.eta);
         prop_assert!(r[0].verdict.is_alarm(), "not flagged: {:?}", r[0]);
@@ -421,25 +432,8 @@ proptest! {
             MonitorParams { cell_size_m: cell, memory_gate: true, shadow_gate: true, ..MonitorParams::default() };
         let mut m = Monitor::new(params).unwrap();
         let truth = object(1, range * bearing.cos(), range * bearing.sin(), heading, length, width);
-        let evidence = visible_face_points(&truth, 0.05);
-        let u = params.default_uncertainty;
-        let delta_b = pmon_monitor::region::delta_b(&u, heading);
-        let bound = dx_min_m(cell, params.safety_margin_m, params.gamma_sens, delta_b);
-        let (dx, dy) = (direction.cos(), direction.sin());
-        let mut shift = 0.0f32;
-        let clear = |s: f32| {
-            let o = pmon_monitor::ObjectState { x_m: truth.x_m + s * dx, y_m: truth.y_m + s * dy, ..truth };
-            let r = pmon_monitor::geometry::OrientedRect::new(o.x_m, o.y_m, o.heading_rad, o.length_m / 2.0, o.width_m / 2.0);
-            evidence.iter().all(|p| r.distance(p[0], p[1]) >= bound)
-        };
-        while !clear(shift) && shift < 40.0 {
-            shift += 0.02;
-        }
-        shift += extra;
-        let reported = pmon_monitor::ObjectState { x_m: truth.x_m + shift * dx, y_m: truth.y_m + shift * dy, ..truth };
+        let (reported, pts) = displaced_beyond_dx_min(&params, truth, direction, extra);
         prop_assume!(reported.x_m.abs() < 40.0 && reported.y_m.abs() < 40.0);
-        let mut pts = evidence.clone();
-        pts.extend(ground_points(49.0));
         let r = run(&mut m, &[reported], &pts, &[]);
         prop_assert!(r[0].verdict.is_alarm(), "not flagged with the gates: {:?}", r[0]);
     }
