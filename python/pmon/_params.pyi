@@ -29,6 +29,7 @@ class Params:
     jump_jumped_boxes: bool
     seen_body: bool
     memory_gate: bool
+    follow_gate: bool
     front_cluster: bool
     memory_hold_s: float
     shadow_gate: bool

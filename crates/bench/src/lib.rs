@@ -162,6 +162,9 @@ pub struct BenchOptions {
     /// Check with the params key `memory_gate` on (evidence beyond `conflict_association_m` of a box is never its:
     /// step 8 and the occluder rule bounded; docs/attribution.md). Off: the default parameters.
     pub memory_gate: bool,
+    /// Check with the params key `follow_gate` on (step 8 counts only evidence within `conflict_association_m` of a
+    /// box; docs/attribution.md). Off: the default parameters.
+    pub follow_gate: bool,
     /// Check with the params key `shadow_gate` on (the shadow of unexplained evidence contradicts a box only within
     /// its gate; a box hidden only by farther evidence takes the free evidence beyond it on its line of sight;
     /// docs/attribution.md, "The shadow of far evidence"). Off: the default parameters.
@@ -176,6 +179,12 @@ pub struct BenchOptions {
     /// Check with `memory_hold_s = 0` (a displaced track's offset lives one frame: the default before issue #10's
     /// round "Two rules together", which made it 1 s).
     pub no_memory_hold: bool,
+    /// Check with `seen_body` off (the default before issue #10's round "Rays on the body with step 8 gated"). Wins
+    /// over `seen_body`.
+    pub no_seen_body: bool,
+    /// Check with `follow_gate` off (the default before that round). Wins over `follow_gate`; `memory_gate` still
+    /// bounds step 8 when set.
+    pub no_follow_gate: bool,
     /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
     /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
     /// "The grazing rule"). Since the rule is the default (issue #10), the default parameters have it on already.
@@ -210,10 +219,13 @@ impl Default for BenchOptions {
             no_jump_first_return: false,
             seen_body: false,
             memory_gate: false,
+            follow_gate: false,
             shadow_gate: false,
             front_cluster: false,
             no_front_cluster: false,
             no_memory_hold: false,
+            no_seen_body: false,
+            no_follow_gate: false,
             roi_graze: false,
             no_roi_graze: false,
             no_machine_reference: false,
@@ -773,6 +785,7 @@ fn apply_keys(p: &mut MonitorParams, opts: &BenchOptions) {
     }
     p.seen_body |= opts.seen_body;
     p.memory_gate |= opts.memory_gate;
+    p.follow_gate |= opts.follow_gate;
     p.shadow_gate |= opts.shadow_gate;
     p.front_cluster |= opts.front_cluster;
     if opts.no_front_cluster {
@@ -780,6 +793,12 @@ fn apply_keys(p: &mut MonitorParams, opts: &BenchOptions) {
     }
     if opts.no_memory_hold {
         p.memory_hold_s = 0.0;
+    }
+    if opts.no_seen_body {
+        p.seen_body = false;
+    }
+    if opts.no_follow_gate {
+        p.follow_gate = false;
     }
     if opts.roi_graze {
         p.roi_graze_fraction = 0.5;
@@ -803,6 +822,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("jump_first_return", d.jump_first_return, p.jump_first_return),
         ("seen_body", d.seen_body, p.seen_body),
         ("memory_gate", d.memory_gate, p.memory_gate),
+        ("follow_gate", d.follow_gate, p.follow_gate),
         ("shadow_gate", d.shadow_gate, p.shadow_gate),
         ("front_cluster", d.front_cluster, p.front_cluster),
         ("jump_evidence_at_prediction", d.jump_evidence_at_prediction, p.jump_evidence_at_prediction),

@@ -23,10 +23,13 @@ fn quick() -> BenchOptions {
         no_jump_first_return: false,
         seen_body: false,
         memory_gate: false,
+        follow_gate: false,
         shadow_gate: false,
         front_cluster: false,
         no_front_cluster: false,
         no_memory_hold: false,
+        no_seen_body: false,
+        no_follow_gate: false,
         roi_graze: false,
         no_roi_graze: false,
         no_machine_reference: false,
@@ -239,6 +242,10 @@ fn params_keys_changed_from_the_defaults_are_named_in_the_notes() {
     assert_eq!(keys(BenchOptions { front_cluster: true, ..quick() }), None);
     let two = keys(BenchOptions { no_front_cluster: true, no_memory_hold: true, ..quick() }).unwrap();
     assert!(two.ends_with(": front_cluster = false, memory_hold_s = 0"), "{two}");
+    // The pair of issue #10's round "Rays on the body with step 8 gated" is on by default too.
+    assert_eq!(keys(BenchOptions { seen_body: true, follow_gate: true, ..quick() }), None);
+    let body = keys(BenchOptions { no_seen_body: true, no_follow_gate: true, ..quick() }).unwrap();
+    assert!(body.ends_with(": seen_body = false, follow_gate = false"), "{body}");
 }
 
 #[test]

@@ -7,7 +7,7 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
 //! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
@@ -28,7 +28,9 @@
 //! 8-neighbour's owner; `TRACK=ID` prints the track's frames); docs/attribution.md, "Cluster identity over frames".
 //! `MISSRUN=1` sorts each verifiable miss (and each error found) by the track's alarms before it in the run: in the
 //! previous frame, earlier only, never (docs/attribution.md, "Misses by the track's alarms before them"). `HOLD=S`
-//! runs with the params key `memory_hold_s = S` (docs/attribution.md, "Step 8 held over a gap").
+//! runs with the params key `memory_hold_s = S` (docs/attribution.md, "Step 8 held over a gap"). `MAP=1` (with
+//! `MISSES=1` or `DETAIL=1`) draws the cells around each listed box; `OWNERS=1` counts each verifiable miss by whose
+//! the occupied cells under its true footprint went to (docs/attribution.md, "Where a displaced box's evidence goes").
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -1137,6 +1139,11 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                         o.length_m,
                         o.width_m
                     );
+                    if std::env::var_os("MAP").is_some() {
+                        if let Some(g) = region {
+                            text += &miss_map(monitor, truth, o, &g, i, spec.params.tau_fn);
+                        }
+                    }
                     if let Some(g) = region {
                         text += &explain_false_alarm(monitor, truth, o, &g, &run_label);
                         if spec.params.seen_over {
@@ -1192,6 +1199,54 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                     at_truth.join(",")
                 );
                 *out.entry(key).or_default() += 1;
+                // `OWNERS=1`: whose the occupied cells under the true footprint went to, by majority.
+                if std::env::var_os("OWNERS").is_some() {
+                    let geo = monitor.grid().geometry;
+                    let (mut me, mut clean_o, mut disp_o, mut free) = (0u32, 0u32, 0u32, 0u32);
+                    if let Some(tg) = truth_region {
+                        if let Some(range) = geo.cell_range(tg.grown.aabb()) {
+                            geo.for_each_cell_overlapping(&tg.grown, range, |idx, x, y| {
+                                if rect_distance(truth, [x, y]) > 0.25
+                                    || monitor.grid().probability(idx) <= spec.params.tau_fn
+                                {
+                                    return;
+                                }
+                                match monitor.cell_attributed_to(idx) {
+                                    Some(m) if m as usize == i => me += 1,
+                                    Some(m) if injections.iter().any(|x| x.index == m) => disp_o += 1,
+                                    Some(_) => clean_o += 1,
+                                    None => free += 1,
+                                }
+                            });
+                        }
+                    }
+                    let total = me + clean_o + disp_o + free;
+                    let what = if total == 0 {
+                        "none"
+                    } else if 2 * me > total {
+                        "self"
+                    } else if 2 * clean_o > total {
+                        "other-clean"
+                    } else if 2 * disp_o > total {
+                        "other-displaced"
+                    } else if 2 * free > total {
+                        "free"
+                    } else {
+                        "mixed"
+                    };
+                    let size = if o.length_m > 3.0 {
+                        "car"
+                    } else if o.length_m > 1.2 {
+                        "cyclist"
+                    } else {
+                        "pedestrian"
+                    };
+                    let key = format!(
+                        "OWNERS {:<24} {size:<10} {dir:<7} truth evidence {what}",
+                        format!("{:?}", r.sensor.verdict)
+                    );
+                    *out.entry(key).or_default() += 1;
+                }
                 if std::env::var("MISSES").is_ok() {
                     // Each cluster at the true place: cells, who took it, whether that object's own true place is
                     // also under it (merged evidence) and how far its box is from it.
@@ -1239,6 +1294,15 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                             text += &explain_false_alarm(monitor, truth, o, &g, &run_label);
                         }
                     }
+                    // `MAP=1`: the cells around the missed box (rows north to south): `S`/`s` its own evidence
+                    // inside / outside the reported box's grown region, `N`/`n` another object's, `F`/`f` nobody's,
+                    // `:` returns too sparse to be occupied, `+` an empty cell of the grown region, `T` an empty cell
+                    // of the true footprint.
+                    if std::env::var_os("MAP").is_some() {
+                        if let Some(g) = region {
+                            text += &miss_map(monitor, truth, o, &g, i, spec.params.tau_fn);
+                        }
+                    }
                     // `TRACE=1` (with `SEEN_OVER=1`): the seen-over walk of the missed box too.
                     if spec.params.seen_over && std::env::var_os("TRACE").is_some() {
                         if let Some(g) = region {
@@ -1252,6 +1316,66 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
         Ok(())
     })?;
     Ok(out)
+}
+
+/// `MAP=1`: an ASCII picture of the cells around a missed box (see the call).
+fn miss_map(
+    monitor: &Monitor,
+    truth: &pmon_monitor::ObjectState,
+    o: &pmon_monitor::ObjectState,
+    g: &pmon_monitor::Region,
+    i: usize,
+    tau_fn: f32,
+) -> String {
+    let geo = monitor.grid().geometry;
+    let cs = geo.cell_size_m;
+    let reach = 0.5 * truth.length_m.max(truth.width_m) + (o.x_m - truth.x_m).hypot(o.y_m - truth.y_m) + 2.0;
+    let (cx, cy) = (0.5 * (o.x_m + truth.x_m), 0.5 * (o.y_m + truth.y_m));
+    let steps = (reach / cs).ceil() as i32;
+    let mut text = format!(
+        "   map (cell {cs} m; truth ({:.1}, {:.1}), box ({:.1}, {:.1}), heading {:.0} deg; sensor at the origin)\n",
+        truth.x_m,
+        truth.y_m,
+        o.x_m,
+        o.y_m,
+        o.heading_rad.to_degrees()
+    );
+    for r in (-steps..=steps).rev() {
+        let mut line = String::from("   ");
+        for c in -steps..=steps {
+            let (x, y) = (cx + c as f32 * cs, cy + r as f32 * cs);
+            let Some(idx) = geo.point_to_cell(x, y) else {
+                line.push(' ');
+                continue;
+            };
+            let (px, py) = geo.cell_center(idx);
+            let inside = g.grown.contains(px, py);
+            let hits = monitor.grid().hits(idx);
+            let ch = if monitor.grid().probability(idx) > tau_fn {
+                let who = monitor.cell_attributed_to(idx);
+                match (who, inside) {
+                    (Some(m), true) if m as usize == i => 'S',
+                    (Some(m), false) if m as usize == i => 's',
+                    (Some(_), true) => 'N',
+                    (Some(_), false) => 'n',
+                    (None, true) => 'F',
+                    (None, false) => 'f',
+                }
+            } else if hits > 0 {
+                ':'
+            } else if inside {
+                '+'
+            } else if rect_distance(truth, [px, py]) == 0.0 {
+                'T'
+            } else {
+                '.'
+            };
+            line.push(ch);
+        }
+        text += &line;
+        text.push('\n');
+    }
+    text
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -1283,6 +1407,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.seen_body |= std::env::var_os("BODY").is_some();
             // `MEMGATE=1`: evidence beyond the gate is never a box's (the params key `memory_gate`).
             r.spec.params.memory_gate |= std::env::var_os("MEMGATE").is_some();
+            // `FOLLOWGATE=1`: step 8 counts only cells within the gate (the params key `follow_gate`).
+            r.spec.params.follow_gate |= std::env::var_os("FOLLOWGATE").is_some();
+            // `seen_body` and `follow_gate` are the default since issue #10's round "Rays on the body with step 8
+            // gated": `NOBODY=1` and `NOFOLLOWGATE=1` turn them off.
+            if std::env::var_os("NOBODY").is_some() {
+                r.spec.params.seen_body = false;
+            }
+            if std::env::var_os("NOFOLLOWGATE").is_some() {
+                r.spec.params.follow_gate = false;
+            }
             // `SHADOWGATE=1`: only unexplained evidence within the gate contradicts a box it shadows (`shadow_gate`).
             r.spec.params.shadow_gate |= std::env::var_os("SHADOWGATE").is_some();
             // `FRONT=1`: a free cluster in front of a confirmed box confirmed by scenery (`front_cluster`).

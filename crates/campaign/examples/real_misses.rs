@@ -16,7 +16,9 @@
 //! With `HISTORY=1` alone, every box is displaced at once as without it, but each displaced frame's check starts with
 //! a fresh track memory and a check of the previous sweep, clean (the paper's form at the onset of the error).
 //! `FACE=1` checks with the params key `face_in_front`, `BODY=1` with `seen_body` (the free-space test counts only
-//! rays that end on the body), `MEMGATE=1` with `memory_gate` (evidence beyond the gate is never a box's).
+//! rays that end on the body), `MEMGATE=1` with `memory_gate` (evidence beyond the gate is never a box's),
+//! `FOLLOWGATE=1` with `follow_gate` (step 8 alone bounded by the gate); both `seen_body` and `follow_gate` are the
+//! default since issue #10's round "Rays on the body with step 8 gated": `NOBODY=1` / `NOFOLLOWGATE=1` turn them off.
 //! `jump_from_returns` (step 9 from the returns) and `jump_first_return` (their mean from each cell's first return)
 //! are the default since issue #10: `NOJUMP=1` checks without both, `NOFIRST=1` without the first return;
 //! `NOPRED=1` without `jump_evidence_at_prediction`, `NOCOINC=1` without `jump_coincident_boxes`, `NOJUMPED=1`
@@ -61,8 +63,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         jump_first_return: base.jump_first_return
             && std::env::var_os("NOJUMP").is_none()
             && std::env::var_os("NOFIRST").is_none(),
-        seen_body: std::env::var_os("BODY").is_some(),
+        // The default since issue #10's round "Rays on the body with step 8 gated": `NOBODY=1` / `NOFOLLOWGATE=1`.
+        seen_body: (base.seen_body || std::env::var_os("BODY").is_some()) && std::env::var_os("NOBODY").is_none(),
         memory_gate: std::env::var_os("MEMGATE").is_some(),
+        follow_gate: (base.follow_gate || std::env::var_os("FOLLOWGATE").is_some())
+            && std::env::var_os("NOFOLLOWGATE").is_none(),
         // The default since issue #10's round "Two rules together": `NOFRONT=1` turns it off (`HOLD=0` the other key).
         front_cluster: (base.front_cluster || std::env::var_os("FRONT").is_some())
             && std::env::var_os("NOFRONT").is_none(),

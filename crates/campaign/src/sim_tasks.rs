@@ -342,8 +342,7 @@ mod tests {
     }
 
     /// Adding a params key must not redraw every run: a key added later (`spill_over_fit`, `seen_over`, `face_in_front`, `roi_graze_fraction`,
-    /// `roi_graze_height_m`, `seen_body`) stays out of the
-    /// identity at its default, and the seeds of the paper's default plan stay those of before (pinned: the
+    /// `roi_graze_height_m`, `seen_body`, `follow_gate`) stays out of the identity at its default, and the seeds of the paper's default plan stay those of before (pinned: the
     /// first run of the smoke plan at campaign seed 7, the same bytes `pmon reproduce` wrote before the key).
     /// The key's default moved from `occupied` to `every_return` (issue #10): still left out at the default, so
     /// the seeds did not move with it; the other value is in the identity. The same for `roi_graze_fraction`, whose
@@ -356,9 +355,13 @@ mod tests {
         assert!(!id.contains("spill_over_fit") && !id.contains("seen_over") && !id.contains("face_in_front"), "{id}");
         assert!(!id.contains("roi_graze") && !id.contains("seen_body"), "{id}");
         assert_eq!(a[0].spec.injection.seed, 5_901_858_983_376_117_566, "{id}");
-        let body = MonitorParams { seen_body: true, ..params };
+        // `seen_body` and `follow_gate` are on by default since issue #10's round of rays on the body: off, they
+        // are in the identity.
+        assert!(!id.contains("follow_gate"), "{id}");
+        let body = MonitorParams { seen_body: false, follow_gate: false, ..params };
         let d = plan(Scale::Smoke, IDS, &body, 7);
-        assert!(run_identity("pedestrians", &d[0].spec).contains("\"seen_body\":true"));
+        let id_off = run_identity("pedestrians", &d[0].spec);
+        assert!(id_off.contains("\"seen_body\":false") && id_off.contains("\"follow_gate\":false"), "{id_off}");
         let over = MonitorParams { seen_over: true, ..params };
         let c = plan(Scale::Smoke, IDS, &over, 7);
         assert!(run_identity("pedestrians", &c[0].spec).contains("\"seen_over\":true"));

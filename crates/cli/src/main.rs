@@ -124,13 +124,19 @@ enum Command {
         #[arg(long, conflicts_with = "jump_first_return")]
         no_jump_first_return: bool,
         /// Check with the params key `seen_body` on: the free-space test towards the sensor counts only rays that
-        /// end on the object's body, not on other returns its grown region owns (docs/attribution.md).
+        /// end on the object's body, not on other returns its grown region owns (docs/attribution.md). The default
+        /// since issue #10's round "Rays on the body with step 8 gated"; kept for older commands.
         #[arg(long)]
         seen_body: bool,
         /// Check with the params key `memory_gate` on: evidence farther than `conflict_association_m` from a box is
         /// never its (step 8 and the occluder rule bounded; docs/attribution.md).
         #[arg(long)]
         memory_gate: bool,
+        /// Check with the params key `follow_gate` on: step 8 counts only evidence within `conflict_association_m`
+        /// of a box (the half of `memory_gate` that keeps the object-level guarantee; docs/attribution.md). The
+        /// default since issue #10's round "Rays on the body with step 8 gated"; kept for older commands.
+        #[arg(long)]
+        follow_gate: bool,
         /// Check with the params key `shadow_gate` on: the shadow of unexplained evidence contradicts a box only
         /// within its gate (docs/attribution.md, "The shadow of far evidence").
         #[arg(long)]
@@ -148,6 +154,12 @@ enum Command {
         /// #10's round "Two rules together", which made it 1 s; docs/attribution.md, "Step 8 held over a gap").
         #[arg(long)]
         no_memory_hold: bool,
+        /// Check with `seen_body` off (the default before issue #10's round "Rays on the body with step 8 gated").
+        #[arg(long, conflicts_with = "seen_body")]
+        no_seen_body: bool,
+        /// Check with `follow_gate` off (the default before issue #10's round "Rays on the body with step 8 gated").
+        #[arg(long, conflicts_with_all = ["follow_gate", "memory_gate"])]
+        no_follow_gate: bool,
         /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
         /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
         /// outside it (docs/datasets.md, "The grazing rule"). The default since issue #10.
@@ -269,10 +281,13 @@ fn main() -> ExitCode {
             no_jump_first_return,
             seen_body,
             memory_gate,
+            follow_gate,
             shadow_gate,
             front_cluster,
             no_front_cluster,
             no_memory_hold,
+            no_seen_body,
+            no_follow_gate,
             roi_graze,
             no_roi_graze,
             no_machine_reference,
@@ -299,10 +314,13 @@ fn main() -> ExitCode {
                 no_jump_first_return,
                 seen_body,
                 memory_gate,
+                follow_gate,
                 shadow_gate,
                 front_cluster,
                 no_front_cluster,
                 no_memory_hold,
+                no_seen_body,
+                no_follow_gate,
                 roi_graze,
                 no_roi_graze,
                 no_machine_reference,

@@ -198,13 +198,19 @@ fn a_hidden_object_is_no_ghost_while_its_uncertainty_allows_the_shadow() {
     assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "stated exact, mostly seen empty: {:?}", r[1].sensor);
 }
 
-/// The uncertainty of a noisy object list: position sigma `s`, nothing else that grows the region.
-/// The defaults before issue #10's round "Two rules together" (`front_cluster` off, `memory_hold_s` 0): the base
-/// of the tests that show what one opt-in key changes alone.
+/// The defaults before issue #10's round "Two rules together" (`front_cluster` off, `memory_hold_s` 0, and the keys of
+/// the later round of rays on the body off too): the base of the tests that show what one opt-in key changes alone.
 fn before_two_rules() -> MonitorParams {
-    MonitorParams { front_cluster: false, memory_hold_s: 0.0, ..MonitorParams::default() }
+    MonitorParams { front_cluster: false, memory_hold_s: 0.0, ..before_body_rules() }
 }
 
+/// The defaults before issue #10's round "Rays on the body with step 8 gated" (docs/attribution.md): `seen_body` and
+/// `follow_gate` off.
+fn before_body_rules() -> MonitorParams {
+    MonitorParams { seen_body: false, follow_gate: false, ..MonitorParams::default() }
+}
+
+/// The uncertainty of a noisy object list: position sigma `s`, nothing else that grows the region.
 fn sigma(s: f32) -> pmon_monitor::Uncertainty {
     pmon_monitor::Uncertainty { x_m: s, y_m: s, length_m: 0.0, width_m: 0.0, heading_rad: 0.1, speed_mps: 0.5 }
 }
@@ -1056,11 +1062,13 @@ fn rays_that_pass_beside_the_body_and_end_on_a_post_behind_it_prove_nothing() {
     let m = Monitor::new(on).unwrap();
     let region = m.region_of(&aside).unwrap();
     assert!((region.margin_width_m - 1.0).abs() < 1e-4, "{region:?}");
-    // Without the key (the defaults, and those before the round of two rules) and with it.
+    // Without the key (the defaults before the round of rays on the body, and those before the round of two rules)
+    // and with it (alone, and as the default since that round).
     for (params, aside_verdict) in [
-        (MonitorParams::default(), SensorVerdict::PositionError),
+        (before_body_rules(), SensorVerdict::PositionError),
         (before_two_rules(), SensorVerdict::PositionError),
         (on, SensorVerdict::Consistent),
+        (MonitorParams::default(), SensorVerdict::Consistent),
     ] {
         let key = params.seen_body;
         let mut m = Monitor::new(params).unwrap();
@@ -1136,6 +1144,49 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
             assert!(h.cluster.is_none() && h.offset_m[0] > 15.0, "held by the memory: {h:?}");
         }
     }
+}
+
+/// `follow_gate`, the half of `memory_gate` that bounds step 8 alone (docs/attribution.md, "Rays on the body with step 8
+/// gated"): the same two sweeps as above. In the first the hidden pedestrian still takes the post's returns 20 m in
+/// front of it (step 6 is not gated: a box displaced that far behind its own returns is still flagged); in the second,
+/// where a neighbour's margin explains the post, step 8 no longer holds it by cells 20 m away, while the pedestrian
+/// displaced 1.5 m is held by its returns in the other neighbour's margin.
+#[test]
+fn follow_gate_stops_step_8_beyond_the_gate_and_leaves_step_6_alone() {
+    let wide = sigma(0.3);
+    let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
+    let bearing = 0.5f32.atan2(10.15);
+    let hidden = object(1, 30.0, 30.0 * bearing.tan(), 0.0, 0.6, 0.6);
+    let truth = object(2, 14.0, -3.0, 0.0, 0.6, 0.6);
+    let displaced = pmon_monitor::ObjectState { x_m: 15.5, ..truth };
+    let beside_post = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(3, 10.1, 1.3, 0.0, 0.6, 0.6) };
+    let beside_truth = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(4, 13.9, -2.2, 0.0, 0.6, 0.6) };
+    let mut first = visible_face_points(&post, 0.05);
+    first.extend(visible_face_points(&truth, 0.05));
+    first.extend(ground_points(45.0));
+    let mut second = first.clone();
+    second.extend(visible_face_points(&beside_post, 0.05));
+    second.extend(visible_face_points(&beside_truth, 0.05));
+    let occluded = SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded);
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    assert!(m.params().follow_gate, "the default since the round of rays on the body");
+    let r = check_at(&mut m, 0.0, &[hidden, displaced], &first, Pose2::default());
+    let (h, d) = (&r[0].sensor, &r[1].sensor);
+    assert_eq!(d.verdict, SensorVerdict::PositionError, "first sweep, displaced: {d:?}");
+    assert_eq!(h.verdict, SensorVerdict::PositionError, "first sweep, step 6 not gated: {h:?}");
+    assert!(h.offset_m[0] > 15.0, "the offset points 20 m back to the post: {:?}", h.offset_m);
+    let r = check_at(&mut m, 0.1, &[hidden, displaced, beside_post, beside_truth], &second, Pose2::default());
+    let (h, d) = (&r[0].sensor, &r[1].sensor);
+    assert_eq!(r[2].sensor.verdict, SensorVerdict::Consistent, "neighbour of the post: {:?}", r[2].sensor);
+    assert_eq!(r[3].sensor.verdict, SensorVerdict::Consistent, "neighbour of the truth: {:?}", r[3].sensor);
+    assert_eq!(d.verdict, SensorVerdict::PositionError, "second sweep, displaced: {d:?}");
+    assert!(d.cluster.is_none(), "held by step 8, its returns in a neighbour's margin: {d:?}");
+    assert_eq!(h.verdict, occluded, "second sweep, hidden box no longer held from 20 m: {h:?}");
+    // Without the key (the defaults before that round) step 8 holds it.
+    let mut m = Monitor::new(MonitorParams { follow_gate: false, ..MonitorParams::default() }).unwrap();
+    check_at(&mut m, 0.0, &[hidden, displaced], &first, Pose2::default());
+    let r = check_at(&mut m, 0.1, &[hidden, displaced, beside_post, beside_truth], &second, Pose2::default());
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "held without the key: {:?}", r[0].sensor);
 }
 
 /// A free cluster in front of a confirmed box goes to it when the evidence that confirms the box is a piece of

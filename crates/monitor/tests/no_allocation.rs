@@ -62,7 +62,8 @@ fn check_allocates_nothing_after_construction() {
     // with the free-space test's rays on the body only (`seen_body`: a walk over the visibility map's bins), and
     // with evidence bounded by the gate (`memory_gate`), and with step 9 from each cell's first return
     // (`jump_first_return`, with and without the grazing rule), and with a free cluster in front of a confirmed box
-    // offered to it (`front_cluster`). The last case also keeps displaced offsets over frames (`memory_hold_s`).
+    // offered to it (`front_cluster`). The last two cases also keep displaced offsets over frames (`memory_hold_s`),
+    // and the last one bounds step 8 by the gate (`follow_gate`) with `seen_body`.
     for (seen_over, face_in_front, roi_graze_fraction, jump, seen_body, memory_gate, front_cluster) in [
         (false, false, 0.0, (false, false), false, false, false),
         (true, false, 0.0, (false, false), false, false, false),
@@ -76,6 +77,7 @@ fn check_allocates_nothing_after_construction() {
         (false, false, 0.5, (true, true), false, false, false),
         (false, false, 0.0, (false, false), false, false, true),
         (false, false, 0.5, (true, true), false, false, true),
+        (false, false, 0.5, (true, true), true, false, true),
     ] {
         let (jump_from_returns, jump_first_return) = jump;
         let params = MonitorParams {
@@ -88,6 +90,8 @@ fn check_allocates_nothing_after_construction() {
             jump_first_return,
             seen_body,
             memory_gate,
+            // With `seen_body` and the defaults' two rules: step 8 bounded by the gate too (`follow_gate`).
+            follow_gate: seen_body && front_cluster,
             front_cluster,
             memory_hold_s: if front_cluster && jump_first_return { 1.0 } else { 0.0 },
             ..MonitorParams::default()

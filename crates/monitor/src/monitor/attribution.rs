@@ -1031,11 +1031,12 @@ impl Monitor {
             expected[1] + reach,
         ])?;
         let (tau, n) = (self.params.tau_fn, geometry.cells_per_side);
-        // With `memory_gate`: only cells within the gate of the box count (step 4's bound; without it a track
+        // With `memory_gate` or `follow_gate`: only cells within the gate of the box count (step 4's bound; without it a track
         // could stay flagged by cells many metres away, where an offset taken once put its evidence).
         let gate = self.params.conflict_association_m + core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
-        let beyond_gate =
-            |region: &Region, x: f32, y: f32| self.params.memory_gate && region.grown.distance(x, y) > gate;
+        let beyond_gate = |region: &Region, x: f32, y: f32| {
+            (self.params.memory_gate || self.params.follow_gate) && region.grown.distance(x, y) > gate
+        };
         let mut sum = [0.0f32; 3];
         for iy in iy0..=iy1 {
             for ix in ix0..=ix1 {
