@@ -3,8 +3,8 @@
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
 //! and without the params keys `seen_over`, `face_in_front`, `roi_graze_fraction` (with a region of interest) and
 //! `jump_from_returns`, with or without uncertainties on the objects and a turned sensor, and with or without
-//! `seen_body` and `memory_gate`, and with `jump_from_returns`, with or without `jump_first_return` (without it, with
-//! or without `front_cluster`).
+//! `seen_body` (with `follow_gate`) and `memory_gate`, and with `jump_from_returns`, with or without
+//! `jump_first_return` (without it, with or without `front_cluster`).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -70,7 +70,8 @@ fuzz_target!(|data: &[u8]| {
     // And its next bit: every object carries an uncertainty read from the input (any f32: huge, zero, negative,
     // NaN), as a bag's covariances or an object list's sigmas give it, and the sensor is mounted turned.
     let with_uncertainty = data.first().is_some_and(|b| b & 0x08 != 0);
-    // And its next bit the free-space test's rays on the body only (`seen_body`).
+    // And its next bit the free-space test's rays on the body only (`seen_body`) and step 8 bounded by the gate
+    // (`follow_gate`), the pair that is the default since issue #10's round "Rays on the body with step 8 gated".
     let seen_body = data.first().is_some_and(|b| b & 0x04 != 0);
     // And its next bit evidence bounded by the gate (`memory_gate`), and displaced offsets held over frames without
     // an alarm for a second (`memory_hold_s`).
@@ -93,6 +94,7 @@ fuzz_target!(|data: &[u8]| {
         jump_from_returns,
         jump_first_return,
         seen_body,
+        follow_gate: seen_body,
         memory_gate,
         front_cluster,
         memory_hold_s: if memory_gate { 1.0 } else { 0.0 },
