@@ -30,7 +30,9 @@
 //! previous frame, earlier only, never (docs/attribution.md, "Misses by the track's alarms before them"). `HOLD=S`
 //! runs with the params key `memory_hold_s = S` (docs/attribution.md, "Step 8 held over a gap"). `MAP=1` (with
 //! `MISSES=1` or `DETAIL=1`) draws the cells around each listed box; `OWNERS=1` counts each verifiable miss by whose
-//! the occupied cells under its true footprint went to (docs/attribution.md, "Where a displaced box's evidence goes").
+//! the occupied cells under its true footprint went to (docs/attribution.md, "Where a displaced box's evidence goes");
+//! `FAKIND=1` counts each false alarm by whether the box is confirmed by its own evidence in the faulted frame and by
+//! how far its offset reaches.
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -1116,6 +1118,19 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                     u8::from(confirmed.get(i).copied().unwrap_or(false)),
                 );
                 *out.entry(key).or_default() += 1;
+                // `FAKIND=1`: each false alarm by whether the box is confirmed by its own evidence in the faulted
+                // frame (its cluster then came by spill-over, `front_cluster` or the memory), and by how far its
+                // offset reaches.
+                if std::env::var_os("FAKIND").is_some() {
+                    let now = if r.sensor.eta_own >= tau { "confirmed now" } else { "unconfirmed now" };
+                    let reach = r.sensor.offset_m[0].hypot(r.sensor.offset_m[1]);
+                    let reach = if reach < 1.0 { "<1 m" } else if reach < 2.0 { "1-2 m" } else { ">=2 m" };
+                    let key = format!(
+                        "FAKIND {how:<20} clean-confirmed {} {now:<15} offset {reach}",
+                        u8::from(confirmed.get(i).copied().unwrap_or(false))
+                    );
+                    *out.entry(key).or_default() += 1;
+                }
                 if std::env::var("DETAIL").is_ok() {
                     // Hits in the object's region (any count, occupied or not).
                     let (mut cells, mut hits) = (0u32, 0u32);
