@@ -1124,7 +1124,13 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                 if std::env::var_os("FAKIND").is_some() {
                     let now = if r.sensor.eta_own >= tau { "confirmed now" } else { "unconfirmed now" };
                     let reach = r.sensor.offset_m[0].hypot(r.sensor.offset_m[1]);
-                    let reach = if reach < 1.0 { "<1 m" } else if reach < 2.0 { "1-2 m" } else { ">=2 m" };
+                    let reach = if reach < 1.0 {
+                        "<1 m"
+                    } else if reach < 2.0 {
+                        "1-2 m"
+                    } else {
+                        ">=2 m"
+                    };
                     let key = format!(
                         "FAKIND {how:<20} clean-confirmed {} {now:<15} offset {reach}",
                         u8::from(confirmed.get(i).copied().unwrap_or(false))

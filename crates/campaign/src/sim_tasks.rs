@@ -341,12 +341,14 @@ mod tests {
         assert!(a.iter().zip(&c).all(|(x, y)| x.spec.injection.seed != y.spec.injection.seed));
     }
 
-    /// Adding a params key must not redraw every run: a key added later (`spill_over_fit`, `seen_over`, `face_in_front`, `roi_graze_fraction`,
-    /// `roi_graze_height_m`, `seen_body`, `follow_gate`) stays out of the identity at its default, and the seeds of the paper's default plan stay those of before (pinned: the
-    /// first run of the smoke plan at campaign seed 7, the same bytes `pmon reproduce` wrote before the key).
-    /// The key's default moved from `occupied` to `every_return` (issue #10): still left out at the default, so
-    /// the seeds did not move with it; the other value is in the identity. The same for `roi_graze_fraction`, whose
-    /// default moved from 0 to 0.5 (issue #10).
+    /// Adding a params key must not redraw every run: a key added later (`spill_over_fit`, `seen_over`,
+    /// `face_in_front`, `roi_graze_fraction`, `roi_graze_height_m`, `seen_body`, `follow_gate`) stays out of the
+    /// identity at its default, and the seeds of the paper's default plan stay those of before (pinned: the first
+    /// run of the smoke plan at campaign seed 7, the same bytes `pmon reproduce` wrote before the key). The key's
+    /// default moved from `occupied` to `every_return` (issue #10): still left out at the default, so the seeds did
+    /// not move with it; the other value is in the identity. The same for `roi_graze_fraction`, whose default moved
+    /// from 0 to 0.5 (issue #10), and for `seen_body` and `follow_gate`, on by default since issue #10's round
+    /// "Rays on the body with step 8 gated".
     #[test]
     fn a_params_key_added_at_its_default_keeps_the_identities() {
         let params = MonitorParams::default();
@@ -362,6 +364,7 @@ mod tests {
         let d = plan(Scale::Smoke, IDS, &body, 7);
         let id_off = run_identity("pedestrians", &d[0].spec);
         assert!(id_off.contains("\"seen_body\":false") && id_off.contains("\"follow_gate\":false"), "{id_off}");
+        assert_ne!(a[0].spec.injection.seed, d[0].spec.injection.seed);
         let over = MonitorParams { seen_over: true, ..params };
         let c = plan(Scale::Smoke, IDS, &over, 7);
         assert!(run_identity("pedestrians", &c[0].spec).contains("\"seen_over\":true"));

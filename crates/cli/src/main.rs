@@ -157,8 +157,9 @@ enum Command {
         /// Check with `seen_body` off (the default before issue #10's round "Rays on the body with step 8 gated").
         #[arg(long, conflicts_with = "seen_body")]
         no_seen_body: bool,
-        /// Check with `follow_gate` off (the default before issue #10's round "Rays on the body with step 8 gated").
-        #[arg(long, conflicts_with_all = ["follow_gate", "memory_gate"])]
+        /// Check with `follow_gate` off (the default before issue #10's round "Rays on the body with step 8 gated";
+        /// with `--memory-gate` step 8 stays bounded).
+        #[arg(long, conflicts_with = "follow_gate")]
         no_follow_gate: bool,
         /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
         /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is

@@ -332,7 +332,9 @@ pub struct MonitorParams {
     /// stands within the gate; beyond it the cluster is an occluder and the box is `not_monitored(occluded)`
     /// instead of taking it or being called a ghost. Without it a hidden clean pedestrian 32 m out took a cluster
     /// 26 m in front of it once and was held displaced for 80 frames (docs/attribution.md, "Evidence beyond the
-    /// gate"). Costs a distance per cell looked at by step 8 and one cluster distance per such box.
+    /// gate"). Costs a distance per cell looked at by step 8 and one cluster distance per such box. Its first half
+    /// alone is `follow_gate`, on by default since issue #10's round "Rays on the body with step 8 gated"; the second
+    /// half breaks the object-level guarantee for displacements beyond the gate, so this key stays off by default.
     pub memory_gate: bool,
     /// On by default since issue #10's round "Rays on the body with step 8 gated" (with `seen_body`). The first half
     /// of `memory_gate` alone: step 8 of docs/attribution.md counts only occupied cells within

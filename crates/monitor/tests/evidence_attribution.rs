@@ -1146,11 +1146,11 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
     }
 }
 
-/// `follow_gate`, the half of `memory_gate` that bounds step 8 alone (docs/attribution.md, "Rays on the body with step 8
-/// gated"): the same two sweeps as above. In the first the hidden pedestrian still takes the post's returns 20 m in
-/// front of it (step 6 is not gated: a box displaced that far behind its own returns is still flagged); in the second,
-/// where a neighbour's margin explains the post, step 8 no longer holds it by cells 20 m away, while the pedestrian
-/// displaced 1.5 m is held by its returns in the other neighbour's margin.
+/// `follow_gate`, the half of `memory_gate` that bounds step 8 alone (docs/attribution.md, "Rays on the body with
+/// step 8 gated"): the same two sweeps as above. In the first the hidden pedestrian still takes the post's returns
+/// 20 m in front of it (step 6 is not gated: a box displaced that far behind its own returns is still flagged); in
+/// the second, where a neighbour's margin explains the post, step 8 no longer holds it by cells 20 m away, while
+/// the pedestrian displaced 1.5 m is held by its returns in the other neighbour's margin.
 #[test]
 fn follow_gate_stops_step_8_beyond_the_gate_and_leaves_step_6_alone() {
     let wide = sigma(0.3);

@@ -1031,8 +1031,9 @@ impl Monitor {
             expected[1] + reach,
         ])?;
         let (tau, n) = (self.params.tau_fn, geometry.cells_per_side);
-        // With `memory_gate` or `follow_gate`: only cells within the gate of the box count (step 4's bound; without it a track
-        // could stay flagged by cells many metres away, where an offset taken once put its evidence).
+        // With `follow_gate` (the default) or `memory_gate`: only cells within the gate of the box count (step 4's
+        // bound; without it a track could stay flagged by cells many metres away, where an offset taken once put its
+        // evidence).
         let gate = self.params.conflict_association_m + core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
         let beyond_gate = |region: &Region, x: f32, y: f32| {
             (self.params.memory_gate || self.params.follow_gate) && region.grown.distance(x, y) > gate
