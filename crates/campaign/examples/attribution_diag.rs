@@ -424,8 +424,9 @@ fn seen_over_trace(
 fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 5], String> {
     let spec = &run.spec;
     let mut out = [[0u64; 2]; 5];
-    // Track id -> (streak length so far, began with a foreign cluster, seen in this frame).
-    let mut streaks: BTreeMap<u64, (u64, bool, bool)> = BTreeMap::new();
+    // Track id -> (streak length so far, began with a foreign cluster, seen in this frame, confirmed by its own
+    // evidence in the streak's first frame).
+    let mut streaks: BTreeMap<u64, (u64, bool, bool, bool)> = BTreeMap::new();
     let close = |out: &mut [[u64; 2]; 5], (n, foreign): (u64, bool)| {
         let b = match n {
             0 => return,
@@ -459,9 +460,10 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 5], String> {
             if std::env::var("TRACK").ok().and_then(|t| t.parse::<u64>().ok()) == Some(o.id) {
                 track_line(f, i);
             }
-            let e = streaks.entry(o.id).or_insert((0, false, false));
+            let e = streaks.entry(o.id).or_insert((0, false, false, false));
             if e.0 == 0 {
                 e.1 = foreign_cluster(f, truth, r.sensor.cluster.and_then(|c| f.clusters.get(usize::from(c))));
+                e.3 = r.sensor.eta_own >= spec.params.tau_tp;
             }
             e.0 += 1;
             e.2 = true;
@@ -470,15 +472,16 @@ fn held(scene: &Scene, run: &PlannedRun) -> Result<[[u64; 2]; 5], String> {
             if !v.2 {
                 if v.0 > 5 && std::env::var_os("STREAKS").is_some() {
                     eprintln!(
-                        "STREAK [{}] id {id} frames {}..{} foreign {}",
+                        "STREAK [{}] id {id} frames {}..{} foreign {} confirmed-at-start {}",
                         label(run),
                         f.k as u64 - v.0,
                         f.k - 1,
-                        v.1
+                        v.1,
+                        v.3
                     );
                 }
                 close(&mut out, (v.0, v.1));
-                *v = (0, false, false);
+                *v = (0, false, false, false);
             }
         }
         Ok(())
