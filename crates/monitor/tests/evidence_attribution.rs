@@ -1090,6 +1090,40 @@ fn rays_that_pass_beside_the_body_and_end_on_a_post_behind_it_prove_nothing() {
     }
 }
 
+/// The two sweeps of `evidence_beyond_the_gate_does_not_flag_a_hidden_box` and
+/// `follow_gate_stops_step_8_beyond_the_gate_and_leaves_step_6_alone`.
+struct PostScene {
+    /// A clean pedestrian 30 m out, hidden behind an unlisted post (0.3 m square) 20 m in front of it.
+    hidden: pmon_monitor::ObjectState,
+    /// A pedestrian whose true place is (14, -3), reported 1.5 m further away.
+    displaced: pmon_monitor::ObjectState,
+    /// Second sweep: neighbours whose wide margins (0.3 m sigma) explain the post and the displaced pedestrian's returns.
+    beside_post: pmon_monitor::ObjectState,
+    beside_truth: pmon_monitor::ObjectState,
+    /// The returns of the post, the displaced pedestrian's true place and the ground; the second sweep adds the
+    /// neighbours'.
+    first: Vec<[f32; 3]>,
+    second: Vec<[f32; 3]>,
+}
+
+fn post_scene() -> PostScene {
+    let wide = sigma(0.3);
+    let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
+    let bearing = 0.5f32.atan2(10.15);
+    let hidden = object(1, 30.0, 30.0 * bearing.tan(), 0.0, 0.6, 0.6);
+    let truth = object(2, 14.0, -3.0, 0.0, 0.6, 0.6);
+    let displaced = pmon_monitor::ObjectState { x_m: 15.5, ..truth };
+    let beside_post = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(3, 10.1, 1.3, 0.0, 0.6, 0.6) };
+    let beside_truth = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(4, 13.9, -2.2, 0.0, 0.6, 0.6) };
+    let mut first = visible_face_points(&post, 0.05);
+    first.extend(visible_face_points(&truth, 0.05));
+    first.extend(ground_points(45.0));
+    let mut second = first.clone();
+    second.extend(visible_face_points(&beside_post, 0.05));
+    second.extend(visible_face_points(&beside_truth, 0.05));
+    PostScene { hidden, displaced, beside_post, beside_truth, first, second }
+}
+
 /// Evidence beyond the gate is never a box's (params key `memory_gate`). A clean pedestrian 30 m out, hidden
 /// behind an unlisted post 10 m out (no returns of its own), and a pedestrian truly displaced 1.5 m away from its
 /// returns, over two sweeps. In the first, the hidden box stands behind evidence nobody explains; without the key it
@@ -1101,23 +1135,7 @@ fn rays_that_pass_beside_the_body_and_end_on_a_post_behind_it_prove_nothing() {
 /// within the gate).
 #[test]
 fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
-    let wide = sigma(0.3);
-    // The post (0.3 m square, unlisted) and the hidden pedestrian on its bearing, 20 m behind it.
-    let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
-    let bearing = 0.5f32.atan2(10.15);
-    let hidden = object(1, 30.0, 30.0 * bearing.tan(), 0.0, 0.6, 0.6);
-    // The displaced pedestrian: true place (14, -3), reported 1.5 m further away.
-    let truth = object(2, 14.0, -3.0, 0.0, 0.6, 0.6);
-    let displaced = pmon_monitor::ObjectState { x_m: 15.5, ..truth };
-    // Second sweep: neighbours whose wide margins explain the post and the displaced pedestrian's returns.
-    let beside_post = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(3, 10.1, 1.3, 0.0, 0.6, 0.6) };
-    let beside_truth = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(4, 13.9, -2.2, 0.0, 0.6, 0.6) };
-    let mut first = visible_face_points(&post, 0.05);
-    first.extend(visible_face_points(&truth, 0.05));
-    first.extend(ground_points(45.0));
-    let mut second = first.clone();
-    second.extend(visible_face_points(&beside_post, 0.05));
-    second.extend(visible_face_points(&beside_truth, 0.05));
+    let PostScene { hidden, displaced, beside_post, beside_truth, first, second } = post_scene();
     let occluded = SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded);
     for memory_gate in [false, true] {
         let mut m = Monitor::new(MonitorParams { memory_gate, ..before_two_rules() }).unwrap();
@@ -1153,20 +1171,7 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
 /// the pedestrian displaced 1.5 m is held by its returns in the other neighbour's margin.
 #[test]
 fn follow_gate_stops_step_8_beyond_the_gate_and_leaves_step_6_alone() {
-    let wide = sigma(0.3);
-    let post = object(90, 10.15, 0.5, 0.0, 0.3, 0.3);
-    let bearing = 0.5f32.atan2(10.15);
-    let hidden = object(1, 30.0, 30.0 * bearing.tan(), 0.0, 0.6, 0.6);
-    let truth = object(2, 14.0, -3.0, 0.0, 0.6, 0.6);
-    let displaced = pmon_monitor::ObjectState { x_m: 15.5, ..truth };
-    let beside_post = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(3, 10.1, 1.3, 0.0, 0.6, 0.6) };
-    let beside_truth = pmon_monitor::ObjectState { uncertainty: Some(wide), ..object(4, 13.9, -2.2, 0.0, 0.6, 0.6) };
-    let mut first = visible_face_points(&post, 0.05);
-    first.extend(visible_face_points(&truth, 0.05));
-    first.extend(ground_points(45.0));
-    let mut second = first.clone();
-    second.extend(visible_face_points(&beside_post, 0.05));
-    second.extend(visible_face_points(&beside_truth, 0.05));
+    let PostScene { hidden, displaced, beside_post, beside_truth, first, second } = post_scene();
     let occluded = SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded);
     let mut m = Monitor::new(MonitorParams::default()).unwrap();
     assert!(m.params().follow_gate, "the default since the round of rays on the body");

@@ -21,9 +21,20 @@ fn run(
     points_ego: &[[f32; 3]],
     roi: &[&[[f32; 2]]],
 ) -> Vec<pmon_monitor::ObjectReport> {
+    run_at(monitor, 0.0, objects, points_ego, roi)
+}
+
+/// [`run`] at time `t_s` (a sequence of sweeps with the ego standing still).
+fn run_at(
+    monitor: &mut Monitor,
+    t_s: f64,
+    objects: &[pmon_monitor::ObjectState],
+    points_ego: &[[f32; 3]],
+    roi: &[&[[f32; 2]]],
+) -> Vec<pmon_monitor::ObjectReport> {
     let pts = to_sensor(points_ego);
     let frame = Frame {
-        timestamp_s: 0.0,
+        timestamp_s: t_s,
         world_from_ego: Pose2::default(),
         objects,
         cloud: Some(PointCloud { points_in_sensor: &pts, ego_from_sensor: extrinsic() }),
@@ -461,19 +472,7 @@ proptest! {
         let truth = object(1, range * bearing.cos(), range * bearing.sin(), heading, length, width);
         let (reported, pts) = displaced_beyond_dx_min(&params, truth, direction, extra);
         prop_assume!(reported.x_m.abs() < 40.0 && reported.y_m.abs() < 40.0);
-        let sensor = to_sensor(&pts);
-        let mut at = |t: f64, o: pmon_monitor::ObjectState| {
-            let objects = [o];
-            let frame = Frame {
-                timestamp_s: t,
-                world_from_ego: Pose2::default(),
-                objects: &objects,
-                cloud: Some(PointCloud { points_in_sensor: &sensor, ego_from_sensor: extrinsic() }),
-                roi_in_ego: &[],
-                static_in_ego: &[],
-            };
-            m.check(&frame).unwrap().objects[0]
-        };
+        let mut at = |t: f64, o: pmon_monitor::ObjectState| run_at(&mut m, t, &[o], &pts, &[])[0];
         let clean = at(0.0, truth);
         prop_assume!(clean.sensor.verdict == SensorVerdict::Consistent);
         let first = at(0.1, reported);
