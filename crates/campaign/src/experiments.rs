@@ -842,6 +842,26 @@ pub struct Claim {
     pub met: Option<bool>,
 }
 
+/// A speed-error claim over the three scenes' curves `"{label}, {scene}"` of figure `fig`: met when every
+/// measured scene's recall stays above 90 % from `goal` m/s on (none measured: "not measured").
+fn speed_claim(figs: &[Figure], fig: &str, label: &str, goal: f64, paper: String) -> Claim {
+    let mut parts = Vec::new();
+    let mut all_met = true;
+    let mut any = false;
+    for scene in ["pedestrians", "intersection", "pedestrians 20 Hz"] {
+        if let Some(c) = curve(figs, fig, &format!("{label}, {scene}")) {
+            any = true;
+            let from = threshold_from(c, 0.9);
+            all_met &= from.is_some_and(|x| x <= goal + 1e-9);
+            parts.push(format!(
+                "{scene}: {}",
+                from.map_or("never above 90 %".into(), |x| format!("recall above 90 % from {x:.1} m/s"))
+            ));
+        }
+    }
+    Claim { paper, pmon: if any { parts.join("; ") } else { "not measured".into() }, met: any.then_some(all_met) }
+}
+
 fn curve<'a>(figs: &'a [Figure], fig: &str, label: &str) -> Option<&'a Curve> {
     figs.iter().find(|f| f.spec.id == fig)?.curves.iter().find(|c| c.label == label)
 }
@@ -1007,25 +1027,13 @@ pub fn claims(figs: &[Figure], latency_ms: Option<(f64, f64)>) -> Vec<Claim> {
     }
     // 6-7. Speed errors.
     for (label, paper_from, what) in [("transient 10 %", 2.0, "Transient"), ("permanent", 6.0, "Permanent")] {
-        let mut parts = Vec::new();
-        let mut all_met = true;
-        let mut any = false;
-        for scene in ["pedestrians", "intersection", "pedestrians 20 Hz"] {
-            if let Some(c) = curve(figs, "speed_errors", &format!("{label}, {scene}")) {
-                any = true;
-                let from = threshold_from(c, 0.9);
-                all_met &= from.is_some_and(|x| x <= paper_from + 1e-9);
-                parts.push(format!(
-                    "{scene}: {}",
-                    from.map_or("never above 90 %".into(), |x| format!("recall above 90 % from {x:.1} m/s"))
-                ));
-            }
-        }
-        out.push(Claim {
-            paper: format!("{what} speed errors detected from {paper_from} m/s"),
-            pmon: if any { parts.join("; ") } else { "not measured".into() },
-            met: any.then_some(all_met),
-        });
+        out.push(speed_claim(
+            figs,
+            "speed_errors",
+            label,
+            paper_from,
+            format!("{what} speed errors detected from {paper_from} m/s"),
+        ));
     }
     // Beyond the paper: the calibrated rule.
     for (label, model) in [
@@ -1046,25 +1054,13 @@ pub fn claims(figs: &[Figure], latency_ms: Option<(f64, f64)>) -> Vec<Claim> {
         }
     }
     for (label, goal, what) in [("permanent", 3.0, "Permanent"), ("transient 10 %", 2.0, "Transient")] {
-        let mut parts = Vec::new();
-        let mut all_met = true;
-        let mut any = false;
-        for scene in ["pedestrians", "intersection", "pedestrians 20 Hz"] {
-            if let Some(c) = curve(figs, "speed_errors_calibrated", &format!("{label}, {scene}")) {
-                any = true;
-                let from = threshold_from(c, 0.9);
-                all_met &= from.is_some_and(|x| x <= goal + 1e-9);
-                parts.push(format!(
-                    "{scene}: {}",
-                    from.map_or("never above 90 %".into(), |x| format!("recall above 90 % from {x:.1} m/s"))
-                ));
-            }
-        }
-        out.push(Claim {
-            paper: format!("Beyond the paper (calibrated rule): {what} speed errors detected from {goal} m/s"),
-            pmon: if any { parts.join("; ") } else { "not measured".into() },
-            met: any.then_some(all_met),
-        });
+        out.push(speed_claim(
+            figs,
+            "speed_errors_calibrated",
+            label,
+            goal,
+            format!("Beyond the paper (calibrated rule): {what} speed errors detected from {goal} m/s"),
+        ));
     }
     // 8. Latency.
     out.push(Claim {
