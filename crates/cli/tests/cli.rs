@@ -449,10 +449,17 @@ fn regions_of_interest_reach_check_and_convert() {
     std::fs::write(&p, "ground_z_m = -0.3234\nego_footprint_m = [-1.2, -1.2, 4.2, 1.2]\n").unwrap();
     let (_, converted) = summary(&["check", "--params", p.to_str().unwrap(), rec.to_str().unwrap()]);
     assert!((converted - mapped).abs() <= 1.0, "converted {converted}, direct {mapped}");
-    // KITTI has no map: the summary says so and names the fallback.
+    // KITTI has no map: its labels cover camera 2's image, and the summary says that this field of view is the
+    // ROI and names the other modes. Measured: 48.0 missed-object alarms per sweep in it, 104.3 in the whole grid.
     let kitti = format!("kitti:{}", data.join("kitti/object/training").display());
-    let (out, _) = summary(&["check", &kitti]);
-    assert!(out.contains("no map") && out.contains("--roi corridor:"), "{out}");
+    let (out, in_view) = summary(&["check", &kitti]);
+    assert!(
+        out.contains("labelled field of view") && out.contains("--roi none") && out.contains("--roi corridor:"),
+        "{out}"
+    );
+    let (out, whole) = summary(&["check", "--roi", "none", &kitti]);
+    assert!(out.contains("none (--roi none)"), "{out}");
+    assert!(in_view * 1.5 < whole, "in the field of view {in_view}, whole grid {whole}");
 }
 
 /// `pmon calibrate`: reads a recording, writes a parameter file that `check` and `params` accept, refuses to

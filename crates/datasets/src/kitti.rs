@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 use pmon_monitor::{Isometry3, ObjectClass, ObjectState, Pose2};
 use pmon_recording::RecordedFrame;
 
-use crate::geometry::{inverse, mat_vec, wrap_angle, Box3, Mat3};
+use crate::geometry::{clip_to_square, inverse, mat_vec, polygon_area, wrap_angle, Box3, Mat3};
+use crate::roi::{RoiMode, ROI_NOTE_PREFIX};
 use crate::sweeps::{SweepFile, SweepFormat};
 use crate::util::{f32_of, finite_difference_speeds, list_dir, parse_f64, read_bytes, read_text};
 use crate::{Dataset, DatasetError, DatasetFormat, DatasetFrame, DatasetInfo, ObjectExtra, ReadOptions, SpeedSource};
@@ -214,6 +215,49 @@ pub fn ego_from_velodyne() -> Isometry3 {
     Isometry3::from_translation(0.0, 0.0, VELODYNE_HEIGHT_M)
 }
 
+/// Camera 2's focal length in pixels, its principal point's column and its image width: the values of the KITTI
+/// object benchmark's `P2` and images (1242 x 375; the calibration files' `P2` differs from them by a few pixels
+/// between drives, which moves the field of view's edges by a fraction of a degree).
+const CAMERA2_FX_PX: f64 = 721.5377;
+const CAMERA2_CX_PX: f64 = 609.5593;
+const CAMERA2_WIDTH_PX: f64 = 1242.0;
+
+/// Degrees added to each side of camera 2's field of view in the default region of interest: a labelled object cut
+/// by the image's edge keeps the returns beside it.
+pub const FIELD_OF_VIEW_MARGIN_DEG: f64 = 5.0;
+
+/// The labelled field of view in the ego frame (KITTI labels only the objects in camera 2's image): the wedge from
+/// the camera's centre between the rays through the image's left and right edges, each widened by
+/// [`FIELD_OF_VIEW_MARGIN_DEG`], clipped to the grid's square of half side `half` (metres). `None` when the clip
+/// leaves nothing.
+#[must_use]
+#[allow(clippy::cast_possible_truncation)] // ego-frame metres inside the grid: f32 is the monitor's precision
+pub fn field_of_view_polygon(calib: &KittiCalib, half: f64) -> Option<Vec<[f32; 2]>> {
+    let margin = FIELD_OF_VIEW_MARGIN_DEG.to_radians();
+    let left = (CAMERA2_CX_PX / CAMERA2_FX_PX).atan() + margin;
+    let right = ((CAMERA2_WIDTH_PX - CAMERA2_CX_PX) / CAMERA2_FX_PX).atan() + margin;
+    let apex = calib.velo_from_rect([0.0, 0.0, 0.0]);
+    // A direction of the rectified camera frame (x right, z forward) in the Velodyne frame.
+    let dir = |x: f64| {
+        let q = calib.velo_from_rect([x, 0.0, 1.0]);
+        let (dx, dy) = (q[0] - apex[0], q[1] - apex[1]);
+        let n = dx.hypot(dy);
+        [dx / n, dy / n]
+    };
+    // Far enough that the wedge's far edge lies outside the grid's square (the half-angles stay below 60 degrees
+    // with the margin: the edge is at least half this far).
+    let reach = 8.0 * half + apex[0].abs() + apex[1].abs();
+    let (l, r) = (dir(-left.tan()), dir(right.tan()));
+    let wedge = [
+        [apex[0], apex[1]],
+        [apex[0] + reach * r[0], apex[1] + reach * r[1]],
+        [apex[0] + reach * l[0], apex[1] + reach * l[1]],
+    ];
+    let clipped = clip_to_square(&wedge, half);
+    (clipped.len() >= 3 && polygon_area(&clipped).abs() > 1e-6)
+        .then(|| clipped.iter().map(|q| [q[0] as f32, q[1] as f32]).collect())
+}
+
 fn object_of(id: u64, label: &KittiLabel, b: &Box3, speed_mps: f32, track_key: String) -> (ObjectState, ObjectExtra) {
     let o = ObjectState {
         id,
@@ -279,6 +323,9 @@ pub(crate) fn open_object_with(
     let mut dontcare = 0usize;
     let mut missing_labels = 0usize;
     let mut next_id = 1u64;
+    // The default region of interest of KITTI's object frames: the labelled field of view (other modes are applied
+    // after the reader, `roi::finish`).
+    let field_of_view = opts.roi.mode == RoiMode::Auto;
     for velo in &velo_files {
         let stem = velo.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
         let number: u64 = stem
@@ -287,10 +334,12 @@ pub(crate) fn open_object_with(
         let label_path = label_dir.join(format!("{stem}.txt"));
         let mut objects = Vec::new();
         let mut extras = Vec::new();
+        let mut frame_calib = None;
         if label_path.exists() {
             let text = read_text(&label_path)?;
             let calib_path = calib_dir.join(format!("{stem}.txt"));
             let calib = parse_calib(&read_text(&calib_path)?).map_err(|m| DatasetError::malformed(&calib_path, m))?;
+            frame_calib = Some(calib);
             for (n, line) in text.lines().enumerate() {
                 if line.trim().is_empty() {
                     continue;
@@ -324,7 +373,23 @@ pub(crate) fn open_object_with(
         let mut frame = RecordedFrame::empty(frames.len() as u64, number as f64, Pose2::default());
         frame.objects = objects;
         frame.cloud = cloud;
+        if field_of_view {
+            // A sweep without a label file has no calibration of its own: the nominal one.
+            let calib = frame_calib.unwrap_or_else(KittiCalib::nominal);
+            frame.roi_in_ego = field_of_view_polygon(&calib, opts.roi.grid_half_extent_m).into_iter().collect();
+        }
         frames.push(DatasetFrame { frame, extras });
+    }
+    if field_of_view {
+        notes.push(format!(
+            "{ROI_NOTE_PREFIX}the labelled field of view: KITTI labels only the objects in camera 2's image, so \
+             returns outside it are no missed object of the label list; the wedge from the camera between the \
+             image's edges ({:.1} deg left, {:.1} deg right of its axis) widened by {FIELD_OF_VIEW_MARGIN_DEG} deg \
+             on each side (--roi none: the whole grid, where every unlabelled structure is a missed-object alarm; \
+             --roi corridor:<width_m>: a band along the ego's x axis)",
+            (CAMERA2_CX_PX / CAMERA2_FX_PX).atan().to_degrees(),
+            ((CAMERA2_WIDTH_PX - CAMERA2_CX_PX) / CAMERA2_FX_PX).atan().to_degrees(),
+        ));
     }
     notes.push(format!("{dontcare} DontCare labels skipped"));
     if missing_labels > 0 {
@@ -487,5 +552,41 @@ mod tests {
         assert!(parse_label_line("Car 0.00 0 -1.5 0 0 10 10 1.5 1.6 4 2.0 1.7 10.0 NaN", false).is_err());
         assert!(parse_calib("R0_rect: 1 0 0\n").is_err());
         assert!(parse_calib("R0_rect: 0 0 0 0 0 0 0 0 0\nTr_velo_to_cam: 0 0 0 0 0 0 0 0 0 0 0 0\n").is_err());
+    }
+
+    /// Even-odd test of a point against a polygon (the test's own, independent of the monitor's ROI index).
+    fn inside(poly: &[[f32; 2]], x: f32, y: f32) -> bool {
+        let mut c = false;
+        for (i, a) in poly.iter().enumerate() {
+            let b = poly[(i + 1) % poly.len()];
+            if (a[1] > y) != (b[1] > y) && x < a[0] + (y - a[1]) / (b[1] - a[1]) * (b[0] - a[0]) {
+                c = !c;
+            }
+        }
+        c
+    }
+
+    #[test]
+    fn the_field_of_view_is_the_cameras_wedge_widened_by_the_margin() {
+        for calib in [KittiCalib::nominal(), parse_calib(CALIB).unwrap()] {
+            let poly = field_of_view_polygon(&calib, 50.0).unwrap();
+            // Every vertex inside the grid's square.
+            assert!(poly.iter().all(|q| q[0].abs() <= 50.0 + 1e-3 && q[1].abs() <= 50.0 + 1e-3), "{poly:?}");
+            // Ahead, inside; behind and beside, outside.
+            assert!(inside(&poly, 20.0, 0.0));
+            assert!(!inside(&poly, -10.0, 0.0) && !inside(&poly, 5.0, 20.0) && !inside(&poly, 5.0, -20.0));
+            // The edges: 40.2 deg to the left (+y) and 41.2 deg to the right, each plus 5 deg, from the camera
+            // 0.27 m ahead of the Velodyne. 44 deg is inside on both sides, 47.5 deg outside on both.
+            for (deg, expect) in [(44.0f32, true), (47.5, false)] {
+                let t = deg.to_radians();
+                for side in [1.0f32, -1.0] {
+                    let (x, y) = (0.27 + 30.0 * t.cos(), side * 30.0 * t.sin());
+                    assert_eq!(inside(&poly, x, y), expect, "{deg} deg, side {side}: {poly:?}");
+                }
+            }
+        }
+        // A grid too small to hold more than the wedge's tip still gives a polygon, inside the square.
+        let tiny = field_of_view_polygon(&KittiCalib::nominal(), 1.0).unwrap();
+        assert!(tiny.iter().all(|q| q[0].abs() <= 1.0 + 1e-6 && q[1].abs() <= 1.0 + 1e-6), "{tiny:?}");
     }
 }

@@ -5,7 +5,8 @@
 //! and are credited to no object. Without any ROI, every building, wall and tree in the grid is a missed object.
 //!
 //! - [`RoiMode::Auto`] (the default): the dataset's map where it has one (Argoverse 2 `map/log_map_archive_*.json`,
-//!   see [`crate::av2_map`]); otherwise no ROI, and the dataset's notes say so.
+//!   see [`crate::av2_map`]); for KITTI's object frames, whose labels cover only camera 2's image, that camera's
+//!   field of view ([`crate::kitti::field_of_view_polygon`]); otherwise no ROI, and the dataset's notes say so.
 //! - [`RoiMode::Corridor`]: a band of the given width centred on the ego vehicle's path over the whole log (from
 //!   its poses), continued straight ahead of the last pose and behind the first one to the grid's edge. This is
 //!   where the vehicle drove: its own carriageway and, with a width of 15-20 m, the kerbs beside it, without the

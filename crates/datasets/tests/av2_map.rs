@@ -232,11 +232,24 @@ fn the_map_reaches_the_frames_and_other_modes_replace_it() {
 
 #[test]
 fn datasets_without_a_map_say_so() {
+    if let Some(dir) = data("nuscenes") {
+        let ds = open_with(&format!("nuscenes:{}", dir.display()), &ReadOptions::default()).unwrap();
+        assert!(ds.frames.iter().all(|f| f.frame.roi_in_ego.is_empty()));
+        let note = ds.roi_note().unwrap();
+        assert!(note.contains("no map") && note.contains("corridor"), "{note}");
+    }
     let Some(dir) = data("kitti/object/training") else { return };
+    // KITTI's labels cover camera 2's image: that field of view is the default ROI, and the note says so.
     let ds = open_with(&format!("kitti:{}", dir.display()), &ReadOptions::default()).unwrap();
-    assert!(ds.frames.iter().all(|f| f.frame.roi_in_ego.is_empty()));
     let note = ds.roi_note().unwrap();
-    assert!(note.contains("no map") && note.contains("corridor"), "{note}");
+    assert!(note.starts_with("the labelled field of view") && note.contains("--roi none"), "{note}");
+    for f in &ds.frames {
+        assert!(contains(&f.frame.roi_in_ego, 30.0, 0.0) && contains(&f.frame.roi_in_ego, 30.0, 25.0));
+        assert!(!contains(&f.frame.roi_in_ego, -10.0, 0.0) && !contains(&f.frame.roi_in_ego, 10.0, -30.0));
+    }
+    let roi = RoiOptions { mode: RoiMode::WholeGrid, ..RoiOptions::default() };
+    let ds = open_with(&format!("kitti:{}", dir.display()), &ReadOptions { roi, ..ReadOptions::default() }).unwrap();
+    assert!(ds.frames.iter().all(|f| f.frame.roi_in_ego.is_empty()));
     let roi = RoiOptions { mode: RoiMode::Corridor { width_m: 20.0 }, ..RoiOptions::default() };
     let ds = open_with(&format!("kitti:{}", dir.display()), &ReadOptions { roi, ..ReadOptions::default() }).unwrap();
     for f in &ds.frames {

@@ -213,6 +213,8 @@ fn roi_label(note: &str) -> String {
         "none".into()
     } else if note.contains("vector map") {
         "vector map".into()
+    } else if note.starts_with("the labelled field of view") {
+        "the labelled camera's field of view".into()
     } else {
         note.split(" (").next().unwrap_or(note).to_string()
     }

@@ -876,12 +876,13 @@ fn sensor_experiments_in_passes(
         opts.precision_repeats
     ));
     out.notes.push(
-        "Real sensor, missed-object alarms: KITTI and nuScenes carry no map, so the whole grid is their region of \
-         interest and every cluster of occupied cells that no label explains (buildings, walls, poles, vegetation, \
-         parked objects nobody labelled, sloped ground above the height band) is reported as a missed object: those \
-         counts say nothing about missed road users. The Argoverse 2 log's vector map gives its ROI: drivable areas, \
-         pedestrian crossings, no sidewalk band by default (docs/datasets.md); the clean table shows its missed-object \
-         alarms per frame with and without it."
+        "Real sensor, missed-object alarms: KITTI and nuScenes carry no map. nuScenes labels all around the car, so \
+         the whole grid is its region of interest; KITTI labels only what camera 2 sees, so its region of interest is \
+         that camera's field of view (5 deg wider on each side). Inside them every cluster of occupied cells that no \
+         label explains (buildings, walls, poles, vegetation, parked objects nobody labelled, sloped ground above the \
+         height band) is reported as a missed object: those counts say nothing about missed road users. The Argoverse \
+         2 log's vector map gives its ROI: drivable areas, pedestrian crossings, no sidewalk band by default \
+         (docs/datasets.md); the clean table shows its missed-object alarms per frame with and without it."
             .into(),
     );
 
