@@ -100,6 +100,23 @@ pub const FLAG_ROI_EDGE: u8 = 32;
 /// Cell flag: a [`FLAG_ROI_EDGE`] cell holding an obstacle-band return inside the region of interest.
 pub const FLAG_RETURN_IN_ROI: u8 = 64;
 
+/// The 64-bit words of the hit bit set that hold the cells `first..=last` (`first <= last`), each with the mask of
+/// the bits of those cells.
+#[inline]
+fn run_words(first: u32, last: u32) -> impl Iterator<Item = (u32, u64)> {
+    (first / 64..=last / 64).map(move |word| {
+        let base = word * 64;
+        let mut mask = u64::MAX;
+        if first > base {
+            mask &= u64::MAX << (first - base);
+        }
+        if last < base + 63 {
+            mask &= u64::MAX >> (base + 63 - last);
+        }
+        (word, mask)
+    })
+}
+
 /// The state of one cell, for display and inspection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CellState {
@@ -922,25 +939,31 @@ impl OccupancyGrid {
     ) {
         let geometry = self.geometry;
         geometry.for_each_row_run(rect, range, |iy, a, b, _| {
-            let first = iy * geometry.cells_per_side + a;
-            let last = iy * geometry.cells_per_side + b;
-            let mut word = first / 64;
-            while word <= last / 64 {
-                let mut bits = self.hit_bits.get(word as usize).copied().unwrap_or(0);
-                // Keep the bits of [first, last] in this word.
-                let base = word * 64;
-                if first > base {
-                    bits &= u64::MAX << (first - base);
-                }
-                if last < base + 63 {
-                    bits &= u64::MAX >> (base + 63 - last);
-                }
+            let (first, last) = (iy * geometry.cells_per_side + a, iy * geometry.cells_per_side + b);
+            for (word, mask) in run_words(first, last) {
+                let mut bits = self.hit_bits.get(word as usize).copied().unwrap_or(0) & mask;
                 while bits != 0 {
-                    let index = base + bits.trailing_zeros();
+                    let index = word * 64 + bits.trailing_zeros();
                     bits &= bits - 1;
                     f(self, index);
                 }
-                word += 1;
+            }
+        });
+    }
+
+    /// [`OccupancyGrid::for_each_hit_cell_overlapping`] for a look that changes nothing: `f(index)` for each cell
+    /// with hits among the cells of a range that overlap a rectangle, in the same order.
+    #[inline]
+    pub fn for_each_hit_cell(&self, rect: &OrientedRect, range: (u32, u32, u32, u32), mut f: impl FnMut(u32)) {
+        let geometry = self.geometry;
+        geometry.for_each_row_run(rect, range, |iy, a, b, _| {
+            let (first, last) = (iy * geometry.cells_per_side + a, iy * geometry.cells_per_side + b);
+            for (word, mask) in run_words(first, last) {
+                let mut bits = self.hit_bits.get(word as usize).copied().unwrap_or(0) & mask;
+                while bits != 0 {
+                    f(word * 64 + bits.trailing_zeros());
+                    bits &= bits - 1;
+                }
             }
         });
     }

@@ -156,6 +156,10 @@ pub struct Monitor {
     /// last frame (looked at for every cluster), with where their offset puts that evidence now.
     by_x: Vec<(f32, u32)>,
     displaced: Vec<(u32, [f32; 2])>,
+    /// Per object, during spill-over (step 5): the span, in its box's axes, of the occupied cells it owns in its
+    /// grown region and of the hit cells it owns there (`[u min, u max, v min, v max]` each), computed the first
+    /// time spill-over asks (`Monitor::own_spans`); `None` until then. Ownership does not change during spill-over.
+    own_spans: Vec<Option<[[f32; 4]; 2]>>,
     /// Widest region bounding box of the frame, metres.
     widest_m: f32,
     /// Candidate (distance, cluster, object, group) pairs of the evidence assignment; the group is the connected
@@ -345,6 +349,7 @@ impl Monitor {
             candidates: Vec::with_capacity(max_objects),
             by_x: Vec::with_capacity(max_objects),
             displaced: Vec::with_capacity(max_objects),
+            own_spans: Vec::with_capacity(max_objects),
             widest_m: 0.0,
             motion: Vec::with_capacity(max_objects),
             reports: Vec::with_capacity(max_objects),
@@ -1387,6 +1392,51 @@ mod tests {
         assert!(undecided > 20, "{undecided} marked edge cells");
     }
 
+    /// Thirty boxes (a third pedestrians) at random places and headings, with returns under some, beside others
+    /// (displaced) or none (ghosts), forty clumps of walls and clutter, and ground all around: the scenes of the
+    /// tests that compare an early-decided or cached path with its reference.
+    fn clumps_scene(rng: &mut Rng) -> (Vec<ObjectState>, Vec<[f32; 3]>) {
+        let mut objects = Vec::new();
+        let mut points = Vec::new();
+        for id in 0..30u64 {
+            let (x, y) = (rng.range(-35.0, 35.0), rng.range(-35.0, 35.0));
+            let (length_m, width_m) = if id % 3 == 0 { (0.6, 0.6) } else { (rng.range(3.5, 5.0), rng.range(1.6, 2.1)) };
+            objects.push(ObjectState {
+                id,
+                class: if id % 3 == 0 { ObjectClass::Pedestrian } else { ObjectClass::Car },
+                x_m: x,
+                y_m: y,
+                heading_rad: rng.range(-3.2, 3.2),
+                speed_mps: 0.0,
+                length_m,
+                width_m,
+                uncertainty: None,
+            });
+            // Evidence under the box, beside it (displaced), or none (a ghost, visible or hidden).
+            let kind = id % 4;
+            if kind < 3 {
+                let (ox, oy) = if kind == 0 { (0.0, 0.0) } else { (rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)) };
+                for _ in 0..60 {
+                    let z = rng.range(0.3, 1.6);
+                    points.push([x + ox + rng.range(-1.0, 1.0), y + oy + rng.range(-1.0, 1.0), z - 1.8]);
+                }
+            }
+        }
+        // Walls and clutter that hide some boxes, and ground that shows others empty.
+        for _ in 0..40 {
+            let (cx, cy) = (rng.range(-40.0, 40.0), rng.range(-40.0, 40.0));
+            for _ in 0..30 {
+                let z = if rng.range(0.0, 1.0) < 0.3 { rng.range(-0.2, 0.1) } else { rng.range(0.3, 1.8) };
+                points.push([cx + rng.range(-1.5, 1.5), cy + rng.range(-1.5, 1.5), z - 1.8]);
+            }
+        }
+        for _ in 0..20_000 {
+            let (r, a) = (rng.range(3.0, 49.0), rng.range(0.0, core::f32::consts::TAU));
+            points.push([r * libm::cosf(a), r * libm::sinf(a), -1.8 + rng.range(-0.05, 0.05)]);
+        }
+        (objects, points)
+    }
+
     /// A placement of the ghost test decided early (`placement_hidden`: after each sampled row, when the rows left
     /// cannot change the answer) gives the answer of its whole sight (`placement_hidden_by_full_sight`), for the
     /// eight placements of every object and for random shifts and turns of each footprint, on random clumps of
@@ -1400,46 +1450,7 @@ mod tests {
         for cell_size_m in [0.5f32, 0.2] {
             let mut monitor = Monitor::new(MonitorParams { cell_size_m, ..MonitorParams::default() }).unwrap();
             for frame_no in 0..12 {
-                let mut objects = Vec::new();
-                let mut points = Vec::new();
-                for id in 0..30u64 {
-                    let (x, y) = (rng.range(-35.0, 35.0), rng.range(-35.0, 35.0));
-                    let (length_m, width_m) =
-                        if id % 3 == 0 { (0.6, 0.6) } else { (rng.range(3.5, 5.0), rng.range(1.6, 2.1)) };
-                    objects.push(ObjectState {
-                        id,
-                        class: if id % 3 == 0 { ObjectClass::Pedestrian } else { ObjectClass::Car },
-                        x_m: x,
-                        y_m: y,
-                        heading_rad: rng.range(-3.2, 3.2),
-                        speed_mps: 0.0,
-                        length_m,
-                        width_m,
-                        uncertainty: None,
-                    });
-                    // Evidence under the box, beside it (displaced), or none (a ghost, visible or hidden).
-                    let kind = id % 4;
-                    if kind < 3 {
-                        let (ox, oy) =
-                            if kind == 0 { (0.0, 0.0) } else { (rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)) };
-                        for _ in 0..60 {
-                            let z = rng.range(0.3, 1.6);
-                            points.push([x + ox + rng.range(-1.0, 1.0), y + oy + rng.range(-1.0, 1.0), z - 1.8]);
-                        }
-                    }
-                }
-                // Walls and clutter that hide some boxes, and ground that shows others empty.
-                for _ in 0..40 {
-                    let (cx, cy) = (rng.range(-40.0, 40.0), rng.range(-40.0, 40.0));
-                    for _ in 0..30 {
-                        let z = if rng.range(0.0, 1.0) < 0.3 { rng.range(-0.2, 0.1) } else { rng.range(0.3, 1.8) };
-                        points.push([cx + rng.range(-1.5, 1.5), cy + rng.range(-1.5, 1.5), z - 1.8]);
-                    }
-                }
-                for _ in 0..20_000 {
-                    let (r, a) = (rng.range(3.0, 49.0), rng.range(0.0, core::f32::consts::TAU));
-                    points.push([r * libm::cosf(a), r * libm::sinf(a), -1.8 + rng.range(-0.05, 0.05)]);
-                }
+                let (objects, points) = clumps_scene(&mut rng);
                 let frame = Frame {
                     timestamp_s: f64::from(frame_no) * 0.1,
                     world_from_ego: Pose2::default(),
@@ -1501,5 +1512,56 @@ mod tests {
             hidden > 100 && seen > 100 && early > 100 && opened > 20,
             "hidden {hidden}, seen {seen}, decided early {early}, open view {opened}"
         );
+    }
+
+    /// Spill-over's fit tests with the object's own spans walked once per frame (`own_spans`, `fits_with_own`,
+    /// `spill_fits_with`) answer as the references that walk the object's region for every pair
+    /// (`evidence_fits(.., true)`, `spill_fits`), for every object with a region and every cluster of the frame, at
+    /// two cell sizes; both answers occur, and the cache is filled by the checks themselves.
+    #[test]
+    fn spill_over_with_the_own_spans_once_equals_the_walk_per_pair() {
+        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        let (mut fit, mut unfit, mut cached) = (0usize, 0usize, 0usize);
+        for cell_size_m in [0.5f32, 0.2] {
+            let mut monitor = Monitor::new(MonitorParams { cell_size_m, ..MonitorParams::default() }).unwrap();
+            for frame_no in 0..12 {
+                let (objects, points) = clumps_scene(&mut rng);
+                let frame = Frame {
+                    timestamp_s: f64::from(frame_no) * 0.1,
+                    world_from_ego: Pose2::default(),
+                    objects: &objects,
+                    cloud: Some(PointCloud {
+                        points_in_sensor: &points,
+                        ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
+                    }),
+                    roi_in_ego: &[],
+                    static_in_ego: &[],
+                };
+                monitor.check(&frame).unwrap();
+                cached += monitor.own_spans.iter().flatten().count();
+                // What the frame's spill-over stored must be what a fresh walk gives.
+                let stored: Vec<_> = monitor.own_spans.clone();
+                monitor.own_spans.iter_mut().for_each(|s| *s = None);
+                for j in 0..objects.len() {
+                    let Some(region) = monitor.scratch.get(j).and_then(|s| s.region) else { continue };
+                    let own = monitor.own_spans(j, &region);
+                    if let Some(Some(before)) = stored.get(j) {
+                        assert_eq!(before.map(|s| s.map(f32::to_bits)), own.map(|s| s.map(f32::to_bits)));
+                    }
+                    for k in 0..monitor.clusters.len() {
+                        let reference = monitor.evidence_fits(j, &region, k, true);
+                        assert_eq!(monitor.fits_with_own(&region, k, own[0]), reference, "frame {frame_no}, {j}, {k}");
+                        let spill = monitor.spill_fits(j, &region, k);
+                        assert_eq!(monitor.spill_fits_with(&region, k, own), spill, "frame {frame_no}, {j}, {k}");
+                        if spill {
+                            fit += 1;
+                        } else {
+                            unfit += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(fit > 20 && unfit > 1000 && cached > 0, "fit {fit}, unfit {unfit}, stored by the checks {cached}");
     }
 }

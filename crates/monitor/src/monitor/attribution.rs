@@ -500,6 +500,8 @@ impl Monitor {
         self.share_between_coincident_boxes();
         // Spill-over of the clusters left.
         let adjacent = core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 1e-3;
+        self.own_spans.clear();
+        self.own_spans.resize(self.scratch.len().min(self.own_spans.capacity()), None);
         for k in 0..self.clusters.len() {
             let Some(cb) = self.clusters.get(k).filter(|c| c.in_roi && c.object.is_none()).map(|c| c.bounds_m) else {
                 continue;
@@ -525,11 +527,13 @@ impl Monitor {
                 }
                 let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
                 let ok = if confirmed {
-                    self.cluster_touches_own_evidence(j, k)
-                        && match self.spill_over_fit {
-                            SpillOverFit::Occupied => self.evidence_fits(j, &region, k, true),
-                            SpillOverFit::EveryReturn => self.spill_fits(j, &region, k),
+                    self.cluster_touches_own_evidence(j, k) && {
+                        let own = self.own_spans(j, &region);
+                        match self.spill_over_fit {
+                            SpillOverFit::Occupied => self.fits_with_own(&region, k, own[0]),
+                            SpillOverFit::EveryReturn => self.spill_fits_with(&region, k, own),
                         }
+                    }
                 } else {
                     self.evidence_fits(j, &region, k, false)
                 };
@@ -1376,7 +1380,9 @@ impl Monitor {
     /// displaced evidence ends within its extent: a box that keeps a return at its far end, or a cluster whose
     /// returns run on beyond the box's extent, is a clean box next to unlabelled returns (docs/attribution.md,
     /// "spill-over counts every return"). Bounded: one walk over the region's cells and the 3 x 3 neighbourhood of
-    /// each cluster cell.
+    /// each cluster cell. The reference of [`Monitor::spill_fits_with`], which spill-over runs (the object's own
+    /// spans walked once per frame), kept for the tests.
+    #[cfg(test)]
     pub(super) fn spill_fits(&self, j: usize, region: &Region, k: usize) -> bool {
         if !self.evidence_fits(j, region, k, true) {
             return false;
@@ -1408,6 +1414,86 @@ impl Monitor {
                     add(x, y);
                 }
             });
+        }
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+
+    /// Object `j`'s own spans in its box's axes (see the field `own_spans`): the occupied cells and the hit cells
+    /// it owns in its grown region, each as `[u min, u max, v min, v max]` (infinite bounds when there are none).
+    /// One walk over the region's cells the first time spill-over asks in a frame, the stored answer after.
+    pub(super) fn own_spans(&mut self, j: usize, region: &Region) -> [[f32; 4]; 2] {
+        if let Some(Some(spans)) = self.own_spans.get(j) {
+            return *spans;
+        }
+        let empty = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+        let mut spans = [empty; 2];
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let tau = self.params.tau_fn;
+        // Own cells have hits: the walk over the region's hit cells (empty cells skipped 64 at a time) finds them
+        // all. Every one of them is a hit cell its owner owns (the second span); the occupied ones, the first.
+        if let Some(range) = geometry.cell_range(region.grown.aabb()) {
+            let (grid, owner) = (&self.grid, &self.owner);
+            grid.for_each_hit_cell(&region.grown, range, |idx| {
+                let own = grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                    && owner.get(idx as usize).is_some_and(|&o| o as usize == j);
+                if !own {
+                    return;
+                }
+                let (x, y) = geometry.cell_center(idx);
+                let (u, v) = fp.local(x, y);
+                let grow = |span: &mut [f32; 4]| {
+                    *span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+                };
+                if grid.probability(idx) > tau {
+                    grow(&mut spans[0]);
+                }
+                grow(&mut spans[1]);
+            });
+        }
+        if let Some(slot) = self.own_spans.get_mut(j) {
+            *slot = Some(spans);
+        }
+        spans
+    }
+
+    /// [`Monitor::evidence_fits`] with the object's own evidence, its occupied cells' span `own` given
+    /// ([`Monitor::own_spans`]): the same answer (the spans' minima and maxima do not depend on the order in which
+    /// the cells come).
+    pub(super) fn fits_with_own(&self, region: &Region, k: usize, own: [f32; 4]) -> bool {
+        if !self.bounds_may_fit(region, k) {
+            return false;
+        }
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = self.fit_slack();
+        let mut span = own;
+        for &c in self.cluster_cells(k) {
+            let (x, y) = geometry.cell_center(c);
+            let (u, v) = fp.local(x, y);
+            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+        }
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+
+    /// [`Monitor::spill_fits`] with the object's own spans given ([`Monitor::own_spans`]): the same answer.
+    pub(super) fn spill_fits_with(&self, region: &Region, k: usize, own: [[f32; 4]; 2]) -> bool {
+        if !self.fits_with_own(region, k, own[0]) {
+            return false;
+        }
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = self.fit_slack();
+        let grid = &self.grid;
+        let mut span = own[1];
+        for &c in self.cluster_cells(k) {
+            for idx in geometry.block3x3(c) {
+                if grid.hits(idx) > 0 && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == 0 {
+                    let (x, y) = geometry.cell_center(idx);
+                    let (u, v) = fp.local(x, y);
+                    span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+                }
+            }
         }
         span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
     }
