@@ -1437,6 +1437,22 @@ mod tests {
         (objects, points)
     }
 
+    /// Checks one frame of [`clumps_scene`] (sensor 1.8 m above the ground, no ROI, 10 Hz).
+    fn check_clumps(monitor: &mut Monitor, objects: &[ObjectState], points: &[[f32; 3]], frame_no: u32) {
+        let frame = Frame {
+            timestamp_s: f64::from(frame_no) * 0.1,
+            world_from_ego: Pose2::default(),
+            objects,
+            cloud: Some(PointCloud {
+                points_in_sensor: points,
+                ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
+            }),
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        monitor.check(&frame).unwrap();
+    }
+
     /// A placement of the ghost test decided early (`placement_hidden`: after each sampled row, when the rows left
     /// cannot change the answer) gives the answer of its whole sight (`placement_hidden_by_full_sight`), for the
     /// eight placements of every object and for random shifts and turns of each footprint, on random clumps of
@@ -1451,18 +1467,7 @@ mod tests {
             let mut monitor = Monitor::new(MonitorParams { cell_size_m, ..MonitorParams::default() }).unwrap();
             for frame_no in 0..12 {
                 let (objects, points) = clumps_scene(&mut rng);
-                let frame = Frame {
-                    timestamp_s: f64::from(frame_no) * 0.1,
-                    world_from_ego: Pose2::default(),
-                    objects: &objects,
-                    cloud: Some(PointCloud {
-                        points_in_sensor: &points,
-                        ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
-                    }),
-                    roi_in_ego: &[],
-                    static_in_ego: &[],
-                };
-                monitor.check(&frame).unwrap();
+                check_clumps(&mut monitor, &objects, &points, frame_no);
                 for fraction in [0.2f32, 0.5, 0.8] {
                     monitor.params.ghost_visible_fraction = fraction;
                     for j in 0..objects.len() {
@@ -1526,18 +1531,7 @@ mod tests {
             let mut monitor = Monitor::new(MonitorParams { cell_size_m, ..MonitorParams::default() }).unwrap();
             for frame_no in 0..12 {
                 let (objects, points) = clumps_scene(&mut rng);
-                let frame = Frame {
-                    timestamp_s: f64::from(frame_no) * 0.1,
-                    world_from_ego: Pose2::default(),
-                    objects: &objects,
-                    cloud: Some(PointCloud {
-                        points_in_sensor: &points,
-                        ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
-                    }),
-                    roi_in_ego: &[],
-                    static_in_ego: &[],
-                };
-                monitor.check(&frame).unwrap();
+                check_clumps(&mut monitor, &objects, &points, frame_no);
                 cached += monitor.own_spans.iter().flatten().count();
                 // What the frame's spill-over stored must be what a fresh walk gives.
                 let stored: Vec<_> = monitor.own_spans.clone();
