@@ -1521,7 +1521,7 @@ mod tests {
 
     /// Spill-over's fit tests with the object's own spans walked once per frame (`own_spans`, `fits_with_own`,
     /// `spill_fits_with`) answer as the references that walk the object's region for every pair
-    /// (`evidence_fits(.., true)`, `spill_fits`), for every object with a region and every cluster of the frame, at
+    /// (`evidence_fits_walking_own`, `spill_fits`), for every object with a region and every cluster of the frame, at
     /// two cell sizes; both answers occur, and the cache is filled by the checks themselves.
     #[test]
     fn spill_over_with_the_own_spans_once_equals_the_walk_per_pair() {
@@ -1543,7 +1543,7 @@ mod tests {
                         assert_eq!(before.map(|s| s.map(f32::to_bits)), own.map(|s| s.map(f32::to_bits)));
                     }
                     for k in 0..monitor.clusters.len() {
-                        let reference = monitor.evidence_fits(j, &region, k, true);
+                        let reference = monitor.evidence_fits_walking_own(j, &region, k);
                         assert_eq!(monitor.fits_with_own(&region, k, own[0]), reference, "frame {frame_no}, {j}, {k}");
                         let spill = monitor.spill_fits(j, &region, k);
                         assert_eq!(monitor.spill_fits_with(&region, k, own), spill, "frame {frame_no}, {j}, {k}");

@@ -454,7 +454,7 @@ impl Monitor {
                     if let Some(s) = self.scratch.get_mut(j) {
                         s.followed = k as u32;
                     }
-                    if self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
+                    if self.evidence_fits(&region, k) && self.pairs.len() < self.pairs.capacity() {
                         self.pairs.push((d, k as u32, j as u32, 0));
                         stayed_here |= self.candidates.get(j).is_some_and(|c| c.1 & CANDIDATE_STAYED != 0);
                     }
@@ -491,7 +491,7 @@ impl Monitor {
                 let reachable = d <= touch
                     || self.clusters.get(k).is_some_and(|c| self.behind(&region.footprint, c.centroid_m))
                     || self.sight_of(j, &region).contradicted() >= self.params.ghost_visible_fraction;
-                if reachable && self.evidence_fits(j, &region, k, false) && self.pairs.len() < self.pairs.capacity() {
+                if reachable && self.evidence_fits(&region, k) && self.pairs.len() < self.pairs.capacity() {
                     self.pairs.push((d, k as u32, j as u32, 0));
                 }
             }
@@ -535,7 +535,7 @@ impl Monitor {
                         }
                     }
                 } else {
-                    self.evidence_fits(j, &region, k, false)
+                    self.evidence_fits(&region, k)
                 };
                 // Nearest; ties to the lower index (deterministic whatever the loop order).
                 if ok && best.is_none_or(|(bd, bj)| d.total_cmp(&bd).then(j.cmp(&bj)).is_lt()) {
@@ -583,7 +583,7 @@ impl Monitor {
                 // At least as many cells as the occupied cells the box owns (its shape's evidence in front of it
                 // outweighs what its region holds), fitting it, and the evidence that confirms it runs on beyond it.
                 if (cells as f32) < s.own_sum[2]
-                    || !self.evidence_fits(j, &region, k, false)
+                    || !self.evidence_fits(&region, k)
                     || !self.own_evidence_runs_on(j, &region, k)
                 {
                     continue;
@@ -747,7 +747,7 @@ impl Monitor {
                 let Some(other) = self.scratch.get(m).and_then(|o| o.region).filter(|_| m != j) else { continue };
                 if !footprints_touch(&region.footprint, &other.footprint, tol)
                     || self.cluster_distance(k, &region.grown, gate).is_none()
-                    || !self.evidence_fits(j, &region, k, false)
+                    || !self.evidence_fits(&region, k)
                 {
                     continue;
                 }
@@ -1312,7 +1312,7 @@ impl Monitor {
         })
     }
 
-    /// The slack of the fit tests ([`Monitor::evidence_fits`], [`Monitor::spill_fits`]) beyond a box's length and
+    /// The slack of the fit tests ([`Monitor::fits_with_own`], [`Monitor::spill_fits_with`]) beyond a box's length and
     /// width: one cell diagonal (a cell centre is within half a diagonal of every point of its cell) and twice the
     /// safety margin (LiDAR noise).
     #[inline]
@@ -1322,7 +1322,7 @@ impl Monitor {
 
     /// [`Monitor::evidence_fits`]' first test, on cluster `k`'s bounds alone: two of its cells as far apart as its
     /// bounding box is wide cannot both lie in a box whose diagonal is shorter (walls and hedges fail it without
-    /// a look at their cells). False means `evidence_fits` is false, with or without the object's own evidence.
+    /// a look at their cells). False means `fits_with_own` is false, whatever the object's own evidence.
     #[inline]
     pub(super) fn bounds_may_fit(&self, region: &Region, k: usize) -> bool {
         let fp = &region.footprint;
@@ -1333,19 +1333,28 @@ impl Monitor {
         })
     }
 
-    /// Could cluster `k` (with object `j`'s own occupied evidence, when `with_own`) be the evidence of `j`'s box
-    /// moved somewhere? True when its extent along and across the box, over cell centres, is at most the box's
-    /// length and width plus one cell diagonal (a cell centre is within half a diagonal of every point of the
-    /// cell) and twice the safety margin (LiDAR noise). A wall, a hedge or two objects side by side do not fit
-    /// a pedestrian.
-    pub(super) fn evidence_fits(&self, j: usize, region: &Region, k: usize, with_own: bool) -> bool {
+    /// Could cluster `k` be the evidence of object `j`'s box (`region`) moved somewhere? True when its extent
+    /// along and across the box, over cell centres, is at most the box's length and width plus one cell diagonal
+    /// (a cell centre is within half a diagonal of every point of the cell) and twice the safety margin (LiDAR
+    /// noise). A wall, a hedge or two objects side by side do not fit a pedestrian. [`Monitor::fits_with_own`]
+    /// with no evidence of the box's own.
+    #[inline]
+    pub(super) fn evidence_fits(&self, region: &Region, k: usize) -> bool {
+        self.fits_with_own(region, k, NO_SPAN)
+    }
+
+    /// The reference of [`Monitor::fits_with_own`] with object `j`'s own occupied evidence: the cluster's cells and
+    /// the occupied cells `j` owns, found by a walk over every cell of its grown region, must fit its box. Kept for
+    /// the tests.
+    #[cfg(test)]
+    pub(super) fn evidence_fits_walking_own(&self, j: usize, region: &Region, k: usize) -> bool {
         if !self.bounds_may_fit(region, k) {
             return false;
         }
         let geometry = self.grid.geometry;
         let fp = &region.footprint;
         let slack = self.fit_slack();
-        let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+        let mut span = NO_SPAN;
         let mut add = |x: f32, y: f32| {
             let (u, v) = fp.local(x, y);
             span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
@@ -1354,26 +1363,24 @@ impl Monitor {
             let (x, y) = geometry.cell_center(c);
             add(x, y);
         }
-        if with_own {
-            let tau = self.params.tau_fn;
-            if let Some(range) = geometry.cell_range(region.grown.aabb()) {
-                let (grid, owner) = (&self.grid, &self.owner);
-                geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
-                    if grid.probability(idx) > tau
-                        && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                        && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
-                    {
-                        add(x, y);
-                    }
-                });
-            }
+        let tau = self.params.tau_fn;
+        if let Some(range) = geometry.cell_range(region.grown.aabb()) {
+            let (grid, owner) = (&self.grid, &self.owner);
+            geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
+                if grid.probability(idx) > tau
+                    && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                    && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+                {
+                    add(x, y);
+                }
+            });
         }
         span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
     }
 
     /// The fit test of spill-over to a confirmed object `j` (step 5) with [`SpillOverFit::EveryReturn`]:
-    /// [`Monitor::evidence_fits`] with its own
-    /// evidence, counting every return rather than the occupied cells only. The box's own returns are the hit cells
+    /// [`Monitor::evidence_fits_walking_own`], then the same with its own evidence counting every return rather than
+    /// the occupied cells only. The box's own returns are the hit cells
     /// it owns in its region, however few their hits, and the cluster's are its cells and the hit cells 8-adjacent
     /// to them that no object explains (returns too sparse to be occupied that continue the cluster). A box whose
     /// evidence moved with it leaves no return of its own where the displaced box no longer reaches, and its
@@ -1384,7 +1391,7 @@ impl Monitor {
     /// spans walked once per frame), kept for the tests.
     #[cfg(test)]
     pub(super) fn spill_fits(&self, j: usize, region: &Region, k: usize) -> bool {
-        if !self.evidence_fits(j, region, k, true) {
+        if !self.evidence_fits_walking_own(j, region, k) {
             return false;
         }
         let geometry = self.grid.geometry;
@@ -1425,8 +1432,7 @@ impl Monitor {
         if let Some(Some(spans)) = self.own_spans.get(j) {
             return *spans;
         }
-        let empty = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
-        let mut spans = [empty; 2];
+        let mut spans = [NO_SPAN; 2];
         let geometry = self.grid.geometry;
         let fp = &region.footprint;
         let tau = self.params.tau_fn;
@@ -1457,9 +1463,10 @@ impl Monitor {
         spans
     }
 
-    /// [`Monitor::evidence_fits`] with the object's own evidence, its occupied cells' span `own` given
-    /// ([`Monitor::own_spans`]): the same answer (the spans' minima and maxima do not depend on the order in which
-    /// the cells come).
+    /// Cluster `k` together with evidence of the box's own whose span in its axes is `own` (its occupied cells,
+    /// [`Monitor::own_spans`]; [`NO_SPAN`] for none) fits the box (see [`Monitor::evidence_fits`]). The same answer
+    /// as walking the box's cells with the cluster's (`evidence_fits_walking_own`, kept for the tests): the spans'
+    /// minima and maxima do not depend on the order in which the cells come.
     pub(super) fn fits_with_own(&self, region: &Region, k: usize, own: [f32; 4]) -> bool {
         if !self.bounds_may_fit(region, k) {
             return false;
@@ -1628,6 +1635,9 @@ pub(super) fn stayed_evidence(s: &super::ObjectScratch, region: &Region) -> Opti
     let expected = [centre[0] + off[0], centre[1] + off[1]];
     (expected.iter().all(|v| v.is_finite()) && !region.grown.contains(expected[0], expected[1])).then_some(expected)
 }
+
+/// The span of no cells in a box's axes, `[u min, u max, v min, v max]`: any cell's coordinates replace it.
+pub(super) const NO_SPAN: [f32; 4] = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
 
 /// Average number of candidate objects per conflict cluster the evidence assignment keeps room for.
 pub(super) const ASSOCIATION_CANDIDATES: usize = 8;
