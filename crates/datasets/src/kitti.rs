@@ -226,18 +226,24 @@ const CAMERA2_WIDTH_PX: f64 = 1242.0;
 /// by the image's edge keeps the returns beside it.
 pub const FIELD_OF_VIEW_MARGIN_DEG: f64 = 5.0;
 
+/// The angles of the rays through camera 2's image's left and right edges off its axis, radians.
+fn camera2_half_angles() -> (f64, f64) {
+    ((CAMERA2_CX_PX / CAMERA2_FX_PX).atan(), ((CAMERA2_WIDTH_PX - CAMERA2_CX_PX) / CAMERA2_FX_PX).atan())
+}
+
 /// The labelled field of view in the ego frame (KITTI labels only the objects in camera 2's image): the wedge from
 /// the camera's centre between the rays through the image's left and right edges, each widened by
 /// [`FIELD_OF_VIEW_MARGIN_DEG`], clipped to the grid's square of half side `half` (metres). `None` when the clip
-/// leaves nothing.
+/// leaves nothing (also when the calibration turns the camera's view off the ground: a degenerate or undefined
+/// wedge has no area).
 #[must_use]
 #[allow(clippy::cast_possible_truncation)] // ego-frame metres inside the grid: f32 is the monitor's precision
 pub fn field_of_view_polygon(calib: &KittiCalib, half: f64) -> Option<Vec<[f32; 2]>> {
     let margin = FIELD_OF_VIEW_MARGIN_DEG.to_radians();
-    let left = (CAMERA2_CX_PX / CAMERA2_FX_PX).atan() + margin;
-    let right = ((CAMERA2_WIDTH_PX - CAMERA2_CX_PX) / CAMERA2_FX_PX).atan() + margin;
+    let (left, right) = camera2_half_angles();
+    let (left, right) = (left + margin, right + margin);
     let apex = calib.velo_from_rect([0.0, 0.0, 0.0]);
-    // A direction of the rectified camera frame (x right, z forward) in the Velodyne frame.
+    // A direction of the rectified camera frame (x right, z forward) on the Velodyne frame's ground plane.
     let dir = |x: f64| {
         let q = calib.velo_from_rect([x, 0.0, 1.0]);
         let (dx, dy) = (q[0] - apex[0], q[1] - apex[1]);
@@ -326,6 +332,7 @@ pub(crate) fn open_object_with(
     // The default region of interest of KITTI's object frames: the labelled field of view (other modes are applied
     // after the reader, `roi::finish`).
     let field_of_view = opts.roi.mode == RoiMode::Auto;
+    let mut no_view = 0usize;
     for velo in &velo_files {
         let stem = velo.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
         let number: u64 = stem
@@ -377,6 +384,7 @@ pub(crate) fn open_object_with(
             // A sweep without a label file has no calibration of its own: the nominal one.
             let calib = frame_calib.unwrap_or_else(KittiCalib::nominal);
             frame.roi_in_ego = field_of_view_polygon(&calib, opts.roi.grid_half_extent_m).into_iter().collect();
+            no_view += usize::from(frame.roi_in_ego.is_empty());
         }
         frames.push(DatasetFrame { frame, extras });
     }
@@ -387,9 +395,15 @@ pub(crate) fn open_object_with(
              image's edges ({:.1} deg left, {:.1} deg right of its axis) widened by {FIELD_OF_VIEW_MARGIN_DEG} deg \
              on each side (--roi none: the whole grid, where every unlabelled structure is a missed-object alarm; \
              --roi corridor:<width_m>: a band along the ego's x axis)",
-            (CAMERA2_CX_PX / CAMERA2_FX_PX).atan().to_degrees(),
-            ((CAMERA2_WIDTH_PX - CAMERA2_CX_PX) / CAMERA2_FX_PX).atan().to_degrees(),
+            camera2_half_angles().0.to_degrees(),
+            camera2_half_angles().1.to_degrees(),
         ));
+        if no_view > 0 {
+            notes.push(format!(
+                "{no_view} frames have no field of view in the grid (their calibration turns the camera's view off \
+                 the ground): no region of interest there, the whole grid"
+            ));
+        }
     }
     notes.push(format!("{dontcare} DontCare labels skipped"));
     if missing_labels > 0 {
@@ -585,6 +599,13 @@ mod tests {
                 }
             }
         }
+        // A calibration that turns the camera's axis straight up (the rectified z along the Velodyne's z) leaves
+        // no wedge on the ground: no field of view, not a polygon of NaNs.
+        let up = parse_calib(
+            "R0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 1 0 0 0 0 1 0 0 0 0 1 0\nTr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n",
+        )
+        .unwrap();
+        assert_eq!(field_of_view_polygon(&up, 50.0), None);
         // A grid too small to hold more than the wedge's tip still gives a polygon, inside the square.
         let tiny = field_of_view_polygon(&KittiCalib::nominal(), 1.0).unwrap();
         assert!(tiny.iter().all(|q| q[0].abs() <= 1.0 + 1e-6 && q[1].abs() <= 1.0 + 1e-6), "{tiny:?}");

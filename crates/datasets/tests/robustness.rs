@@ -177,6 +177,22 @@ fn kitti_dir(root: &Path, label: &str, calib: &str) {
     fs::write(root.join("calib/000000.txt"), calib).unwrap();
 }
 
+/// A calibration that turns camera 2's view off the ground (its axis along the Velodyne's z) leaves its frame no
+/// field of view: the frame gets no region of interest, and the notes say how many frames that is.
+#[test]
+fn kitti_frames_without_a_field_of_view_are_counted_in_the_notes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path().join("training");
+    kitti_dir(&root, LABEL, "R0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 1 0 0 0 0 1 0 0 0 0 1 0\n");
+    let ds = open(&format!("kitti:{}", root.display())).unwrap();
+    assert!(ds.frames.iter().all(|f| f.frame.roi_in_ego.is_empty()));
+    assert!(ds.info.notes.iter().any(|n| n.starts_with("1 frames have no field of view")), "{:?}", ds.info.notes);
+    kitti_dir(&root, LABEL, CALIB);
+    let ds = open(&format!("kitti:{}", root.display())).unwrap();
+    assert!(ds.frames.iter().all(|f| !f.frame.roi_in_ego.is_empty()));
+    assert!(!ds.info.notes.iter().any(|n| n.contains("no field of view")), "{:?}", ds.info.notes);
+}
+
 #[test]
 fn kitti_label_and_calib_files() {
     let tmp = tempfile::tempdir().unwrap();
