@@ -4,7 +4,8 @@
 //! The Argoverse 2 sweeps (two stacked 32-beam lidars, about 99,000 points, read with `pmon-datasets`) with 100
 //! synthetic objects, and for comparison the KITTI HDL-64E sweeps (100 objects) and the nuScenes 32-beam sweep
 //! (30 objects): the same sequences as the `av2/0.5m`, `kitti/0.5m` and `nuscenes/0.5m` cases of `pmon bench`
-//! (`pmon_bench::av2`, `pmon_bench::frames`), paper parameters (100 m grid, 0.5 m cells). The data folder is
+//! (`pmon_bench::av2`, `pmon_bench::frames`; with their regions of interest: AV2's vector map, KITTI's labelled
+//! field of view), paper parameters (100 m grid, 0.5 m cells). The data folder is
 //! `PMON_DATA_DIR`, default `<workspace>/../shared/data`; a benchmark whose sweeps are absent prints a message
 //! and measures nothing. The `floor` benchmarks read every point once (a sum of all coordinates).
 //!
@@ -28,7 +29,9 @@ static AV2: LazyLock<Option<Sequence>> = LazyLock::new(|| {
     pmon_bench::av2::sequence(pmon_bench::av2::sweeps(&frames::data_dir()).unwrap_or_else(|e| panic!("{e}")))
 });
 static KITTI: LazyLock<Option<Sequence>> = LazyLock::new(|| {
-    let sweeps = frames::kitti_sweeps(&frames::data_dir()).unwrap_or_else(|e| panic!("{e}"));
+    let dir = frames::data_dir();
+    let mut sweeps = frames::kitti_sweeps(&dir).unwrap_or_else(|e| panic!("{e}"));
+    pmon_bench::kitti_fields_of_view(&dir, &mut sweeps).unwrap_or_else(|e| panic!("{e}"));
     Sequence::real("kitti", sweeps, &SyntheticSpec::BEAMS_64)
 });
 static NUSCENES: LazyLock<Option<Sequence>> = LazyLock::new(|| {
@@ -41,14 +44,16 @@ static NUSCENES: LazyLock<Option<Sequence>> = LazyLock::new(|| {
 fn bench_check(bencher: Bencher<'_, '_>, seq: &Sequence) {
     let mut monitor = Monitor::new(MonitorParams::PAPER).expect("valid parameters");
     let n = seq.frames.len();
-    let frame = |i: usize| seq.frame(i, Sequence::timestamp_s(i)).expect("non-empty sequence");
     // Warm-up: one cycle.
     for i in 0..n {
-        monitor.check(&frame(i)).expect("frame within capacity");
+        let mut roi = Vec::new();
+        let f = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi).expect("non-empty sequence");
+        monitor.check(&f).expect("frame within capacity");
     }
     let mut i = n;
     bencher.counter(ItemsCount::new(seq.max_points())).bench_local(|| {
-        let f = frame(i);
+        let mut roi = Vec::new();
+        let f = seq.frame_with_roi(i, Sequence::timestamp_s(i), &mut roi).expect("non-empty sequence");
         i += 1;
         let report = monitor.check(divan::black_box(&f)).expect("frame within capacity");
         divan::black_box(report.objects.len() + report.clusters.len())

@@ -1,7 +1,8 @@
 //! Runs the latency benchmarks and prints the table (or JSON), like `pmon bench`:
 //! `cargo run --release -p pmon-bench --example bench -- [--json] [--iterations N] [--max-seconds-per-case S]
-//! [--only TEXT]... [--columns]` (`--only`: the cases whose name contains one of the texts, as `pmon bench --only`;
-//! `--columns`: the sweeps handed over as columns, as `pmon bench --columns`).
+//! [--only TEXT]... [--columns] [--kitti-whole-grid] [--no-machine-reference]` (`--only`: the cases whose name
+//! contains one of the texts, as `pmon bench --only`; `--columns`: the sweeps handed over as columns, as `pmon bench
+//! --columns`; the last two as `pmon bench`'s flags of the same names).
 
 use std::process::ExitCode;
 
@@ -15,6 +16,8 @@ fn main() -> ExitCode {
         match arg.as_str() {
             "--json" => json = true,
             "--columns" => opts.columns = true,
+            "--kitti-whole-grid" => opts.kitti_whole_grid = true,
+            "--no-machine-reference" => opts.no_machine_reference = true,
             "--iterations" => match args.next().and_then(|v| v.parse().ok()) {
                 Some(n) => opts.iterations = n,
                 None => {
@@ -39,7 +42,7 @@ fn main() -> ExitCode {
             other => {
                 eprintln!(
                     "unknown argument `{other}`; usage: bench [--json] [--iterations N] [--max-seconds-per-case S] \
-                     [--only TEXT]... [--columns]"
+                     [--only TEXT]... [--columns] [--kitti-whole-grid] [--no-machine-reference]"
                 );
                 return ExitCode::from(2);
             }

@@ -24,7 +24,7 @@ mod machine;
 pub mod native;
 pub mod peers;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use pmon_monitor::{
@@ -192,6 +192,9 @@ pub struct BenchOptions {
     /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10's measurement:
     /// docs/datasets.md, "Made the default"). Wins over `roi_graze`.
     pub no_roi_graze: bool,
+    /// Check the KITTI sweeps over the whole grid instead of camera 2's field of view (the region KITTI labels and
+    /// `pmon check kitti:`'s default region of interest; docs/datasets.md, "KITTI's labelled field of view").
+    pub kitti_whole_grid: bool,
     /// Skip the machine's own jitter reference ([`jitter::reference`], timed after each case with a cloud, about as
     /// long as the case itself): the `machine` column shows `-` and `jitter_reference` is `None`. Off: measured.
     pub no_machine_reference: bool,
@@ -228,6 +231,7 @@ impl Default for BenchOptions {
             no_follow_gate: false,
             roi_graze: false,
             no_roi_graze: false,
+            kitti_whole_grid: false,
             no_machine_reference: false,
         }
     }
@@ -476,6 +480,9 @@ pub struct BenchReport {
     pub notes: Vec<String>,
 }
 
+/// The grid's side for the real sweeps' cases, metres (0.5 m cells).
+const REAL_GRID_SIZE_M: f32 = 100.0;
+
 /// The steady-traffic case of the plausibility checks (30 objects, [`Sequence::steady_traffic`]); with
 /// `/calibrated` appended, the calibrated rule on the same frames.
 pub const STEADY_CASE: &str = "objects-30/steady";
@@ -631,7 +638,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
                 name: name.into(),
                 sequence: seq,
                 cell_size_m: 0.5,
-                grid_size_m: 100.0,
+                grid_size_m: REAL_GRID_SIZE_M,
                 calibrated: false,
                 copy_objects: false,
             });
@@ -678,6 +685,26 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
     })
 }
 
+/// Gives each KITTI sweep camera 2's field of view (the wedge KITTI labels, from the frame's `calib/NNNNNN.txt`, the
+/// nominal calibration without one) as its region of interest, as the KITTI object reader does with `--roi auto`.
+///
+/// # Errors
+/// A calibration file that is present but unreadable or malformed, named in the message.
+pub fn kitti_fields_of_view(dir: &Path, sweeps: &mut [frames::Sweep]) -> Result<(), String> {
+    use pmon_datasets::kitti;
+    let calib_dir = dir.join("kitti/object/training/calib");
+    for s in sweeps {
+        let path = calib_dir.join(format!("{}.txt", s.label.trim_end_matches(".bin")));
+        let calib = match std::fs::read_to_string(&path) {
+            Ok(text) => kitti::parse_calib(&text).map_err(|e| format!("{}: {e}", path.display()))?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => kitti::KittiCalib::nominal(),
+            Err(e) => return Err(format!("{}: {e}", path.display())),
+        };
+        s.roi_in_ego = kitti::field_of_view_polygon(&calib, 0.5 * f64::from(REAL_GRID_SIZE_M)).into_iter().collect();
+    }
+    Ok(())
+}
+
 /// The real sequences found (each `None` when its sweeps are absent).
 #[derive(Default)]
 struct RealSequences {
@@ -693,7 +720,10 @@ fn real_sequences(opts: &BenchOptions, notes: &mut Vec<String>) -> Result<RealSe
         notes.push(format!("real sweeps skipped: no data folder at {} (set PMON_DATA_DIR)", dir.display()));
         return Ok(RealSequences::default());
     }
-    let kitti = frames::kitti_sweeps(&dir).map_err(BenchError::Data)?;
+    let mut kitti = frames::kitti_sweeps(&dir).map_err(BenchError::Data)?;
+    if !opts.kitti_whole_grid {
+        kitti_fields_of_view(&dir, &mut kitti).map_err(BenchError::Data)?;
+    }
     let nuscenes = frames::nuscenes_sweeps(&dir).map_err(BenchError::Data)?;
     let av2_logs = av2::logs(&dir).map_err(BenchError::Data)?;
     let describe = |what: &str, sweeps: &[frames::Sweep]| {
@@ -705,6 +735,16 @@ fn real_sequences(opts: &BenchOptions, notes: &mut Vec<String>) -> Result<RealSe
             .push(format!("KITTI sweeps skipped: none under {}", dir.join("kitti/object/training/velodyne").display()));
     } else {
         notes.push(describe("KITTI", &kitti));
+        notes.push(if opts.kitti_whole_grid {
+            "KITTI sweeps checked over the whole grid (--kitti-whole-grid; `pmon check kitti:` checks camera 2's field \
+             of view)"
+                .to_string()
+        } else {
+            "KITTI sweeps checked in camera 2's field of view, the labelled region (as `pmon check kitti:` does by \
+             default; docs/datasets.md): the cluster stage tests its clusters against it; --kitti-whole-grid for the \
+             whole grid"
+                .to_string()
+        });
     }
     if nuscenes.is_empty() {
         notes.push(format!("nuScenes sweeps skipped: none under {}", dir.join("nuscenes").display()));
@@ -1338,5 +1378,50 @@ impl BenchReport {
             }
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pmon_monitor::geometry::polygon_contains;
+
+    fn sweep(label: &str) -> frames::Sweep {
+        frames::Sweep {
+            label: label.into(),
+            points_in_sensor: Vec::new(),
+            ego_from_sensor: pmon_monitor::Isometry3::from_translation(0.0, 0.0, 1.73),
+            roi_in_ego: Vec::new(),
+        }
+    }
+
+    /// Each KITTI sweep gets its frame's field of view: ahead of the car, not behind or beside it.
+    #[test]
+    #[cfg_attr(pmon_no_data, ignore = "needs the real data extracts: ../shared/data or PMON_DATA_DIR not found")]
+    fn the_kitti_sweeps_take_camera_2s_field_of_view() {
+        let dir = frames::data_dir();
+        let mut sweeps = frames::kitti_sweeps(&dir).unwrap();
+        assert!(!sweeps.is_empty());
+        kitti_fields_of_view(&dir, &mut sweeps).unwrap();
+        for s in &sweeps {
+            assert_eq!(s.roi_in_ego.len(), 1, "{}", s.label);
+            let inside = |x: f32, y: f32| polygon_contains(&s.roi_in_ego[0], x, y);
+            assert!(inside(20.0, 0.0) && inside(30.0, 20.0), "{}: ahead", s.label);
+            assert!(!inside(-20.0, 0.0) && !inside(0.0, 20.0) && !inside(10.0, -20.0), "{}: behind, beside", s.label);
+        }
+    }
+
+    /// A sweep without a calibration file takes the nominal one; a malformed file is an error naming it.
+    #[test]
+    fn a_missing_kitti_calibration_is_nominal_and_a_malformed_one_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let calib = dir.path().join("kitti/object/training/calib");
+        std::fs::create_dir_all(&calib).unwrap();
+        let mut sweeps = vec![sweep("000000.bin"), sweep("000001.bin")];
+        kitti_fields_of_view(dir.path(), &mut sweeps).unwrap();
+        assert!(sweeps.iter().all(|s| s.roi_in_ego.len() == 1 && polygon_contains(&s.roi_in_ego[0], 20.0, 0.0)));
+        std::fs::write(calib.join("000001.txt"), "P0: 1 2 3\nTr_velo_to_cam: 1 2\n").unwrap();
+        let err = kitti_fields_of_view(dir.path(), &mut sweeps).unwrap_err();
+        assert!(err.contains("000001.txt"), "{err}");
     }
 }

@@ -8,31 +8,9 @@ fn quick() -> BenchOptions {
     BenchOptions {
         iterations: 3,
         max_seconds_per_case: 1.0,
-        data_dir: None,
         real_data: false,
         worst_case: false,
-        rasterizer: pmon_monitor::Rasterizer::Blocked,
-        only: Vec::new(),
-        split: false,
-        columns: false,
-        seen_over: false,
-        face_in_front: false,
-        jump_from_returns: false,
-        jump_first_return: false,
-        no_jump_from_returns: false,
-        no_jump_first_return: false,
-        seen_body: false,
-        memory_gate: false,
-        follow_gate: false,
-        shadow_gate: false,
-        front_cluster: false,
-        no_front_cluster: false,
-        no_memory_hold: false,
-        no_seen_body: false,
-        no_follow_gate: false,
-        roi_graze: false,
-        no_roi_graze: false,
-        no_machine_reference: false,
+        ..BenchOptions::default()
     }
 }
 

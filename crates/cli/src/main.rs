@@ -169,6 +169,10 @@ enum Command {
         /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10).
         #[arg(long, conflicts_with = "roi_graze")]
         no_roi_graze: bool,
+        /// Check the KITTI sweeps over the whole grid instead of camera 2's field of view (the labelled region,
+        /// `pmon check kitti:`'s default; docs/datasets.md).
+        #[arg(long)]
+        kitti_whole_grid: bool,
         /// Skip the machine's jitter reference (a fixed work of each case's median, timed after every case with a
         /// cloud, about as long as the case): the run takes about half the time; the `machine` column shows `-`.
         #[arg(long)]
@@ -291,6 +295,7 @@ fn main() -> ExitCode {
             no_follow_gate,
             roi_graze,
             no_roi_graze,
+            kitti_whole_grid,
             no_machine_reference,
         } => {
             let opts = pmon_bench::BenchOptions {
@@ -324,6 +329,7 @@ fn main() -> ExitCode {
                 no_follow_gate,
                 roi_graze,
                 no_roi_graze,
+                kitti_whole_grid,
                 no_machine_reference,
             };
             if let Some(dir) = export_peers {
