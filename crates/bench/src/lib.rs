@@ -23,6 +23,7 @@ pub mod jitter;
 mod machine;
 pub mod native;
 pub mod peers;
+mod rules;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -31,6 +32,8 @@ use pmon_monitor::{
     ColumnCloud, FrameError, Join, Monitor, MonitorParams, MotionVerdict, ParamError, PointColumns, Rasterizer, Stage,
 };
 use serde::{Deserialize, Serialize};
+
+pub use rules::RuleSwitches;
 
 pub use frames::{Sequence, SyntheticSpec};
 pub use machine::{cpu_model_of, Machine};
@@ -137,61 +140,8 @@ pub struct BenchOptions {
     /// Hand every sweep to the monitor as three columns (`x`, `y`, `z` slices, [`Monitor::check_columns`]; the
     /// same verdicts) instead of `[x, y, z]` records. The columns are made once per sweep before the timing.
     pub columns: bool,
-    /// Check with the params key `seen_over` on (the free-space test looks over nearer obstacles; the grid keeps
-    /// each hit cell's returns: docs/attribution.md). Off: the default parameters.
-    pub seen_over: bool,
-    /// Check with the params key `face_in_front` on (a confirmed box whose rays end on its own evidence in front of
-    /// its grown region is displaced: docs/attribution.md). Off: the default parameters.
-    pub face_in_front: bool,
-    /// Check with the params key `jump_from_returns` on (step 9 takes evidence centres from the returns;
-    /// docs/attribution.md). Since the key is the default (issue #10), the default parameters have it on already.
-    pub jump_from_returns: bool,
-    /// Check with the params keys `jump_from_returns` and `jump_first_return` on (step 9's returns' mean from each
-    /// cell's first return, set when the cell is first touched; docs/attribution.md). The default since issue #10.
-    pub jump_first_return: bool,
-    /// Check with `jump_from_returns` (and so `jump_first_return`) off: step 9 on the cells' centres only, the
-    /// default before issue #10. Wins over `jump_from_returns` and `jump_first_return`.
-    pub no_jump_from_returns: bool,
-    /// Check with `jump_first_return` off: step 9's returns' mean from every return (the rasterizer sums each hit
-    /// cell's band returns). Wins over `jump_first_return`.
-    pub no_jump_first_return: bool,
-    /// Check with the params key `seen_body` on (the free-space test counts only rays that end on the object's
-    /// body: a look at the visibility map's bins across the region of a box the test would flag;
-    /// docs/attribution.md). Off: the default parameters.
-    pub seen_body: bool,
-    /// Check with the params key `memory_gate` on (evidence beyond `conflict_association_m` of a box is never its:
-    /// step 8 and the occluder rule bounded; docs/attribution.md). Off: the default parameters.
-    pub memory_gate: bool,
-    /// Check with the params key `follow_gate` on (step 8 counts only evidence within `conflict_association_m` of a
-    /// box; docs/attribution.md). Off: the default parameters.
-    pub follow_gate: bool,
-    /// Check with the params key `shadow_gate` on (the shadow of unexplained evidence contradicts a box only within
-    /// its gate; a box hidden only by farther evidence takes the free evidence beyond it on its line of sight;
-    /// docs/attribution.md, "The shadow of far evidence"). Off: the default parameters.
-    pub shadow_gate: bool,
-    /// Check with the params key `front_cluster` on (a free cluster in front of a confirmed box whose confirming
-    /// evidence runs on beyond it goes to it; docs/attribution.md, "One box displaced 2 m in a single sweep"). Off:
-    /// the default parameters. The default since issue #10's round "Two rules together": kept for older commands.
-    pub front_cluster: bool,
-    /// Check with `front_cluster` off (the default before issue #10's round "Two rules together"). Wins over
-    /// `front_cluster`.
-    pub no_front_cluster: bool,
-    /// Check with `memory_hold_s = 0` (a displaced track's offset lives one frame: the default before issue #10's
-    /// round "Two rules together", which made it 1 s).
-    pub no_memory_hold: bool,
-    /// Check with `seen_body` off (the default before issue #10's round "Rays on the body with step 8 gated"). Wins
-    /// over `seen_body`.
-    pub no_seen_body: bool,
-    /// Check with `follow_gate` off (the default before that round). Wins over `follow_gate`; `memory_gate` still
-    /// bounds step 8 when set.
-    pub no_follow_gate: bool,
-    /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`: a cluster with fewer
-    /// than half its band returns inside the ROI and a return over it above 4.5 m is outside it; docs/datasets.md,
-    /// "The grazing rule"). Since the rule is the default (issue #10), the default parameters have it on already.
-    pub roi_graze: bool,
-    /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10's measurement:
-    /// docs/datasets.md, "Made the default"). Wins over `roi_graze`.
-    pub no_roi_graze: bool,
+    /// Rule keys switched on or off for the whole run (`pmon bench --seen-over`, ...; [`RuleSwitches`]).
+    pub rules: RuleSwitches,
     /// Check the KITTI sweeps over the whole grid instead of camera 2's field of view (the region KITTI labels and
     /// `pmon check kitti:`'s default region of interest; docs/datasets.md, "KITTI's labelled field of view").
     pub kitti_whole_grid: bool,
@@ -214,23 +164,7 @@ impl Default for BenchOptions {
             only: Vec::new(),
             split: false,
             columns: false,
-            seen_over: false,
-            face_in_front: false,
-            jump_from_returns: false,
-            jump_first_return: false,
-            no_jump_from_returns: false,
-            no_jump_first_return: false,
-            seen_body: false,
-            memory_gate: false,
-            follow_gate: false,
-            shadow_gate: false,
-            front_cluster: false,
-            no_front_cluster: false,
-            no_memory_hold: false,
-            no_seen_body: false,
-            no_follow_gate: false,
-            roi_graze: false,
-            no_roi_graze: false,
+            rules: RuleSwitches::default(),
             kitti_whole_grid: false,
             no_machine_reference: false,
         }
@@ -810,50 +744,12 @@ fn median_u32(v: &mut [u32]) -> u32 {
     v.get(v.len() / 2).copied().unwrap_or(0)
 }
 
-/// The params keys of the options (`--seen-over`, `--no-jump-from-returns`, ...) applied to `p`.
-fn apply_keys(p: &mut MonitorParams, opts: &BenchOptions) {
-    p.seen_over |= opts.seen_over;
-    p.face_in_front |= opts.face_in_front;
-    p.jump_from_returns |= opts.jump_from_returns || opts.jump_first_return;
-    p.jump_first_return |= opts.jump_first_return;
-    if opts.no_jump_first_return {
-        p.jump_first_return = false;
-    }
-    if opts.no_jump_from_returns {
-        p.jump_from_returns = false;
-        p.jump_first_return = false;
-    }
-    p.seen_body |= opts.seen_body;
-    p.memory_gate |= opts.memory_gate;
-    p.follow_gate |= opts.follow_gate;
-    p.shadow_gate |= opts.shadow_gate;
-    p.front_cluster |= opts.front_cluster;
-    if opts.no_front_cluster {
-        p.front_cluster = false;
-    }
-    if opts.no_memory_hold {
-        p.memory_hold_s = 0.0;
-    }
-    if opts.no_seen_body {
-        p.seen_body = false;
-    }
-    if opts.no_follow_gate {
-        p.follow_gate = false;
-    }
-    if opts.roi_graze {
-        p.roi_graze_fraction = 0.5;
-    }
-    if opts.no_roi_graze {
-        p.roi_graze_fraction = 0.0;
-    }
-}
-
 /// The params keys the options change from the defaults, as `key = value` (empty when none does), so that a report
 /// says what it measured.
 fn changed_keys(opts: &BenchOptions) -> Vec<String> {
     let d = MonitorParams::PAPER;
     let mut p = d;
-    apply_keys(&mut p, opts);
+    opts.rules.apply(&mut p);
     let mut out = Vec::new();
     for (key, default, value) in [
         ("seen_over", d.seen_over, p.seen_over),
@@ -884,7 +780,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
 
 fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, BenchError> {
     let mut p = params(def.cell_size_m, def.grid_size_m);
-    apply_keys(&mut p, opts);
+    opts.rules.apply(&mut p);
     if def.calibrated {
         p.plausibility_mode = pmon_monitor::PlausibilityMode::Calibrated;
     }

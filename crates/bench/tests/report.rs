@@ -1,7 +1,7 @@
 //! `run_bench` produces a complete report (figures are not asserted: they depend on the machine).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use pmon_bench::{run_bench, BenchError, BenchOptions, BenchReport, Timing};
+use pmon_bench::{run_bench, BenchError, BenchOptions, BenchReport, RuleSwitches, Timing};
 use pmon_monitor::Stage;
 
 fn quick() -> BenchOptions {
@@ -207,22 +207,28 @@ fn params_keys_changed_from_the_defaults_are_named_in_the_notes() {
         let report = run_bench(&BenchOptions { only: only.clone(), ..opts }).unwrap();
         report.notes.iter().find(|n| n.starts_with("params keys changed")).cloned()
     };
+    let rules = |rules: RuleSwitches| BenchOptions { rules, ..quick() };
     assert_eq!(keys(quick()), None);
-    assert_eq!(keys(BenchOptions { jump_from_returns: true, jump_first_return: true, ..quick() }), None);
-    let off = keys(BenchOptions { no_jump_from_returns: true, ..quick() }).unwrap();
+    assert_eq!(
+        keys(rules(RuleSwitches { jump_from_returns: true, jump_first_return: true, ..RuleSwitches::default() })),
+        None
+    );
+    let off = keys(rules(RuleSwitches { no_jump_from_returns: true, ..RuleSwitches::default() })).unwrap();
     assert!(off.ends_with("jump_from_returns = false, jump_first_return = false"), "{off}");
-    let sums = keys(BenchOptions { no_jump_first_return: true, ..quick() }).unwrap();
+    let sums = keys(rules(RuleSwitches { no_jump_first_return: true, ..RuleSwitches::default() })).unwrap();
     assert!(sums.ends_with(": jump_first_return = false"), "{sums}");
-    let over = keys(BenchOptions { seen_over: true, no_roi_graze: true, ..quick() }).unwrap();
+    let over = keys(rules(RuleSwitches { seen_over: true, no_roi_graze: true, ..RuleSwitches::default() })).unwrap();
     assert!(over.ends_with(": seen_over = true, roi_graze_fraction = 0"), "{over}");
     // The two keys of issue #10's round "Two rules together" are on by default; `--front-cluster` is kept and changes
     // nothing, the `--no-` flags turn them off.
-    assert_eq!(keys(BenchOptions { front_cluster: true, ..quick() }), None);
-    let two = keys(BenchOptions { no_front_cluster: true, no_memory_hold: true, ..quick() }).unwrap();
+    assert_eq!(keys(rules(RuleSwitches { front_cluster: true, ..RuleSwitches::default() })), None);
+    let two =
+        keys(rules(RuleSwitches { no_front_cluster: true, no_memory_hold: true, ..RuleSwitches::default() })).unwrap();
     assert!(two.ends_with(": front_cluster = false, memory_hold_s = 0"), "{two}");
     // The pair of issue #10's round "Rays on the body with step 8 gated" is on by default too.
-    assert_eq!(keys(BenchOptions { seen_body: true, follow_gate: true, ..quick() }), None);
-    let body = keys(BenchOptions { no_seen_body: true, no_follow_gate: true, ..quick() }).unwrap();
+    assert_eq!(keys(rules(RuleSwitches { seen_body: true, follow_gate: true, ..RuleSwitches::default() })), None);
+    let body =
+        keys(rules(RuleSwitches { no_seen_body: true, no_follow_gate: true, ..RuleSwitches::default() })).unwrap();
     assert!(body.ends_with(": seen_body = false, follow_gate = false"), "{body}");
 }
 

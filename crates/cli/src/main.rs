@@ -97,78 +97,8 @@ enum Command {
         /// same verdicts) instead of `[x, y, z]` records (docs/performance.md).
         #[arg(long, alias = "soa")]
         columns: bool,
-        /// Check with the params key `seen_over` on: the free-space test towards the sensor also looks over
-        /// nearer obstacles, at the cost of each hit cell's returns kept by the grid (docs/attribution.md).
-        #[arg(long)]
-        seen_over: bool,
-        /// Check with the params key `face_in_front` on: a box confirmed by its own evidence whose rays end on that
-        /// evidence in front of its grown region is a position error (docs/attribution.md).
-        #[arg(long)]
-        face_in_front: bool,
-        /// Check with the params key `jump_from_returns` on: step 9 (a box that jumps away from evidence that
-        /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md). The
-        /// default since issue #10; kept for older commands.
-        #[arg(long)]
-        jump_from_returns: bool,
-        /// Check with the params keys `jump_from_returns` and `jump_first_return` on: step 9's returns' mean is
-        /// each cell's first return, set when the cell is first touched (no per-return sums; docs/attribution.md).
-        /// The default since issue #10; kept for older commands.
-        #[arg(long)]
-        jump_first_return: bool,
-        /// Check with `jump_from_returns` off (and so `jump_first_return`): step 9 on the cells' centres only, the
-        /// default before issue #10.
-        #[arg(long, conflicts_with_all = ["jump_from_returns", "jump_first_return", "no_jump_first_return"])]
-        no_jump_from_returns: bool,
-        /// Check with `jump_first_return` off: step 9's returns' mean from every return, which the rasterizer sums
-        /// per hit cell.
-        #[arg(long, conflicts_with = "jump_first_return")]
-        no_jump_first_return: bool,
-        /// Check with the params key `seen_body` on: the free-space test towards the sensor counts only rays that
-        /// end on the object's body, not on other returns its grown region owns (docs/attribution.md). The default
-        /// since issue #10's round "Rays on the body with step 8 gated"; kept for older commands.
-        #[arg(long)]
-        seen_body: bool,
-        /// Check with the params key `memory_gate` on: evidence farther than `conflict_association_m` from a box is
-        /// never its (step 8 and the occluder rule bounded; docs/attribution.md).
-        #[arg(long)]
-        memory_gate: bool,
-        /// Check with the params key `follow_gate` on: step 8 counts only evidence within `conflict_association_m`
-        /// of a box (the half of `memory_gate` that keeps the object-level guarantee; docs/attribution.md). The
-        /// default since issue #10's round "Rays on the body with step 8 gated"; kept for older commands.
-        #[arg(long)]
-        follow_gate: bool,
-        /// Check with the params key `shadow_gate` on: the shadow of unexplained evidence contradicts a box only
-        /// within its gate (docs/attribution.md, "The shadow of far evidence").
-        #[arg(long)]
-        shadow_gate: bool,
-        /// Check with the params key `front_cluster` on: a free cluster in front of a confirmed box, fitting it and
-        /// outweighing its own cells, goes to it when the evidence confirming the box runs on beyond it
-        /// (docs/attribution.md, "One box displaced 2 m in a single sweep"). The default since issue #10's round
-        /// "Two rules together"; kept for older commands.
-        #[arg(long)]
-        front_cluster: bool,
-        /// Check with `front_cluster` off (the default before issue #10's round "Two rules together").
-        #[arg(long)]
-        no_front_cluster: bool,
-        /// Check with `memory_hold_s = 0`: a displaced track's offset lives one frame (the default before issue
-        /// #10's round "Two rules together", which made it 1 s; docs/attribution.md, "Step 8 held over a gap").
-        #[arg(long)]
-        no_memory_hold: bool,
-        /// Check with `seen_body` off (the default before issue #10's round "Rays on the body with step 8 gated").
-        #[arg(long, conflicts_with = "seen_body")]
-        no_seen_body: bool,
-        /// Check with `follow_gate` off (the default before issue #10's round "Rays on the body with step 8 gated";
-        /// with `--memory-gate` step 8 stays bounded).
-        #[arg(long, conflicts_with = "follow_gate")]
-        no_follow_gate: bool,
-        /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
-        /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
-        /// outside it (docs/datasets.md, "The grazing rule"). The default since issue #10.
-        #[arg(long)]
-        roi_graze: bool,
-        /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10).
-        #[arg(long, conflicts_with = "roi_graze")]
-        no_roi_graze: bool,
+        #[command(flatten)]
+        rules: pmon_bench::RuleSwitches,
         /// Check the KITTI sweeps over the whole grid instead of camera 2's field of view (the labelled region,
         /// `pmon check kitti:`'s default; docs/datasets.md).
         #[arg(long)]
@@ -278,23 +208,7 @@ fn main() -> ExitCode {
             export_peers,
             split,
             columns,
-            seen_over,
-            face_in_front,
-            jump_from_returns,
-            jump_first_return,
-            no_jump_from_returns,
-            no_jump_first_return,
-            seen_body,
-            memory_gate,
-            follow_gate,
-            shadow_gate,
-            front_cluster,
-            no_front_cluster,
-            no_memory_hold,
-            no_seen_body,
-            no_follow_gate,
-            roi_graze,
-            no_roi_graze,
+            rules,
             kitti_whole_grid,
             no_machine_reference,
         } => {
@@ -312,23 +226,7 @@ fn main() -> ExitCode {
                 only,
                 split,
                 columns,
-                seen_over,
-                face_in_front,
-                jump_from_returns,
-                jump_first_return,
-                no_jump_from_returns,
-                no_jump_first_return,
-                seen_body,
-                memory_gate,
-                follow_gate,
-                shadow_gate,
-                front_cluster,
-                no_front_cluster,
-                no_memory_hold,
-                no_seen_body,
-                no_follow_gate,
-                roi_graze,
-                no_roi_graze,
+                rules,
                 kitti_whole_grid,
                 no_machine_reference,
             };

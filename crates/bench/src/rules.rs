@@ -1,0 +1,174 @@
+//! The monitor's rule keys as switches of a benchmark run (`pmon bench --seen-over`, `--no-jump-from-returns`, ...):
+//! one list, read by `pmon bench`'s argument parser (the `clap` feature) and applied to the parameters here, so that
+//! a new key is added in one place.
+
+use pmon_monitor::MonitorParams;
+
+/// Rule keys switched on or off against the default parameters for a whole run. All off: the defaults. An `no_*`
+/// switch wins over the switch of the same key.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct RuleSwitches {
+    /// Check with the params key `seen_over` on: the free-space test towards the sensor also looks over
+    /// nearer obstacles, at the cost of each hit cell's returns kept by the grid (docs/attribution.md).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub seen_over: bool,
+    /// Check with the params key `face_in_front` on: a box confirmed by its own evidence whose rays end on that
+    /// evidence in front of its grown region is a position error (docs/attribution.md).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub face_in_front: bool,
+    /// Check with the params key `jump_from_returns` on: step 9 (a box that jumps away from evidence that
+    /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md). The
+    /// default since issue #10; kept for older commands.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub jump_from_returns: bool,
+    /// Check with the params keys `jump_from_returns` and `jump_first_return` on: step 9's returns' mean is
+    /// each cell's first return, set when the cell is first touched (no per-return sums; docs/attribution.md).
+    /// The default since issue #10; kept for older commands.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub jump_first_return: bool,
+    /// Check with `jump_from_returns` off (and so `jump_first_return`): step 9 on the cells' centres only, the
+    /// default before issue #10.
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with_all = ["jump_from_returns", "jump_first_return", "no_jump_first_return"]))]
+    pub no_jump_from_returns: bool,
+    /// Check with `jump_first_return` off: step 9's returns' mean from every return, which the rasterizer sums
+    /// per hit cell.
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with = "jump_first_return"))]
+    pub no_jump_first_return: bool,
+    /// Check with the params key `seen_body` on: the free-space test towards the sensor counts only rays that
+    /// end on the object's body, not on other returns its grown region owns (docs/attribution.md). The default
+    /// since issue #10's round "Rays on the body with step 8 gated"; kept for older commands.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub seen_body: bool,
+    /// Check with the params key `memory_gate` on: evidence farther than `conflict_association_m` from a box is
+    /// never its (step 8 and the occluder rule bounded; docs/attribution.md).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub memory_gate: bool,
+    /// Check with the params key `follow_gate` on: step 8 counts only evidence within `conflict_association_m`
+    /// of a box (the half of `memory_gate` that keeps the object-level guarantee; docs/attribution.md). The
+    /// default since issue #10's round "Rays on the body with step 8 gated"; kept for older commands.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub follow_gate: bool,
+    /// Check with the params key `shadow_gate` on: the shadow of unexplained evidence contradicts a box only
+    /// within its gate (docs/attribution.md, "The shadow of far evidence").
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub shadow_gate: bool,
+    /// Check with the params key `front_cluster` on: a free cluster in front of a confirmed box, fitting it and
+    /// outweighing its own cells, goes to it when the evidence confirming the box runs on beyond it
+    /// (docs/attribution.md, "One box displaced 2 m in a single sweep"). The default since issue #10's round
+    /// "Two rules together"; kept for older commands.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub front_cluster: bool,
+    /// Check with `front_cluster` off (the default before issue #10's round "Two rules together").
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub no_front_cluster: bool,
+    /// Check with `memory_hold_s = 0`: a displaced track's offset lives one frame (the default before issue
+    /// #10's round "Two rules together", which made it 1 s; docs/attribution.md, "Step 8 held over a gap").
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub no_memory_hold: bool,
+    /// Check with `seen_body` off (the default before issue #10's round "Rays on the body with step 8 gated").
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with = "seen_body"))]
+    pub no_seen_body: bool,
+    /// Check with `follow_gate` off (the default before issue #10's round "Rays on the body with step 8 gated";
+    /// with `--memory-gate` step 8 stays bounded).
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with = "follow_gate"))]
+    pub no_follow_gate: bool,
+    /// Check with the grazing rule of the region of interest on (`roi_graze_fraction = 0.5`): a cluster with
+    /// fewer than half its band returns inside the ROI and a return over it above `roi_graze_height_m` is
+    /// outside it (docs/datasets.md, "The grazing rule"). The default since issue #10.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub roi_graze: bool,
+    /// Check with the grazing rule off (`roi_graze_fraction = 0`, the default before issue #10).
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with = "roi_graze"))]
+    pub no_roi_graze: bool,
+}
+
+impl RuleSwitches {
+    /// The switches applied to `p`.
+    pub fn apply(&self, p: &mut MonitorParams) {
+        p.seen_over |= self.seen_over;
+        p.face_in_front |= self.face_in_front;
+        p.jump_from_returns |= self.jump_from_returns || self.jump_first_return;
+        p.jump_first_return |= self.jump_first_return;
+        if self.no_jump_first_return {
+            p.jump_first_return = false;
+        }
+        if self.no_jump_from_returns {
+            p.jump_from_returns = false;
+            p.jump_first_return = false;
+        }
+        p.seen_body |= self.seen_body;
+        p.memory_gate |= self.memory_gate;
+        p.follow_gate |= self.follow_gate;
+        p.shadow_gate |= self.shadow_gate;
+        p.front_cluster |= self.front_cluster;
+        if self.no_front_cluster {
+            p.front_cluster = false;
+        }
+        if self.no_memory_hold {
+            p.memory_hold_s = 0.0;
+        }
+        if self.no_seen_body {
+            p.seen_body = false;
+        }
+        if self.no_follow_gate {
+            p.follow_gate = false;
+        }
+        if self.roi_graze {
+            p.roi_graze_fraction = 0.5;
+        }
+        if self.no_roi_graze {
+            p.roi_graze_fraction = 0.0;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn applied(s: &RuleSwitches) -> MonitorParams {
+        let mut p = MonitorParams::PAPER;
+        s.apply(&mut p);
+        p
+    }
+
+    /// No switch leaves the parameters as they are; each switch moves its key, and a `no_*` switch wins.
+    #[test]
+    fn each_switch_sets_its_key_and_the_no_switch_wins() {
+        let d = MonitorParams::PAPER;
+        assert_eq!(applied(&RuleSwitches::default()), d);
+        let on = |f: fn(&mut RuleSwitches)| {
+            let mut s = RuleSwitches::default();
+            f(&mut s);
+            applied(&s)
+        };
+        assert!(on(|s| s.seen_over = true).seen_over);
+        assert!(on(|s| s.face_in_front = true).face_in_front);
+        assert!(on(|s| s.shadow_gate = true).shadow_gate);
+        assert!(on(|s| s.memory_gate = true).memory_gate);
+        let first = on(|s| s.jump_first_return = true);
+        assert!(first.jump_from_returns && first.jump_first_return);
+        let off = on(|s| {
+            s.jump_first_return = true;
+            s.no_jump_from_returns = true;
+        });
+        assert!(!off.jump_from_returns && !off.jump_first_return);
+        assert!(!on(|s| s.no_jump_first_return = true).jump_first_return);
+        assert!(
+            !on(|s| {
+                s.seen_body = true;
+                s.no_seen_body = true;
+            })
+            .seen_body
+        );
+        assert!(!on(|s| s.no_follow_gate = true).follow_gate);
+        assert!(!on(|s| s.no_front_cluster = true).front_cluster);
+        assert_eq!(on(|s| s.no_memory_hold = true).memory_hold_s.to_bits(), 0.0f64.to_bits());
+        assert_eq!(on(|s| s.no_roi_graze = true).roi_graze_fraction.to_bits(), 0.0f32.to_bits());
+        assert_eq!(on(|s| s.roi_graze = true).roi_graze_fraction.to_bits(), 0.5f32.to_bits());
+        // The defaults these switches turn off are on in the default parameters (else the switch does nothing).
+        assert!(d.seen_body && d.follow_gate && d.front_cluster && d.jump_from_returns && d.memory_hold_s > 0.0);
+        assert!(d.roi_graze_fraction > 0.0);
+    }
+}
