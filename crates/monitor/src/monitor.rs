@@ -19,14 +19,19 @@ use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
 mod assignment;
 mod attribution;
+mod distance;
 mod face;
+mod fit;
 mod graze;
+mod memory_steps;
 mod roi;
-use attribution::{claim, s_eta, FootprintSight, ASSOCIATION_CANDIDATES, OCCLUDERS};
+mod sight;
+use attribution::{claim, s_eta, ASSOCIATION_CANDIDATES};
 use graze::RoiAmount;
 #[doc(hidden)]
 pub use roi::roi_index_mismatch;
 use roi::{polygon_box, RoiIndex, RoiSide};
+use sight::{FootprintSight, OCCLUDERS};
 
 /// The sweep of the frame being checked, as the caller gave it: `[x, y, z]` records ([`Monitor::check`]) or
 /// columns ([`Monitor::check_columns`]). Every stage reads the points through it.
@@ -1473,7 +1478,7 @@ mod tests {
                     for j in 0..objects.len() {
                         let Some(region) = monitor.scratch.get(j).and_then(|s| s.region) else { continue };
                         let margin = region.margin_length_m.max(region.margin_width_m);
-                        let mut moves: Vec<_> = attribution::placements(&region).collect();
+                        let mut moves: Vec<_> = sight::placements(&region).collect();
                         for _ in 0..8 {
                             let fp = region.footprint;
                             let heading = libm::atan2f(fp.sin, fp.cos) + rng.range(-0.5, 0.5);
@@ -1488,7 +1493,7 @@ mod tests {
                         // The open-view bound: where it holds, every cell of every placement's walk is visible.
                         if monitor.open_view(&region, margin) {
                             opened += 1;
-                            for moved in attribution::placements(&region) {
+                            for moved in sight::placements(&region) {
                                 let sight = monitor.sight_at(j, &moved, margin);
                                 assert_eq!(sight.visible, sight.total, "frame {frame_no}, object {j}, {moved:?}");
                                 assert!(!monitor.placement_hidden_by_full_sight(j, &moved, margin));

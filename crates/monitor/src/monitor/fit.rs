@@ -1,0 +1,218 @@
+//! Spill-over's fit tests (docs/attribution.md, "The rule, step by step", step 5; step 3's fit too): could a
+//! cluster, alone or together with a confirmed object's own evidence, be that object's evidence, its box moved? Its
+//! extent along and across the box, over occupied cells (`evidence_fits`, `fits_with_own`) or over every return
+//! (`spill_fits_with`, [`SpillOverFit::EveryReturn`]), with the object's own spans walked once per frame
+//! (`own_spans`); the walks per pair they replace are kept as the tests' references (`evidence_fits_walking_own`,
+//! `spill_fits`). Part of [`Monitor`]; spill-over itself is in `attribution.rs` (`attribute_clusters`).
+
+use super::*;
+
+impl Monitor {
+    /// True when a cell of cluster `k` is 8-adjacent to an occupied cell that object `j` owns.
+    pub(super) fn cluster_touches_own_evidence(&self, j: usize, k: usize) -> bool {
+        let tau = self.params.tau_fn;
+        self.cluster_cells(k).iter().any(|&c| {
+            self.grid.geometry.block3x3(c).any(|idx| {
+                self.grid.probability(idx) > tau
+                    && self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                    && self.owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+            })
+        })
+    }
+
+    /// The slack of the fit tests ([`Monitor::fits_with_own`], [`Monitor::spill_fits_with`]) beyond a box's length and
+    /// width: one cell diagonal (a cell centre is within half a diagonal of every point of its cell) and twice the
+    /// safety margin (LiDAR noise).
+    #[inline]
+    fn fit_slack(&self) -> f32 {
+        core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 2.0 * self.params.safety_margin_m
+    }
+
+    /// [`Monitor::evidence_fits`]' first test, on cluster `k`'s bounds alone: two of its cells as far apart as its
+    /// bounding box is wide cannot both lie in a box whose diagonal is shorter (walls and hedges fail it without
+    /// a look at their cells). False means `fits_with_own` is false, whatever the object's own evidence.
+    #[inline]
+    pub(super) fn bounds_may_fit(&self, region: &Region, k: usize) -> bool {
+        let fp = &region.footprint;
+        let slack = self.fit_slack();
+        self.clusters.get(k).map(|c| c.bounds_m).is_none_or(|b| {
+            let diagonal = libm::hypotf(2.0 * fp.half_length + slack, 2.0 * fp.half_width + slack);
+            (b[2] - b[0]).max(b[3] - b[1]) <= diagonal
+        })
+    }
+
+    /// Could cluster `k` be the evidence of object `j`'s box (`region`) moved somewhere? True when its extent
+    /// along and across the box, over cell centres, is at most the box's length and width plus one cell diagonal
+    /// (a cell centre is within half a diagonal of every point of the cell) and twice the safety margin (LiDAR
+    /// noise). A wall, a hedge or two objects side by side do not fit a pedestrian. [`Monitor::fits_with_own`]
+    /// with no evidence of the box's own.
+    #[inline]
+    pub(super) fn evidence_fits(&self, region: &Region, k: usize) -> bool {
+        self.fits_with_own(region, k, NO_SPAN)
+    }
+
+    /// The reference of [`Monitor::fits_with_own`] with object `j`'s own occupied evidence: the cluster's cells and
+    /// the occupied cells `j` owns, found by a walk over every cell of its grown region, must fit its box. Kept for
+    /// the tests.
+    #[cfg(test)]
+    pub(super) fn evidence_fits_walking_own(&self, j: usize, region: &Region, k: usize) -> bool {
+        if !self.bounds_may_fit(region, k) {
+            return false;
+        }
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = self.fit_slack();
+        let mut span = NO_SPAN;
+        let mut add = |x: f32, y: f32| {
+            let (u, v) = fp.local(x, y);
+            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+        };
+        for &c in self.cluster_cells(k) {
+            let (x, y) = geometry.cell_center(c);
+            add(x, y);
+        }
+        let tau = self.params.tau_fn;
+        if let Some(range) = geometry.cell_range(region.grown.aabb()) {
+            let (grid, owner) = (&self.grid, &self.owner);
+            geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
+                if grid.probability(idx) > tau
+                    && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                    && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+                {
+                    add(x, y);
+                }
+            });
+        }
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+
+    /// The fit test of spill-over to a confirmed object `j` (step 5) with [`SpillOverFit::EveryReturn`]:
+    /// [`Monitor::evidence_fits_walking_own`], then the same with its own evidence counting every return rather than
+    /// the occupied cells only. The box's own returns are the hit cells
+    /// it owns in its region, however few their hits, and the cluster's are its cells and the hit cells 8-adjacent
+    /// to them that no object explains (returns too sparse to be occupied that continue the cluster). A box whose
+    /// evidence moved with it leaves no return of its own where the displaced box no longer reaches, and its
+    /// displaced evidence ends within its extent: a box that keeps a return at its far end, or a cluster whose
+    /// returns run on beyond the box's extent, is a clean box next to unlabelled returns (docs/attribution.md,
+    /// "spill-over counts every return"). Bounded: one walk over the region's cells and the 3 x 3 neighbourhood of
+    /// each cluster cell. The reference of [`Monitor::spill_fits_with`], which spill-over runs (the object's own
+    /// spans walked once per frame), kept for the tests.
+    #[cfg(test)]
+    pub(super) fn spill_fits(&self, j: usize, region: &Region, k: usize) -> bool {
+        if !self.evidence_fits_walking_own(j, region, k) {
+            return false;
+        }
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = self.fit_slack();
+        let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+        let mut add = |x: f32, y: f32| {
+            let (u, v) = fp.local(x, y);
+            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+        };
+        let (grid, owner) = (&self.grid, &self.owner);
+        let own = |idx: u32| {
+            grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
+        };
+        for &c in self.cluster_cells(k) {
+            for idx in geometry.block3x3(c) {
+                if grid.hits(idx) > 0 && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == 0 {
+                    let (x, y) = geometry.cell_center(idx);
+                    add(x, y);
+                }
+            }
+        }
+        if let Some(range) = geometry.cell_range(region.grown.aabb()) {
+            geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
+                if grid.hits(idx) > 0 && own(idx) {
+                    add(x, y);
+                }
+            });
+        }
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+
+    /// Object `j`'s own spans in its box's axes (see the field `own_spans`): the occupied cells and the hit cells
+    /// it owns in its grown region, each as `[u min, u max, v min, v max]` (infinite bounds when there are none).
+    /// One walk over the region's cells the first time spill-over asks in a frame, the stored answer after.
+    pub(super) fn own_spans(&mut self, j: usize, region: &Region) -> [[f32; 4]; 2] {
+        if let Some(Some(spans)) = self.own_spans.get(j) {
+            return *spans;
+        }
+        let mut spans = [NO_SPAN; 2];
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let tau = self.params.tau_fn;
+        // Own cells have hits: the walk over the region's hit cells (empty cells skipped 64 at a time) finds them
+        // all. Every one of them is a hit cell its owner owns (the second span); the occupied ones, the first.
+        if let Some(range) = geometry.cell_range(region.grown.aabb()) {
+            let (grid, owner) = (&self.grid, &self.owner);
+            grid.for_each_hit_cell(&region.grown, range, |idx| {
+                let own = grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                    && owner.get(idx as usize).is_some_and(|&o| o as usize == j);
+                if !own {
+                    return;
+                }
+                let (x, y) = geometry.cell_center(idx);
+                let (u, v) = fp.local(x, y);
+                let grow = |span: &mut [f32; 4]| {
+                    *span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+                };
+                if grid.probability(idx) > tau {
+                    grow(&mut spans[0]);
+                }
+                grow(&mut spans[1]);
+            });
+        }
+        if let Some(slot) = self.own_spans.get_mut(j) {
+            *slot = Some(spans);
+        }
+        spans
+    }
+
+    /// Cluster `k` together with evidence of the box's own whose span in its axes is `own` (its occupied cells,
+    /// [`Monitor::own_spans`]; [`NO_SPAN`] for none) fits the box (see [`Monitor::evidence_fits`]). The same answer
+    /// as walking the box's cells with the cluster's (`evidence_fits_walking_own`, kept for the tests): the spans'
+    /// minima and maxima do not depend on the order in which the cells come.
+    pub(super) fn fits_with_own(&self, region: &Region, k: usize, own: [f32; 4]) -> bool {
+        if !self.bounds_may_fit(region, k) {
+            return false;
+        }
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = self.fit_slack();
+        let mut span = own;
+        for &c in self.cluster_cells(k) {
+            let (x, y) = geometry.cell_center(c);
+            let (u, v) = fp.local(x, y);
+            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+        }
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+
+    /// [`Monitor::spill_fits`] with the object's own spans given ([`Monitor::own_spans`]): the same answer.
+    pub(super) fn spill_fits_with(&self, region: &Region, k: usize, own: [[f32; 4]; 2]) -> bool {
+        if !self.fits_with_own(region, k, own[0]) {
+            return false;
+        }
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let slack = self.fit_slack();
+        let grid = &self.grid;
+        let mut span = own[1];
+        for &c in self.cluster_cells(k) {
+            for idx in geometry.block3x3(c) {
+                if grid.hits(idx) > 0 && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == 0 {
+                    let (x, y) = geometry.cell_center(idx);
+                    let (u, v) = fp.local(x, y);
+                    span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+                }
+            }
+        }
+        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+    }
+}
+
+/// The span of no cells in a box's axes, `[u min, u max, v min, v max]`: any cell's coordinates replace it.
+pub(super) const NO_SPAN: [f32; 4] = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
