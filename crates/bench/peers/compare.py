@@ -9,6 +9,7 @@ against pmon's). Standard library only; the numpy peer runs under --python.
 
     compare.py --pmon target/release/pmon --pcl target/peers/pcl_grid_box_max --python target/peers/venv/bin/python
                [--rounds 3] [--iterations 300] [--export target/peers/frames] [--case kitti/0.5m ...]
+               [--pmon-arg=--kitti-whole-grid ...]
 
 Exit status 1 when a peer's per-box maxima differ from pmon's. `run.sh` beside this file builds everything.
 """
@@ -33,9 +34,10 @@ def peer(cmd):
     return float(fields["median_us"]), float(fields["p99_us"]), int(a) == int(b), fields["agree"]
 
 
-def pmon(binary, case, iterations):
+def pmon(binary, case, iterations, extra=()):
     out = subprocess.run(
-        [binary, "bench", "--json", "--only", case, "--iterations", str(iterations), "--max-seconds-per-case", "10"],
+        [binary, "bench", "--json", "--only", case, "--iterations", str(iterations), "--max-seconds-per-case", "10"]
+        + list(extra),
         capture_output=True,
         text=True,
         check=True,
@@ -61,6 +63,12 @@ def main():
     ap.add_argument("--iterations", type=int, default=300)
     ap.add_argument("--export", default="target/peers/frames")
     ap.add_argument("--case", action="append", help="a case of pmon bench (repeatable); default: all 0.5 m sweeps")
+    ap.add_argument(
+        "--pmon-arg",
+        action="append",
+        default=[],
+        help="a further argument of the timed `pmon bench` runs (repeatable), e.g. --pmon-arg=--kitti-whole-grid",
+    )
     args = ap.parse_args()
     here = Path(__file__).resolve().parent
     export = Path(args.export)
@@ -74,7 +82,7 @@ def main():
     for r in range(1, args.rounds + 1):
         for case in cases:
             d = export / case.replace("/", "_")
-            row = pmon(args.pmon, case, args.iterations)
+            row = pmon(args.pmon, case, args.iterations, args.pmon_arg)
             if args.pcl:
                 row["pcl"], row["pcl_p99"], agree, row["pcl_agree"] = peer([args.pcl, str(d), str(args.iterations)])
                 ok &= agree
