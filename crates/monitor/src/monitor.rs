@@ -1,12 +1,18 @@
 //! [`Monitor`]: owns every buffer, runs both checks on a frame, and returns one verdict per object.
+//!
+//! This file keeps the types, construction, the public API, the sequence of the stages ([`Stage`], `check_inner`),
+//! the stages up to the regions (rasterize, scenery, regions and `eta`, cell ownership) and each object's own
+//! returns summed after the attribution (`sum_cell_returns`). The rest of the stages is in the files beside it: the
+//! conflict clusters and the region of interest decided by returns in `clusters.rs` (the polygons in `roi.rs`, the
+//! grazing rule in `graze.rs`), their attribution in `attribution.rs` and the files it names, the sensor verdicts
+//! and the combined verdicts in `verdicts.rs`.
 
 use alloc::vec::Vec;
 
-use crate::evidence_memory::{EvidenceKind, EvidenceMemory, Hold, Motion};
+use crate::evidence_memory::{EvidenceKind, EvidenceMemory, Hold};
 use crate::frame::{ColumnCloud, Frame, Isometry3, ObjectState, PointCloud, PointColumns, Uncertainty};
 use crate::grid::{
-    GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_RETURN_IN_ROI, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE,
-    FLAG_STATIC, FLAG_VISITED,
+    GridGeometry, OccupancyGrid, FLAG_ATTRIBUTED, FLAG_EXPLAINED, FLAG_ROI_CONFLICT, FLAG_ROI_EDGE, FLAG_STATIC,
 };
 use crate::params::{MonitorParams, ParamError, SpillOverFit};
 use crate::plausibility::TrackTable;
@@ -19,6 +25,7 @@ use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
 mod assignment;
 mod attribution;
+mod clusters;
 mod distance;
 mod face;
 mod fit;
@@ -26,12 +33,14 @@ mod graze;
 mod memory_steps;
 mod roi;
 mod sight;
-use attribution::{claim, s_eta, ASSOCIATION_CANDIDATES};
+mod verdicts;
+use attribution::{claim, ASSOCIATION_CANDIDATES};
+use clusters::EDGE_MAP;
 use graze::RoiAmount;
 #[doc(hidden)]
 pub use roi::roi_index_mismatch;
-use roi::{polygon_box, RoiIndex, RoiSide};
-use sight::{FootprintSight, OCCLUDERS};
+use roi::{polygon_box, RoiIndex};
+use sight::FootprintSight;
 
 /// The sweep of the frame being checked, as the caller gave it: `[x, y, z]` records ([`Monitor::check`]) or
 /// columns ([`Monitor::check_columns`]). Every stage reads the points through it.
@@ -249,81 +258,6 @@ const fn sensor_outcome(verdict: SensorVerdict) -> SensorOutcome {
         visible_fraction: 0.0,
         cluster: None,
         offset_m: [0.0, 0.0],
-    }
-}
-
-/// Bytes of the prefilter of the scan of the recorded cells (`Monitor::edge_map`): one per value of a cell's low 16
-/// bits.
-const EDGE_MAP: usize = 1 << 16;
-
-/// The byte of the prefilter that stands for cell `c` (`NO_CELL`: byte 0xFFFF).
-#[inline]
-const fn edge_slot(c: u32) -> usize {
-    (c & 0xFFFF) as usize
-}
-
-/// Which of a block's points (at most 64: `cells`, the cells the rasterizer recorded for them) lie in a cell the
-/// prefilter `map` marks: bit `i` for point `i`. The block's bytes of the map are read first (a load each, no
-/// bounds test: a 16-bit index into 65,536 bytes; `NO_CELL` reads byte 0xFFFF), then packed eight at a time: a
-/// map byte is 0 or 1, and the product of eight such bytes (as one little-endian `u64`) with `0x0102_0408_1020_4080`
-/// holds byte `i` in bit `56 + i` (no two of the 64 partial products meet in a bit). The scans of
-/// `roi_by_returns` and `roi_by_amount` (the grazing rule) go through it.
-#[inline]
-fn marked_points(map: &[u8; EDGE_MAP], cells: &[u32]) -> u64 {
-    let mut bytes = [0u8; 64];
-    if let Ok(block) = <&[u32; 64]>::try_from(cells) {
-        for (b, &cell) in bytes.iter_mut().zip(block) {
-            *b = map.get(edge_slot(cell)).copied().unwrap_or(0);
-        }
-    } else {
-        for (b, &cell) in bytes.iter_mut().zip(cells) {
-            *b = map.get(edge_slot(cell)).copied().unwrap_or(0);
-        }
-    }
-    let mut marked = 0u64;
-    for (k, eight) in bytes.chunks_exact(8).enumerate() {
-        let word = u64::from_le_bytes(<[u8; 8]>::try_from(eight).unwrap_or([0; 8]));
-        marked |= (word.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * k);
-    }
-    marked
-}
-
-/// Every obstacle-band return of the sweep that may stand in a cell the prefilter `edge_map` marks, in the order
-/// of the sweep, as `visit(cell, point in the sensor frame)`: the scan of `roi_by_returns` and `roi_by_amount`.
-/// Through the cells the rasterizer recorded per point, 64 at a time ([`marked_points`]: no branch per point), when
-/// they were recorded for this sweep; else (never with the capacities of `new`) by a pass over the sweep that finds
-/// each band return outside the ego footprint and its cell. Either way `visit` tests the cell's flags itself (they
-/// may change as it goes, and the prefilter only narrows down) and transforms the point when it wants it.
-fn for_each_marked_return(
-    edge_map: &[u8],
-    point_cells: &[u32],
-    cloud: Cloud<'_>,
-    band: crate::rasterize::Band,
-    geometry: GridGeometry,
-    mut visit: impl FnMut(u32, [f32; 3]),
-) {
-    let points = cloud.points;
-    let map = <&[u8; EDGE_MAP]>::try_from(edge_map).ok();
-    if let Some(map) = map.filter(|_| point_cells.len() == points.len()) {
-        for (block_index, cells) in point_cells.chunks(64).enumerate() {
-            let mut marked = marked_points(map, cells);
-            while marked != 0 {
-                let i = marked.trailing_zeros() as usize;
-                marked &= marked - 1;
-                let (Some(&cell), Some(p)) = (cells.get(i), points.get(block_index * 64 + i)) else { continue };
-                visit(cell, p);
-            }
-        }
-    } else {
-        for p in (0..points.len()).filter_map(|i| points.get(i)) {
-            let q = cloud.ego_from_sensor.transform(p);
-            if !(q[2] >= band.lo_m && q[2] <= band.hi_m) || band.in_ego(q[0], q[1]) {
-                continue;
-            }
-            if let Some(cell) = geometry.point_to_cell(q[0], q[1]) {
-                visit(cell, p);
-            }
-        }
     }
 }
 
@@ -836,189 +770,6 @@ impl Monitor {
         });
     }
 
-    /// One neighbour of the conflict flood fill: a hit cell whose probability exceeds `tau`, neither explained nor
-    /// visited, joins the queue (while it has room) and is marked visited.
-    #[inline(always)]
-    fn visit_conflict(&mut self, nb: u32, tau: f32) {
-        // The three cell tests with `&`, not `&&`: one branch on their outcome instead of three, each as hard to
-        // predict as the next (`p > tau` negates the `p <= tau` written before: `P` and the validated `tau_fn`
-        // are never NaN).
-        let hits = self.grid.hits(nb);
-        let joins = (hits != 0)
-            & (self.grid.probability_of_hits(hits) > tau)
-            & (self.grid.flags(nb) & (FLAG_EXPLAINED | FLAG_VISITED) == 0);
-        if !joins || self.queue.len() >= self.queue.capacity() {
-            return;
-        }
-        self.grid.set_flags(nb, FLAG_VISITED);
-        self.queue.push(nb);
-    }
-
-    /// Conflict cells (`kappa > tau_fn`, eq. conflict) grouped into 8-connected clusters.
-    fn cluster_conflicts(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
-        let geometry = self.grid.geometry;
-        let n = geometry.cells_per_side;
-        let tau = self.params.tau_fn;
-        let mut edge_clusters = false;
-        self.roi.build(frame.roi_in_ego);
-        // The grazing rule (`graze.rs`): every cell's side is asked, and a cluster that its whole cells do not put
-        // in the ROI with enough of its band returns waits for the amount of its returns inside and its height.
-        let graze = self.params.roi_graze_fraction > 0.0 && !frame.roi_in_ego.is_empty();
-        let fraction = self.params.roi_graze_fraction;
-        let mut pending = false;
-        self.roi_amounts.clear();
-        let mut k = 0usize;
-        while let Some(&idx) = self.grid.touched().get(k) {
-            k += 1;
-            if self.grid.probability(idx) <= tau {
-                continue;
-            }
-            self.stats.cells_occupied += 1;
-            let flags = self.grid.flags(idx);
-            if flags & FLAG_EXPLAINED != 0 {
-                continue;
-            }
-            self.stats.cells_conflict += 1;
-            if flags & FLAG_VISITED != 0 {
-                continue;
-            }
-            // Flood fill; the queue keeps every cluster's cells contiguous (bounded: each cell enters once).
-            let start = self.queue.len();
-            self.grid.set_flags(idx, FLAG_VISITED);
-            self.queue.push(idx);
-            let mut head = start;
-            // The 8 neighbours of a cell off the grid's border, in the order of the loops below (same queue).
-            let n_i = i64::from(n);
-            let offsets = [-n_i - 1, -n_i, -n_i + 1, -1, 1, n_i - 1, n_i, n_i + 1];
-            while let Some(&c) = self.queue.get(head) {
-                head += 1;
-                let (cx, cy) = (c % n, c / n);
-                if cx > 0 && cy > 0 && cx + 1 < n && cy + 1 < n {
-                    for off in offsets {
-                        self.visit_conflict((i64::from(c) + off) as u32, tau);
-                    }
-                    continue;
-                }
-                for dy in -1i32..=1 {
-                    for dx in -1i32..=1 {
-                        if dx == 0 && dy == 0 {
-                            continue;
-                        }
-                        let (nx, ny) = (cx as i64 + i64::from(dx), cy as i64 + i64::from(dy));
-                        if nx < 0 || ny < 0 || nx >= i64::from(n) || ny >= i64::from(n) {
-                            continue;
-                        }
-                        self.visit_conflict(ny as u32 * n + nx as u32, tau);
-                    }
-                }
-            }
-            let end = self.queue.len();
-            let cells = (end - start) as u32;
-            if cells < self.params.min_cluster_cells {
-                continue;
-            }
-            self.stats.clusters_total += 1;
-            if self.clusters.len() >= self.clusters.capacity() {
-                continue;
-            }
-            let (mut sx, mut sy) = (0.0f32, 0.0f32);
-            let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-            // In the region of interest: one of its obstacle-band returns inside the ROI, or no ROI. (Cells of
-            // known scenery are explained by the map and never part of a cluster.) A cell whose square lies inside
-            // a polygon decides it at once; cells straddling an edge are marked and decided return by return
-            // below (`roi_by_returns`).
-            let mut in_roi = frame.roi_in_ego.is_empty();
-            let mut edge_cells = false;
-            let (mut inside_hits, mut all_hits) = (0u32, 0u32);
-            let span = self.queue.get(start..end).unwrap_or(&[]);
-            for &c in span {
-                let (x, y) = geometry.cell_center(c);
-                sx += x;
-                sy += y;
-                b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
-                if !in_roi || graze {
-                    let hits = if graze { u32::from(self.grid.hits(c)) } else { 0 };
-                    all_hits += hits;
-                    match self.roi.cell_side(frame.roi_in_ego, c) {
-                        RoiSide::Inside => {
-                            in_roi = true;
-                            inside_hits += hits;
-                        }
-                        RoiSide::Edge => {
-                            edge_cells = true;
-                            self.grid.set_flags(c, FLAG_ROI_EDGE);
-                        }
-                        RoiSide::Outside => {}
-                    }
-                }
-            }
-            // With the grazing rule a cluster stays undecided unless its whole cells alone hold the fraction of
-            // its band returns inside; one with neither an inside cell nor an edge cell is outside.
-            let wait = graze && (in_roi || edge_cells) && (inside_hits as f32) < fraction * all_hits as f32;
-            if graze {
-                in_roi &= !wait;
-                if self.roi_amounts.len() < self.roi_amounts.capacity() {
-                    self.roi_amounts.push(RoiAmount { inside: inside_hits, all: all_hits, wait });
-                }
-                pending |= wait;
-            }
-            // Only a cluster its cells leave undecided keeps its edge cells marked for the returns (each cell's
-            // side asked once: a cluster left undecided had every cell asked above); in the bit set too, which
-            // `roi_by_returns` scans the recorded cells with.
-            if edge_cells {
-                for &c in span {
-                    if in_roi || (graze && !wait) {
-                        self.grid.clear_flags(c, FLAG_ROI_EDGE);
-                    } else if self.grid.flags(c) & FLAG_ROI_EDGE != 0 {
-                        if let Some(b) = self.edge_map.get_mut(edge_slot(c)) {
-                            *b = 1;
-                        }
-                    }
-                }
-                edge_clusters |= if graze { wait } else { !in_roi };
-            }
-            if in_roi {
-                for k in start..end {
-                    if let Some(&c) = self.queue.get(k) {
-                        self.grid.set_flags(c, FLAG_ROI_CONFLICT);
-                    }
-                }
-            }
-            let inv = 1.0 / cells as f32;
-            // The reason beside the outcome: a cluster still waiting is `Outside` until `roi_by_amount` decides
-            // it (in, out with no return inside, or out by the grazing rule).
-            let roi = match (frame.roi_in_ego.is_empty(), in_roi) {
-                (true, _) => RoiStatus::NoRoi,
-                (false, true) => RoiStatus::Inside,
-                (false, false) => RoiStatus::Outside,
-            };
-            self.clusters.push(ClusterReport {
-                cells,
-                centroid_m: [sx * inv, sy * inv],
-                bounds_m: b,
-                in_roi,
-                roi,
-                object: None,
-            });
-            self.cluster_spans.push((start as u32, end as u32));
-        }
-        if graze {
-            if pending {
-                self.roi_by_amount(frame, cloud, edge_clusters);
-            }
-        } else if edge_clusters {
-            self.roi_by_returns(frame, cloud);
-        }
-        if edge_clusters {
-            // The prefilter is empty again for the next frame (every marked cell is in the queue).
-            for &c in &self.queue {
-                if let Some(b) = self.edge_map.get_mut(edge_slot(c)) {
-                    *b = 0;
-                }
-            }
-        }
-    }
-
     /// With `jump_from_returns`, after the attribution: each object's own returns summed (`own_returns`: x, y and
     /// their number over the occupied cells it owns, in the order of first touch), from the sums of each hit cell's
     /// obstacle-band returns that the rasterizer kept (`OccupancyGrid::sums`; step 9 also reads them for the cells
@@ -1041,257 +792,6 @@ impl Monitor {
             }
         }
     }
-
-    /// Decides the clusters left undecided by their cells (every cell centre outside the ROI or within half a
-    /// cell diagonal of its edge): such a cluster is in the ROI when one of the obstacle-band returns in its edge
-    /// cells lies inside a polygon. The returns are found through the cells the rasterizer recorded per point (no
-    /// second transform of the sweep), and tested against the polygon edges of their row (`roi.rs`), each cell
-    /// until one return is inside. A cluster whose cells' centres lie inside while all its returns lie outside (a
-    /// tree behind the kerb whose 0.5 m cells straddle the kerb line) is no missed object, and a road user whose
-    /// returns reach into the area is one although its cells' centres lie outside.
-    fn roi_by_returns(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
-        let Some(cloud) = cloud else { return };
-        let (t, roi) = (cloud.ego_from_sensor, frame.roi_in_ego);
-        let (band, geometry) = (self.band(), self.grid.geometry);
-        let (grid, index) = (&mut self.grid, &self.roi);
-        // Each edge cell until one of its returns is inside (then its flag skips the rest of them).
-        for_each_marked_return(&self.edge_map, &self.point_cells, cloud, band, geometry, |cell, p| {
-            if grid.flags(cell) & (FLAG_ROI_EDGE | FLAG_RETURN_IN_ROI) != FLAG_ROI_EDGE {
-                return;
-            }
-            let q = t.transform(p);
-            if index.contains(roi, cell, q[0], q[1]) {
-                grid.set_flags(cell, FLAG_RETURN_IN_ROI);
-            }
-        });
-        for (k, &(start, end)) in self.cluster_spans.iter().enumerate() {
-            let Some(c) = self.clusters.get_mut(k) else { continue };
-            if c.in_roi {
-                continue;
-            }
-            let cells = self.queue.get(start as usize..end as usize).unwrap_or(&[]);
-            if cells.iter().any(|&cell| self.grid.flags(cell) & FLAG_RETURN_IN_ROI != 0) {
-                c.in_roi = true;
-                c.roi = RoiStatus::Inside;
-                for &cell in cells {
-                    self.grid.set_flags(cell, FLAG_ROI_CONFLICT);
-                }
-            }
-        }
-    }
-
-    /// Sensor verdicts (f(o) with the evidence attribution and the occlusion test) and the combined verdicts.
-    fn finish_reports(&mut self, frame: &Frame<'_>) {
-        let tau_tp = self.params.tau_tp;
-        self.memory.begin();
-        for j in 0..self.reports.len() {
-            let Some(scratch) = self.scratch.get(j).copied() else { continue };
-            if let ObjectScratch { region: Some(region), cluster, eta_own, sight, own_sum, .. } = scratch {
-                // Hidden behind evidence that no object explains and nobody took: that evidence is likely the
-                // object itself, displaced (a ghost otherwise).
-                let mut cluster = cluster.map(|(k, _)| usize::from(k));
-                let mut occluded = false;
-                let mut shared = false;
-                let mut followed: Option<[f32; 2]> = None;
-                let mut sight = sight;
-                if cluster.is_none() && eta_own < tau_tp {
-                    // Seen again now that the displaced evidence has its objects, if unexplained evidence shadowed
-                    // it: evidence attributed to another object hides this one; it does not contradict it.
-                    let seen = match sight {
-                        Some(s) if s.unexplained_shadow == 0 => s,
-                        Some(s) if s.occluders_len <= OCCLUDERS => self.without_attributed(s),
-                        _ => self.footprint_sight(j, &region),
-                    };
-                    sight = Some(seen);
-                    let sight = seen;
-                    let open = sight.fraction(sight.visible + sight.unexplained_shadow);
-                    if sight.contradicted() < self.params.ghost_visible_fraction {
-                        occluded = true;
-                        // Hidden, but a track whose evidence stood apart from it last frame finds that evidence
-                        // again where its offset puts it, inside a neighbour's margin only: the evidence still
-                        // follows it (the neighbour's margin hid it from the clusters).
-                        if let Some(at) = self.followed_evidence(j, &region) {
-                            followed = Some(at);
-                            occluded = false;
-                        } else if let Some(k) = self.near_cluster_for_far_shadow(&sight, &region) {
-                            // With `shadow_gate`: hidden only because the evidence that shadows it stands beyond
-                            // the gate; free evidence within the gate is what it may be, displaced.
-                            self.give(k, j);
-                            cluster = Some(k);
-                            occluded = false;
-                        }
-                    } else if open < self.params.ghost_visible_fraction && s_eta(&self.reports, j) >= tau_tp {
-                        // Its place is taken by evidence another object owns and no displaced evidence came its
-                        // way: the two cannot be told apart (objects standing in one place, or one box on its
-                        // neighbour's evidence). The paper's f(o) stands: the region holds evidence.
-                        shared = true;
-                    } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, sight.occluder)
-                        .filter(|&k| self.clusters.get(k).is_some_and(|c| c.in_roi && c.object.is_none()))
-                    {
-                        if self.occluder_within_gate(k, &region) {
-                            self.give(k, j);
-                            cluster = Some(k);
-                        } else {
-                            // With `memory_gate`: evidence beyond the gate cannot be this object; it hides it.
-                            occluded = true;
-                        }
-                    }
-                }
-                let seen_through =
-                    cluster.is_none() && eta_own >= tau_tp && own_sum[2] >= 1.0 && self.seen_through(j, &region);
-                // Confirmed by its own evidence, but that evidence's face stands in front of the box along the
-                // rays through it, beyond the margin: displaced away from the sensor by less than the cells show.
-                let face = if self.params.face_in_front
-                    && cluster.is_none()
-                    && !seen_through
-                    && eta_own >= tau_tp
-                    && own_sum[2] >= 1.0
-                {
-                    self.face_in_front(j, &region)
-                } else {
-                    None
-                };
-                // Confirmed (or hidden) where it is reported, but its evidence stayed where the previous frame's
-                // evidence, moved by the object's stated motion, predicts it, and the box jumped away from it.
-                let moved = if cluster.is_none()
-                    && followed.is_none()
-                    && !seen_through
-                    && face.is_none()
-                    && (eta_own >= tau_tp || shared || occluded)
-                {
-                    self.moved_from_evidence(j, &region)
-                } else {
-                    None
-                };
-                // A ghost only when no place within its region hides it.
-                let hidden = cluster.is_none()
-                    && eta_own < tau_tp
-                    && !occluded
-                    && !shared
-                    && self.hidden_within_margin(j, &region);
-                let Some(report) = self.reports.get_mut(j) else { continue };
-                let s = &mut report.sensor;
-                s.eta_own = eta_own;
-                if let Some(sight) = sight {
-                    s.visible_fraction = sight.fraction(sight.visible);
-                }
-                s.verdict = if let Some(k) = cluster {
-                    s.cluster = u16::try_from(k).ok();
-                    if let Some(c) = self.clusters.get(k) {
-                        let (nx, ny) = region.footprint.nearest_point(c.centroid_m[0], c.centroid_m[1]);
-                        s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
-                    }
-                    SensorVerdict::PositionError
-                } else if let Some(c) = followed {
-                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
-                    s.offset_m = [nx - c[0], ny - c[1]];
-                    SensorVerdict::PositionError
-                } else if let Some((_, at)) = moved {
-                    // From where the evidence puts the box (its remembered offset back from the evidence) to the box.
-                    s.offset_m = [region.footprint.cx - at[0], region.footprint.cy - at[1]];
-                    SensorVerdict::PositionError
-                } else if seen_through {
-                    // Confirmed by evidence in its margin, but the rays prove its footprint empty: the object
-                    // stands in front of its evidence, displaced towards the sensor (beyond the paper, whose
-                    // checks cannot see this direction).
-                    let c = [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
-                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
-                    s.offset_m = [nx - c[0], ny - c[1]];
-                    SensorVerdict::PositionError
-                } else if let Some(depth) = face {
-                    // Its face stands `depth` in front of it along the rays: the box is that far behind its evidence.
-                    let o = self.visibility.origin();
-                    let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
-                    let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
-                    s.offset_m = [depth * dx / r, depth * dy / r];
-                    SensorVerdict::PositionError
-                } else if eta_own >= tau_tp || shared {
-                    SensorVerdict::Consistent
-                } else if occluded || hidden {
-                    SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
-                } else {
-                    SensorVerdict::Ghost
-                };
-                // What the next frame recalls of this track's evidence.
-                let centre = [region.footprint.cx, region.footprint.cy];
-                let evidence = match s.verdict {
-                    SensorVerdict::PositionError => match s.cluster.and_then(|k| self.clusters.get(usize::from(k))) {
-                        Some(c) => Some((EvidenceKind::Displaced, c.centroid_m)),
-                        None if followed.is_some() => followed.map(|at| (EvidenceKind::Displaced, at)),
-                        None if moved.is_some() => moved.map(|(c, _)| (EvidenceKind::Displaced, c)),
-                        // Seen through: its own evidence, behind it, is where it stands apart.
-                        None if own_sum[2] >= 1.0 => {
-                            Some((EvidenceKind::Displaced, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
-                        }
-                        None => None,
-                    },
-                    SensorVerdict::Consistent if own_sum[2] >= 1.0 => {
-                        Some((EvidenceKind::Own, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
-                    }
-                    _ => None,
-                };
-                // The displaced offset kept for step 8 (`memory_hold_s`): the one this frame's alarm found (its run
-                // of alarms in consecutive frames goes on when the track was flagged in the previous frame), or the
-                // one kept so far, until `memory_hold_s` after the alarm that found it, and only when alarms found it
-                // in at least two frames in a row (a clean track flagged once by a neighbour's evidence keeps none).
-                let hold = match evidence {
-                    Some((EvidenceKind::Displaced, at)) if s.verdict == SensorVerdict::PositionError => {
-                        let flagged_before = matches!(scratch.recalled, Some((EvidenceKind::Displaced, _)));
-                        let run_start_t_s = match scratch.hold {
-                            Some(h) if flagged_before => h.run_start_t_s,
-                            _ => frame.timestamp_s,
-                        };
-                        Some(Hold {
-                            offset_m: [at[0] - centre[0], at[1] - centre[1]],
-                            alarm_t_s: frame.timestamp_s,
-                            run_start_t_s,
-                        })
-                    }
-                    _ => scratch.hold.filter(|h| {
-                        h.alarm_t_s > h.run_start_t_s && frame.timestamp_s - h.alarm_t_s <= self.params.memory_hold_s
-                    }),
-                };
-                let hold = hold.filter(|_| self.params.memory_hold_s > 0.0);
-                // Where a confirmed track should stand next frame: its centre and stated velocity, world frame.
-                let motion =
-                    matches!(evidence, Some((EvidenceKind::Own, _))).then(|| frame.objects.get(j)).flatten().map(|o| {
-                        let pose = &frame.world_from_ego;
-                        let (x, y) = pose.transform_point(f64::from(centre[0]), f64::from(centre[1]));
-                        let heading = f64::from(o.heading_rad) + pose.yaw_rad;
-                        let (s, c) = libm::sincos(heading);
-                        let v = f64::from(o.speed_mps);
-                        // With `jump_from_returns`: from the centre to its own returns' mean, world axes.
-                        let returns = scratch.own_returns;
-                        let returns_offset_world_m = (self.grid.has_sums() && returns[2] >= 1.0).then(|| {
-                            let at = [returns[0] / returns[2] - centre[0], returns[1] / returns[2] - centre[1]];
-                            crate::evidence_memory::rotate(at, pose.yaw_rad)
-                        });
-                        Motion {
-                            centre_world_m: [x, y],
-                            velocity_world_mps: [(v * c) as f32, (v * s) as f32],
-                            cells: own_sum[2],
-                            returns_offset_world_m,
-                        }
-                    });
-                // The evidence and the held offset, either or both (nothing is recorded without either).
-                self.memory.record_with_hold(
-                    report.id,
-                    j,
-                    frame.timestamp_s,
-                    frame.world_from_ego.yaw_rad,
-                    evidence.map(|(kind, at)| (kind, [at[0] - centre[0], at[1] - centre[1]])),
-                    motion,
-                    hold,
-                );
-            }
-            let Some(report) = self.reports.get_mut(j) else { continue };
-            if let Some(m) = self.motion.get(j) {
-                report.motion = *m;
-            }
-            report.verdict = Verdict::combine(report.sensor.verdict, report.motion.verdict);
-        }
-        self.memory.commit();
-    }
 }
 
 #[cfg(test)]
@@ -1301,101 +801,6 @@ mod tests {
     use crate::geometry::OrientedRect;
 
     use super::roi::tests::Rng;
-
-    /// `marked_points` sets bit `i` exactly when point `i`'s byte of the prefilter is set, for full and partial
-    /// blocks, with `NO_CELL` and cells sharing a byte, on maps from empty to full.
-    #[test]
-    fn marked_points_is_the_prefilter_bit_by_bit() {
-        let mut rng = Rng(0x5EED_0BAD_CAFE_F00D);
-        let mut map = alloc::boxed::Box::new([0u8; EDGE_MAP]);
-        for case in 0..2000u64 {
-            let density = [0u64, 1, 10, 50, 100][(case % 5) as usize];
-            for b in map.iter_mut() {
-                *b = u8::from(rng.below(100) < density);
-            }
-            let len = if case % 3 == 0 { 1 + rng.below(64) as usize } else { 64 };
-            let cells: Vec<u32> =
-                (0..len).map(|_| if rng.below(4) == 0 { NO_CELL } else { rng.below(250_000) as u32 }).collect();
-            let mut want = 0u64;
-            for (i, &c) in cells.iter().enumerate() {
-                if map.get((c & 0xFFFF) as usize).is_some_and(|&b| b != 0) {
-                    want |= 1 << i;
-                }
-            }
-            assert_eq!(marked_points(&map, &cells), want, "case {case}");
-        }
-    }
-
-    /// The returns of the ROI's edge cells found through the recorded cells and the bit set of marked cells (the
-    /// optimised path) give the same clusters, reports and cell flags as the straightforward pass over the sweep
-    /// (the fallback, forced by a monitor whose per-point buffer has no room), on random clumps of returns around
-    /// random polygon edges; and the bit set is empty after every frame.
-    #[test]
-    fn returns_of_edge_cells_by_recorded_cells_equal_the_pass_over_the_sweep() {
-        // 0.5 m cells (40,000: one prefilter byte per cell) and 0.2 m cells (250,000: cells share bytes).
-        for cell_size_m in [0.5f32, 0.2] {
-            returns_of_edge_cells_equal_with(MonitorParams { cell_size_m, ..MonitorParams::default() });
-        }
-    }
-
-    fn returns_of_edge_cells_equal_with(params: MonitorParams) {
-        let mut fast = Monitor::new(params).unwrap();
-        let mut slow = Monitor::new(params).unwrap();
-        slow.point_cells = Vec::new();
-        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
-        let mut undecided = 0usize;
-        for frame_no in 0..40 {
-            let mut points = Vec::new();
-            for _ in 0..60 {
-                let (cx, cy) = (rng.range(-40.0, 40.0), rng.range(-40.0, 40.0));
-                let (sx, sy) = (rng.range(0.1, 1.5), rng.range(0.1, 1.5));
-                for _ in 0..40 {
-                    let z = if rng.range(0.0, 1.0) < 0.3 { rng.range(-0.2, 0.1) } else { rng.range(0.3, 1.8) };
-                    points.push([cx + rng.range(-sx, sx), cy + rng.range(-sy, sy), z - 1.8]);
-                }
-            }
-            let polys: Vec<Vec<[f32; 2]>> = (0..4)
-                .map(|_| {
-                    let (cx, cy, r) = (rng.range(-40.0, 40.0), rng.range(-40.0, 40.0), rng.range(2.0, 25.0));
-                    (0..7)
-                        .map(|k| {
-                            let a = k as f32 * core::f32::consts::TAU / 7.0 + rng.range(0.0, 0.5);
-                            let rr = r * rng.range(0.5, 1.0);
-                            [cx + rr * libm::cosf(a), cy + rr * libm::sinf(a)]
-                        })
-                        .collect()
-                })
-                .collect();
-            let roi: Vec<&[[f32; 2]]> = polys.iter().map(Vec::as_slice).collect();
-            let frame = Frame {
-                timestamp_s: f64::from(frame_no) * 0.1,
-                world_from_ego: Pose2::default(),
-                objects: &[],
-                cloud: Some(PointCloud {
-                    points_in_sensor: &points,
-                    ego_from_sensor: Isometry3::from_translation(0.0, 0.0, 1.8),
-                }),
-                roi_in_ego: &roi,
-                static_in_ego: &[],
-            };
-            let a = fast.check(&frame).unwrap();
-            let (clusters, stats) = (a.clusters.to_vec(), a.grid);
-            assert_eq!(fast.point_cells.len(), points.len());
-            let b = slow.check(&frame).unwrap();
-            assert_eq!(clusters, b.clusters, "frame {frame_no}");
-            assert_eq!(stats, b.grid, "frame {frame_no}");
-            assert!(slow.point_cells.is_empty());
-            for cell in 0..fast.grid.geometry.cell_count() as u32 {
-                assert_eq!(fast.grid.flags(cell), slow.grid.flags(cell), "frame {frame_no}, cell {cell}");
-                if fast.grid.flags(cell) & FLAG_ROI_EDGE != 0 {
-                    undecided += 1;
-                }
-            }
-            assert!(fast.edge_map.iter().all(|&b| b == 0), "frame {frame_no}: prefilter not emptied");
-        }
-        // The frames do exercise the path: edge cells of undecided clusters were marked.
-        assert!(undecided > 20, "{undecided} marked edge cells");
-    }
 
     /// Thirty boxes (a third pedestrians) at random places and headings, with returns under some, beside others
     /// (displaced) or none (ghosts), forty clumps of walls and clutter, and ground all around: the scenes of the

@@ -1,10 +1,10 @@
 //! The evidence attribution of the sensor checks (docs/attribution.md, "The rule, step by step"): which object each
 //! explained cell belongs to (step 1, `eta_own`, [`claim`]), the gated one-to-one assignment of conflict clusters to
 //! objects (steps 3, 3b and 4, with step 3c's candidates), spill-over (step 5) and `front_cluster`. Part of
-//! [`Monitor`]; `monitor.rs` keeps the stages and the verdicts. The rest of the attribution is beside this file:
-//! what the sensor saw of a footprint and the free-space tests in `sight.rs` (steps 2 and 7), the distances from a
-//! cluster in `distance.rs`, spill-over's fit tests in `fit.rs`, the evidence memory's steps (3c's place, 8 and 9)
-//! in `memory_steps.rs`, and the solver of the assignment in `assignment.rs`.
+//! [`Monitor`]; `monitor.rs` keeps the stages, `clusters.rs` the clusters and `verdicts.rs` the verdicts. The rest
+//! of the attribution is beside this file: what the sensor saw of a footprint and the free-space tests in `sight.rs`
+//! (steps 2 and 7), the distances from a cluster in `distance.rs`, spill-over's fit tests in `fit.rs`, the evidence
+//! memory's steps (3c's place, 8 and 9) in `memory_steps.rs`, and the solver of the assignment in `assignment.rs`.
 
 use super::memory_steps::stayed_evidence;
 use super::*;

@@ -1,5 +1,5 @@
 //! The grazing rule of the region of interest (params keys `roi_graze_fraction` and `roi_graze_height_m`;
-//! docs/datasets.md, "The grazing rule"). Part of [`Monitor`]; `monitor.rs` keeps the cluster stage that asks.
+//! docs/datasets.md, "The grazing rule"). Part of [`Monitor`]; `clusters.rs` keeps the cluster stage that asks.
 //!
 //! Without the rule a conflict cluster is in the ROI when one of its obstacle-band returns lies inside it. A tree
 //! or a post standing behind the kerb line then raises a missed-object alarm as soon as a few of its branches'
@@ -21,7 +21,10 @@
 //! `MAX_HITS` like the occupancy). The height: a bit per cell the rasterizer sets for each return above the
 //! threshold as it transforms the sweep (`OccupancyGrid::with_tall`: a separate instantiation of its loop, only
 //! with the rule on), read over the cells of the clusters the amount left undecided.
+//!
+//! [`RoiSide::Inside`]: super::roi::RoiSide::Inside
 
+use super::clusters::for_each_marked_return;
 use super::*;
 
 /// A reported cluster's band returns for the grazing rule (index: the cluster's).

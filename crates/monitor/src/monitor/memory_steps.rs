@@ -4,7 +4,7 @@
 //! ellipse's tests, boxes in one place); step 3c, where the evidence a jump left behind should stand
 //! (`stayed_evidence`); and with `memory_gate`, the gate on free evidence that hides a box (`occluder_within_gate`).
 //! Part of [`Monitor`]; the memory itself is `crate::evidence_memory`, and the verdicts that ask these are in
-//! `monitor.rs` (`finish_reports`).
+//! `verdicts.rs` (`finish_reports`).
 
 use super::*;
 

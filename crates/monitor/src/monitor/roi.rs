@@ -1,7 +1,7 @@
 //! The frame's region of interest (map polygons) for the conflict clusters: where a cell's square lies against it
 //! ([`RoiSide`]) and whether a return lies inside it, each the same answer as the test against every polygon
 //! ([`roi_cell_side`], [`roi_contains`], kept as the reference and the fallback), at the cost of the few polygon
-//! edges near the cell's row. Part of [`super::Monitor`]; `monitor.rs` keeps the cluster stage that asks.
+//! edges near the cell's row. Part of [`super::Monitor`]; `clusters.rs` keeps the cluster stage that asks.
 //!
 //! [`RoiIndex::build`] puts each polygon edge, once per frame, into the grid rows whose band (widened by half a
 //! cell diagonal less half a cell, and a rounding margin) its `y` extent meets: a counting sort into one buffer

@@ -1,0 +1,228 @@
+//! The sensor verdicts (`f(o)` with the evidence attribution and the occlusion test; docs/attribution.md, "The
+//! rule, step by step", steps 6-9) and the combined verdicts of the last stage, `finish_reports`: per object the
+//! sensor verdict from what the attribution found (a cluster, evidence followed, a jump away from evidence that
+//! stayed, seen through, a face in front, own evidence, occluded, hidden within its margin, or a ghost), the
+//! offset of a `position_error`, what the evidence memory keeps for the next frame (the evidence, the held offset
+//! of "Step 8 held over a gap", and where a confirmed track should stand), and the combination with the
+//! plausibility verdict. Part of [`Monitor`]; `monitor.rs` runs the stage, and the tests it asks are in
+//! `sight.rs`, `memory_steps.rs`, `face.rs` and `attribution.rs`.
+
+use super::attribution::s_eta;
+use super::sight::OCCLUDERS;
+use super::*;
+use crate::evidence_memory::Motion;
+
+impl Monitor {
+    /// Sensor verdicts (f(o) with the evidence attribution and the occlusion test) and the combined verdicts.
+    pub(super) fn finish_reports(&mut self, frame: &Frame<'_>) {
+        let tau_tp = self.params.tau_tp;
+        self.memory.begin();
+        for j in 0..self.reports.len() {
+            let Some(scratch) = self.scratch.get(j).copied() else { continue };
+            if let ObjectScratch { region: Some(region), cluster, eta_own, sight, own_sum, .. } = scratch {
+                // Hidden behind evidence that no object explains and nobody took: that evidence is likely the
+                // object itself, displaced (a ghost otherwise).
+                let mut cluster = cluster.map(|(k, _)| usize::from(k));
+                let mut occluded = false;
+                let mut shared = false;
+                let mut followed: Option<[f32; 2]> = None;
+                let mut sight = sight;
+                if cluster.is_none() && eta_own < tau_tp {
+                    // Seen again now that the displaced evidence has its objects, if unexplained evidence shadowed
+                    // it: evidence attributed to another object hides this one; it does not contradict it.
+                    let seen = match sight {
+                        Some(s) if s.unexplained_shadow == 0 => s,
+                        Some(s) if s.occluders_len <= OCCLUDERS => self.without_attributed(s),
+                        _ => self.footprint_sight(j, &region),
+                    };
+                    sight = Some(seen);
+                    let sight = seen;
+                    let open = sight.fraction(sight.visible + sight.unexplained_shadow);
+                    if sight.contradicted() < self.params.ghost_visible_fraction {
+                        occluded = true;
+                        // Hidden, but a track whose evidence stood apart from it last frame finds that evidence
+                        // again where its offset puts it, inside a neighbour's margin only: the evidence still
+                        // follows it (the neighbour's margin hid it from the clusters).
+                        if let Some(at) = self.followed_evidence(j, &region) {
+                            followed = Some(at);
+                            occluded = false;
+                        } else if let Some(k) = self.near_cluster_for_far_shadow(&sight, &region) {
+                            // With `shadow_gate`: hidden only because the evidence that shadows it stands beyond
+                            // the gate; free evidence within the gate is what it may be, displaced.
+                            self.give(k, j);
+                            cluster = Some(k);
+                            occluded = false;
+                        }
+                    } else if open < self.params.ghost_visible_fraction && s_eta(&self.reports, j) >= tau_tp {
+                        // Its place is taken by evidence another object owns and no displaced evidence came its
+                        // way: the two cannot be told apart (objects standing in one place, or one box on its
+                        // neighbour's evidence). The paper's f(o) stands: the region holds evidence.
+                        shared = true;
+                    } else if let Some(k) = Self::cluster_of(&self.cluster_spans, &self.queue, sight.occluder)
+                        .filter(|&k| self.clusters.get(k).is_some_and(|c| c.in_roi && c.object.is_none()))
+                    {
+                        if self.occluder_within_gate(k, &region) {
+                            self.give(k, j);
+                            cluster = Some(k);
+                        } else {
+                            // With `memory_gate`: evidence beyond the gate cannot be this object; it hides it.
+                            occluded = true;
+                        }
+                    }
+                }
+                let seen_through =
+                    cluster.is_none() && eta_own >= tau_tp && own_sum[2] >= 1.0 && self.seen_through(j, &region);
+                // Confirmed by its own evidence, but that evidence's face stands in front of the box along the
+                // rays through it, beyond the margin: displaced away from the sensor by less than the cells show.
+                let face = if self.params.face_in_front
+                    && cluster.is_none()
+                    && !seen_through
+                    && eta_own >= tau_tp
+                    && own_sum[2] >= 1.0
+                {
+                    self.face_in_front(j, &region)
+                } else {
+                    None
+                };
+                // Confirmed (or hidden) where it is reported, but its evidence stayed where the previous frame's
+                // evidence, moved by the object's stated motion, predicts it, and the box jumped away from it.
+                let moved = if cluster.is_none()
+                    && followed.is_none()
+                    && !seen_through
+                    && face.is_none()
+                    && (eta_own >= tau_tp || shared || occluded)
+                {
+                    self.moved_from_evidence(j, &region)
+                } else {
+                    None
+                };
+                // A ghost only when no place within its region hides it.
+                let hidden = cluster.is_none()
+                    && eta_own < tau_tp
+                    && !occluded
+                    && !shared
+                    && self.hidden_within_margin(j, &region);
+                let Some(report) = self.reports.get_mut(j) else { continue };
+                let s = &mut report.sensor;
+                s.eta_own = eta_own;
+                if let Some(sight) = sight {
+                    s.visible_fraction = sight.fraction(sight.visible);
+                }
+                s.verdict = if let Some(k) = cluster {
+                    s.cluster = u16::try_from(k).ok();
+                    if let Some(c) = self.clusters.get(k) {
+                        let (nx, ny) = region.footprint.nearest_point(c.centroid_m[0], c.centroid_m[1]);
+                        s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
+                    }
+                    SensorVerdict::PositionError
+                } else if let Some(c) = followed {
+                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
+                    s.offset_m = [nx - c[0], ny - c[1]];
+                    SensorVerdict::PositionError
+                } else if let Some((_, at)) = moved {
+                    // From where the evidence puts the box (its remembered offset back from the evidence) to the box.
+                    s.offset_m = [region.footprint.cx - at[0], region.footprint.cy - at[1]];
+                    SensorVerdict::PositionError
+                } else if seen_through {
+                    // Confirmed by evidence in its margin, but the rays prove its footprint empty: the object
+                    // stands in front of its evidence, displaced towards the sensor (beyond the paper, whose
+                    // checks cannot see this direction).
+                    let c = [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
+                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
+                    s.offset_m = [nx - c[0], ny - c[1]];
+                    SensorVerdict::PositionError
+                } else if let Some(depth) = face {
+                    // Its face stands `depth` in front of it along the rays: the box is that far behind its evidence.
+                    let o = self.visibility.origin();
+                    let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
+                    let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
+                    s.offset_m = [depth * dx / r, depth * dy / r];
+                    SensorVerdict::PositionError
+                } else if eta_own >= tau_tp || shared {
+                    SensorVerdict::Consistent
+                } else if occluded || hidden {
+                    SensorVerdict::NotMonitored(NotMonitoredReason::Occluded)
+                } else {
+                    SensorVerdict::Ghost
+                };
+                // What the next frame recalls of this track's evidence.
+                let centre = [region.footprint.cx, region.footprint.cy];
+                let evidence = match s.verdict {
+                    SensorVerdict::PositionError => match s.cluster.and_then(|k| self.clusters.get(usize::from(k))) {
+                        Some(c) => Some((EvidenceKind::Displaced, c.centroid_m)),
+                        None if followed.is_some() => followed.map(|at| (EvidenceKind::Displaced, at)),
+                        None if moved.is_some() => moved.map(|(c, _)| (EvidenceKind::Displaced, c)),
+                        // Seen through: its own evidence, behind it, is where it stands apart.
+                        None if own_sum[2] >= 1.0 => {
+                            Some((EvidenceKind::Displaced, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
+                        }
+                        None => None,
+                    },
+                    SensorVerdict::Consistent if own_sum[2] >= 1.0 => {
+                        Some((EvidenceKind::Own, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
+                    }
+                    _ => None,
+                };
+                // The displaced offset kept for step 8 (`memory_hold_s`): the one this frame's alarm found (its run
+                // of alarms in consecutive frames goes on when the track was flagged in the previous frame), or the
+                // one kept so far, until `memory_hold_s` after the alarm that found it, and only when alarms found it
+                // in at least two frames in a row (a clean track flagged once by a neighbour's evidence keeps none).
+                let hold = match evidence {
+                    Some((EvidenceKind::Displaced, at)) if s.verdict == SensorVerdict::PositionError => {
+                        let flagged_before = matches!(scratch.recalled, Some((EvidenceKind::Displaced, _)));
+                        let run_start_t_s = match scratch.hold {
+                            Some(h) if flagged_before => h.run_start_t_s,
+                            _ => frame.timestamp_s,
+                        };
+                        Some(Hold {
+                            offset_m: [at[0] - centre[0], at[1] - centre[1]],
+                            alarm_t_s: frame.timestamp_s,
+                            run_start_t_s,
+                        })
+                    }
+                    _ => scratch.hold.filter(|h| {
+                        h.alarm_t_s > h.run_start_t_s && frame.timestamp_s - h.alarm_t_s <= self.params.memory_hold_s
+                    }),
+                };
+                let hold = hold.filter(|_| self.params.memory_hold_s > 0.0);
+                // Where a confirmed track should stand next frame: its centre and stated velocity, world frame.
+                let motion =
+                    matches!(evidence, Some((EvidenceKind::Own, _))).then(|| frame.objects.get(j)).flatten().map(|o| {
+                        let pose = &frame.world_from_ego;
+                        let (x, y) = pose.transform_point(f64::from(centre[0]), f64::from(centre[1]));
+                        let heading = f64::from(o.heading_rad) + pose.yaw_rad;
+                        let (s, c) = libm::sincos(heading);
+                        let v = f64::from(o.speed_mps);
+                        // With `jump_from_returns`: from the centre to its own returns' mean, world axes.
+                        let returns = scratch.own_returns;
+                        let returns_offset_world_m = (self.grid.has_sums() && returns[2] >= 1.0).then(|| {
+                            let at = [returns[0] / returns[2] - centre[0], returns[1] / returns[2] - centre[1]];
+                            crate::evidence_memory::rotate(at, pose.yaw_rad)
+                        });
+                        Motion {
+                            centre_world_m: [x, y],
+                            velocity_world_mps: [(v * c) as f32, (v * s) as f32],
+                            cells: own_sum[2],
+                            returns_offset_world_m,
+                        }
+                    });
+                // The evidence and the held offset, either or both (nothing is recorded without either).
+                self.memory.record_with_hold(
+                    report.id,
+                    j,
+                    frame.timestamp_s,
+                    frame.world_from_ego.yaw_rad,
+                    evidence.map(|(kind, at)| (kind, [at[0] - centre[0], at[1] - centre[1]])),
+                    motion,
+                    hold,
+                );
+            }
+            let Some(report) = self.reports.get_mut(j) else { continue };
+            if let Some(m) = self.motion.get(j) {
+                report.motion = *m;
+            }
+            report.verdict = Verdict::combine(report.sensor.verdict, report.motion.verdict);
+        }
+        self.memory.commit();
+    }
+}
