@@ -220,8 +220,8 @@ impl Monitor {
                 pending |= wait;
             }
             // Only a cluster its cells leave undecided keeps its edge cells marked for the returns (each cell's
-            // side asked once: a cluster left undecided had every cell asked above); in the bit set too, which
-            // `roi_by_returns` scans the recorded cells with.
+            // side asked once: a cluster left undecided had every cell asked above); in the byte map `edge_map` too,
+            // which `roi_by_returns` scans the recorded cells with.
             if edge_cells {
                 for &c in span {
                     if in_roi || (graze && !wait) {
