@@ -34,6 +34,14 @@ impl Monitor {
         }
     }
 
+    /// Whether object `j` owns cell `c` (step 1): the cell is explained, not known scenery, and `j` is the object in
+    /// whose region it lies deepest. Whether the cell is occupied is the caller's question.
+    #[inline]
+    pub(super) fn owns(&self, j: usize, c: u32) -> bool {
+        self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+            && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
+    }
+
     /// Gives the evidence no object explains to the objects it belongs to.
     ///
     /// 1. Ownership: each explained cell belongs to the object in whose region it lies deepest (`eta_own`, see

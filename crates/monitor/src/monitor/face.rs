@@ -56,10 +56,7 @@ impl Monitor {
         let fp = &region.footprint;
         let origin = self.visibility.origin();
         // A hit cell the object owns, however few its hits (the first return of a face is often alone in its cell).
-        let own = |c: u32| {
-            self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
-        };
+        let own = |c: u32| self.owns(j, c);
         // Only cells it owns: a hit cell no region covers, even next to its own, may be a displaced neighbour's
         // evidence (in the paper-conditions street, 50 clean pedestrians blamed for such a neighbour at 1 m).
         // A bin spans at most about 1.41 times 360 / bins degrees (diamond angles); half of it, rounded up.

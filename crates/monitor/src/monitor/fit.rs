@@ -11,13 +11,9 @@ impl Monitor {
     /// True when a cell of cluster `k` is 8-adjacent to an occupied cell that object `j` owns.
     pub(super) fn cluster_touches_own_evidence(&self, j: usize, k: usize) -> bool {
         let tau = self.params.tau_fn;
-        self.cluster_cells(k).iter().any(|&c| {
-            self.grid.geometry.block3x3(c).any(|idx| {
-                self.grid.probability(idx) > tau
-                    && self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                    && self.owner.get(idx as usize).is_some_and(|&o| o as usize == j)
-            })
-        })
+        self.cluster_cells(k)
+            .iter()
+            .any(|&c| self.grid.geometry.block3x3(c).any(|idx| self.grid.probability(idx) > tau && self.owns(j, idx)))
     }
 
     /// The slack of the fit tests ([`Monitor::fits_with_own`], [`Monitor::spill_fits_with`]) beyond a box's length and
@@ -63,27 +59,20 @@ impl Monitor {
         let fp = &region.footprint;
         let slack = self.fit_slack();
         let mut span = NO_SPAN;
-        let mut add = |x: f32, y: f32| {
-            let (u, v) = fp.local(x, y);
-            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
-        };
+        let mut add = |x: f32, y: f32| span = grown(span, fp.local(x, y));
         for &c in self.cluster_cells(k) {
             let (x, y) = geometry.cell_center(c);
             add(x, y);
         }
         let tau = self.params.tau_fn;
         if let Some(range) = geometry.cell_range(region.grown.aabb()) {
-            let (grid, owner) = (&self.grid, &self.owner);
             geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
-                if grid.probability(idx) > tau
-                    && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                    && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
-                {
+                if self.grid.probability(idx) > tau && self.owns(j, idx) {
                     add(x, y);
                 }
             });
         }
-        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+        span_fits(span, fp, slack)
     }
 
     /// The fit test of spill-over to a confirmed object `j` (step 5) with [`SpillOverFit::EveryReturn`]:
@@ -105,16 +94,9 @@ impl Monitor {
         let geometry = self.grid.geometry;
         let fp = &region.footprint;
         let slack = self.fit_slack();
-        let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
-        let mut add = |x: f32, y: f32| {
-            let (u, v) = fp.local(x, y);
-            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
-        };
-        let (grid, owner) = (&self.grid, &self.owner);
-        let own = |idx: u32| {
-            grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                && owner.get(idx as usize).is_some_and(|&o| o as usize == j)
-        };
+        let mut span = NO_SPAN;
+        let mut add = |x: f32, y: f32| span = grown(span, fp.local(x, y));
+        let grid = &self.grid;
         for &c in self.cluster_cells(k) {
             for idx in geometry.block3x3(c) {
                 if grid.hits(idx) > 0 && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == 0 {
@@ -125,12 +107,12 @@ impl Monitor {
         }
         if let Some(range) = geometry.cell_range(region.grown.aabb()) {
             geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
-                if grid.hits(idx) > 0 && own(idx) {
+                if grid.hits(idx) > 0 && self.owns(j, idx) {
                     add(x, y);
                 }
             });
         }
-        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+        span_fits(span, fp, slack)
     }
 
     /// Object `j`'s own spans in its box's axes (see the field `own_spans`): the occupied cells and the hit cells
@@ -147,22 +129,17 @@ impl Monitor {
         // Own cells have hits: the walk over the region's hit cells (empty cells skipped 64 at a time) finds them
         // all. Every one of them is a hit cell its owner owns (the second span); the occupied ones, the first.
         if let Some(range) = geometry.cell_range(region.grown.aabb()) {
-            let (grid, owner) = (&self.grid, &self.owner);
+            let grid = &self.grid;
             grid.for_each_hit_cell(&region.grown, range, |idx| {
-                let own = grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                    && owner.get(idx as usize).is_some_and(|&o| o as usize == j);
-                if !own {
+                if !self.owns(j, idx) {
                     return;
                 }
                 let (x, y) = geometry.cell_center(idx);
-                let (u, v) = fp.local(x, y);
-                let grow = |span: &mut [f32; 4]| {
-                    *span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
-                };
+                let uv = fp.local(x, y);
                 if grid.probability(idx) > tau {
-                    grow(&mut spans[0]);
+                    spans[0] = grown(spans[0], uv);
                 }
-                grow(&mut spans[1]);
+                spans[1] = grown(spans[1], uv);
             });
         }
         if let Some(slot) = self.own_spans.get_mut(j) {
@@ -185,10 +162,9 @@ impl Monitor {
         let mut span = own;
         for &c in self.cluster_cells(k) {
             let (x, y) = geometry.cell_center(c);
-            let (u, v) = fp.local(x, y);
-            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+            span = grown(span, fp.local(x, y));
         }
-        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+        span_fits(span, fp, slack)
     }
 
     /// [`Monitor::spill_fits`] with the object's own spans given ([`Monitor::own_spans`]): the same answer.
@@ -205,13 +181,24 @@ impl Monitor {
             for idx in geometry.block3x3(c) {
                 if grid.hits(idx) > 0 && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == 0 {
                     let (x, y) = geometry.cell_center(idx);
-                    let (u, v) = fp.local(x, y);
-                    span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+                    span = grown(span, fp.local(x, y));
                 }
             }
         }
-        span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
+        span_fits(span, fp, slack)
     }
+}
+
+/// `span` (`[u min, u max, v min, v max]` in a box's axes) grown to take the point `(u, v)`.
+#[inline]
+fn grown(span: [f32; 4], (u, v): (f32, f32)) -> [f32; 4] {
+    [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)]
+}
+
+/// A span in the axes of box `fp` no longer along and across than the box's length and width plus `slack`.
+#[inline]
+fn span_fits(span: [f32; 4], fp: &crate::geometry::OrientedRect, slack: f32) -> bool {
+    span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
 }
 
 /// The span of no cells in a box's axes, `[u min, u max, v min, v max]`: any cell's coordinates replace it.

@@ -402,11 +402,7 @@ impl Monitor {
         let fp = &region.footprint;
         let margin = region.margin_length_m.max(region.margin_width_m);
         let tau = self.params.tau_fn;
-        let own = |c: u32| {
-            self.grid.probability(c) > tau
-                && self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
-        };
+        let own = |c: u32| self.grid.probability(c) > tau && self.owns(j, c);
         // The first return of a face is often alone in its cell: its occupied neighbour stands for it.
         let near_own = |c: u32| own(c) || self.grid.geometry.neighbours4(c).any(own);
         let o = self.visibility.origin();
