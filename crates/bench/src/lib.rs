@@ -620,7 +620,9 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
 }
 
 /// Gives each KITTI sweep camera 2's field of view (the wedge KITTI labels, from the frame's `calib/NNNNNN.txt`, the
-/// nominal calibration without one) as its region of interest, as the KITTI object reader does with `--roi auto`.
+/// nominal calibration without one) as its region of interest, as the KITTI object reader does with `--roi auto`. A
+/// sweep whose calibration leaves no field of view in the grid keeps an empty region (the whole grid), as in the
+/// reader; `run_bench` counts such sweeps in its notes.
 ///
 /// # Errors
 /// A calibration file that is present but unreadable or malformed, named in the message.
@@ -669,10 +671,18 @@ fn real_sequences(opts: &BenchOptions, notes: &mut Vec<String>) -> Result<RealSe
             .push(format!("KITTI sweeps skipped: none under {}", dir.join("kitti/object/training/velodyne").display()));
     } else {
         notes.push(describe("KITTI", &kitti));
+        let no_view = kitti.iter().filter(|s| s.roi_in_ego.is_empty()).count();
         notes.push(if opts.kitti_whole_grid {
             "KITTI sweeps checked over the whole grid (--kitti-whole-grid; `pmon check kitti:` checks camera 2's field \
              of view)"
                 .to_string()
+        } else if no_view > 0 {
+            format!(
+                "KITTI sweeps checked in camera 2's field of view, the labelled region (as `pmon check kitti:` does \
+                 by default; docs/datasets.md), but {no_view} of {} sweeps have none in the grid (their calibration \
+                 turns the camera off the ground) and are checked over the whole grid",
+                kitti.len()
+            )
         } else {
             "KITTI sweeps checked in camera 2's field of view, the labelled region (as `pmon check kitti:` does by \
              default; docs/datasets.md): the cluster stage tests its clusters against it; --kitti-whole-grid for the \
@@ -1307,7 +1317,8 @@ mod tests {
         }
     }
 
-    /// A sweep without a calibration file takes the nominal one; a malformed file is an error naming it.
+    /// A sweep without a calibration file takes the nominal one; a malformed file is an error naming it; one whose
+    /// calibration leaves no field of view keeps the whole grid.
     #[test]
     fn a_missing_kitti_calibration_is_nominal_and_a_malformed_one_is_named() {
         let dir = tempfile::tempdir().unwrap();
@@ -1319,5 +1330,34 @@ mod tests {
         std::fs::write(calib.join("000001.txt"), "P0: 1 2 3\nTr_velo_to_cam: 1 2\n").unwrap();
         let err = kitti_fields_of_view(dir.path(), &mut sweeps).unwrap_err();
         assert!(err.contains("000001.txt"), "{err}");
+        // A calibration that turns the camera off the ground (its axis straight up) leaves no field of view.
+        std::fs::write(
+            calib.join("000001.txt"),
+            "R0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 1 0 0 0 0 1 0 0 0 0 1 0\n",
+        )
+        .unwrap();
+        kitti_fields_of_view(dir.path(), &mut sweeps).unwrap();
+        assert_eq!(sweeps.iter().map(|s| s.roi_in_ego.len()).collect::<Vec<_>>(), [1, 0]);
+        // The run says so in its notes.
+        let velodyne = dir.path().join("kitti/object/training/velodyne");
+        std::fs::create_dir_all(&velodyne).unwrap();
+        let points: Vec<u8> = [[10.0f32, 0.0, -1.0, 0.0], [20.0, 1.0, -0.5, 0.0]]
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        for name in ["000000.bin", "000001.bin"] {
+            std::fs::write(velodyne.join(name), &points).unwrap();
+        }
+        let opts = BenchOptions {
+            iterations: 2,
+            data_dir: Some(dir.path().to_path_buf()),
+            worst_case: false,
+            only: vec!["kitti".into()],
+            no_machine_reference: true,
+            ..BenchOptions::default()
+        };
+        let report = run_bench(&opts).unwrap();
+        assert!(report.notes.iter().any(|n| n.contains("1 of 2 sweeps have none in the grid")), "{:?}", report.notes);
     }
 }
