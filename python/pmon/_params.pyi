@@ -31,6 +31,7 @@ class Params:
     memory_gate: bool
     follow_gate: bool
     front_cluster: bool
+    spill_in_front: bool
     memory_hold_s: float
     shadow_gate: bool
     roi_graze_fraction: float

@@ -62,6 +62,10 @@ pub struct RuleSwitches {
     /// Check with `front_cluster` off (the default before issue #10's round "Two rules together").
     #[cfg_attr(feature = "clap", arg(long))]
     pub no_front_cluster: bool,
+    /// Check with `spill_in_front` off (the default before issue #10's round "Spill-over in front of the box"):
+    /// spill-over gives a confirmed box only clusters that touch its own evidence.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub no_spill_in_front: bool,
     /// Check with `memory_hold_s = 0`: a displaced track's offset lives one frame (the default before issue
     /// #10's round "Two rules together", which made it 1 s; docs/attribution.md, "Step 8 held over a gap").
     #[cfg_attr(feature = "clap", arg(long))]
@@ -104,6 +108,9 @@ impl RuleSwitches {
         p.front_cluster |= self.front_cluster;
         if self.no_front_cluster {
             p.front_cluster = false;
+        }
+        if self.no_spill_in_front {
+            p.spill_in_front = false;
         }
         if self.no_memory_hold {
             p.memory_hold_s = 0.0;
@@ -164,11 +171,13 @@ mod tests {
         );
         assert!(!on(|s| s.no_follow_gate = true).follow_gate);
         assert!(!on(|s| s.no_front_cluster = true).front_cluster);
+        assert!(!on(|s| s.no_spill_in_front = true).spill_in_front);
         assert_eq!(on(|s| s.no_memory_hold = true).memory_hold_s.to_bits(), 0.0f64.to_bits());
         assert_eq!(on(|s| s.no_roi_graze = true).roi_graze_fraction.to_bits(), 0.0f32.to_bits());
         assert_eq!(on(|s| s.roi_graze = true).roi_graze_fraction.to_bits(), 0.5f32.to_bits());
         // The defaults these switches turn off are on in the default parameters (else the switch does nothing).
-        assert!(d.seen_body && d.follow_gate && d.front_cluster && d.jump_from_returns && d.memory_hold_s > 0.0);
+        assert!(d.seen_body && d.follow_gate && d.front_cluster && d.spill_in_front);
+        assert!(d.jump_from_returns && d.memory_hold_s > 0.0);
         assert!(d.roi_graze_fraction > 0.0);
     }
 }

@@ -1292,3 +1292,72 @@ fn a_box_hidden_behind_far_evidence_takes_the_free_evidence_beyond_it() {
         assert!((1.0..2.5).contains(&offset), "shadow_gate {shadow_gate}, its own returns beyond it: {h:?}");
     }
 }
+
+/// The returns of a car seen along its length from the side at a grazing angle: its near face (x = `near`, across
+/// its width) every 5 cm, and its side facing the sensor (y = `side`) one return column per metre, as a 64-beam
+/// lidar sees a car 46 m out (heights 0.5, 1.0, 1.5 m).
+fn grazing_car_points(near: f32, side: f32, width: f32, length: f32) -> Vec<[f32; 3]> {
+    let mut pts = Vec::new();
+    let mut y = side;
+    while y <= side + width + 1e-3 {
+        for z in [0.5f32, 1.0, 1.5] {
+            pts.push([near, y, z]);
+        }
+        y += 0.05;
+    }
+    let mut x = near + 1.0;
+    while x <= near + length + 1e-3 {
+        for z in [0.5f32, 1.0, 1.5] {
+            pts.push([x, side, z]);
+        }
+        x += 1.0;
+    }
+    pts
+}
+
+/// Spill-over in front of the box (params key `spill_in_front`, on by default since issue #10's round of that name;
+/// docs/attribution.md, "Spill-over in front of the box"). A car 46 m out, seen along its length, reported 1 m
+/// further away than it stands: its displaced region still holds returns of its side (one column per metre), and its
+/// near face is a free cluster in front of the region that touches none of them (the side between is too sparse to
+/// join them). Spill-over wants a cluster that continues the box's own evidence: without the key the box is
+/// `consistent` and the face a missed object; with it the face stands in front of the box on its line of sight, holds
+/// more cells than the box owns and touches no one else's evidence, so it is the box's: a `position_error` with the
+/// face. The car reported where it stands is `consistent` either way. A pedestrian standing against the face (its
+/// returns 8-adjacent to the face's) makes the face possibly the pedestrian's: the displaced car is `consistent` with
+/// the key too.
+#[test]
+fn a_near_face_in_front_of_a_box_displaced_away_goes_to_it_without_touching_its_evidence() {
+    let truth = object(1, 46.0, 6.3, 0.0, 4.8, 1.9);
+    let car = grazing_car_points(46.0 - 2.4, 6.3 - 0.95, 1.9, 4.8);
+    let mut pts = car.clone();
+    pts.extend(ground_points(60.0));
+    // A pedestrian against the face, nearer the sensor, beside its upper end.
+    let ped = object(2, 46.0 - 2.4 - 0.45, 6.3 + 0.6, 0.0, 0.6, 0.6);
+    let mut with_ped = car;
+    with_ped.extend(visible_face_points(&ped, 0.05));
+    with_ped.extend(ground_points(60.0));
+    // The displacement keeps the face within spill-over's reach (a cell diagonal) of the displaced grown region.
+    for (cells, d) in [(0.2f32, 0.7f32), (0.5, 1.0)] {
+        let mut reported = truth;
+        reported.x_m += d;
+        for spill_in_front in [false, true] {
+            let params = MonitorParams { cell_size_m: cells, spill_in_front, ..MonitorParams::default() };
+            let mut m = Monitor::new(params).unwrap();
+            let r = run(&mut m, &[reported], &pts);
+            let at = format!("{cells} m cells, {d} m, key {spill_in_front}");
+            let want = if spill_in_front { SensorVerdict::PositionError } else { SensorVerdict::Consistent };
+            assert_eq!(r[0].sensor.verdict, want, "{at}: {:?}", r[0].sensor);
+            if spill_in_front {
+                // The offset points from the face back to the reported box: along +x.
+                let o = r[0].sensor.offset_m;
+                assert!(o[0] > 0.3 && o[0] < 1.5 && o[1].abs() < 0.3, "{at}: {o:?}");
+            }
+            let r = run(&mut m, &[truth], &pts);
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{at}, clean: {:?}", r[0].sensor);
+            let mut m = Monitor::new(params).unwrap();
+            let r = run(&mut m, &[reported, ped], &with_ped);
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{at}, pedestrian: {:?}", r[0].sensor);
+            assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "{at}, the pedestrian: {:?}", r[1].sensor);
+        }
+    }
+}

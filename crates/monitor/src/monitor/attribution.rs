@@ -56,7 +56,10 @@ impl Monitor {
     ///    offered the clusters near where that offset puts its evidence now, at the cost of that distance.
     /// 3. Spill-over: a cluster left over that continues a confirmed object's own evidence (8-adjacent cells) and
     ///    fits its box together with it, or that touches an unconfirmed object's region (within half a cell)
-    ///    and fits its box, is that object's evidence reaching over its edge (the nearest such object).
+    ///    and fits its box, is that object's evidence reaching over its edge (the nearest such object). With
+    ///    `spill_in_front`, a cluster that stands in front of a confirmed box on the sensor's line of sight, holds
+    ///    at least as many cells as the box owns and touches no other object's evidence need not touch the box's
+    ///    own evidence ([`Monitor::spills_in_front`]).
     ///
     /// Everything else is a missed object. Bounded: pairs are kept up to a fixed capacity
     /// (`ASSOCIATION_CANDIDATES` per cluster on average), sorted in place.
@@ -207,13 +210,15 @@ impl Monitor {
                 }
                 let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
                 let ok = if confirmed {
-                    self.cluster_touches_own_evidence(j, k) && {
-                        let own = self.own_spans(j, &region);
-                        match self.spill_over_fit {
-                            SpillOverFit::Occupied => self.fits_with_own(&region, k, own[0]),
-                            SpillOverFit::EveryReturn => self.spill_fits_with(&region, k, own),
+                    (self.cluster_touches_own_evidence(j, k)
+                        || (self.params.spill_in_front && self.spills_in_front(j, &region, k)))
+                        && {
+                            let own = self.own_spans(j, &region);
+                            match self.spill_over_fit {
+                                SpillOverFit::Occupied => self.fits_with_own(&region, k, own[0]),
+                                SpillOverFit::EveryReturn => self.spill_fits_with(&region, k, own),
+                            }
                         }
-                    }
                 } else {
                     self.evidence_fits(&region, k)
                 };

@@ -16,6 +16,34 @@ impl Monitor {
             .any(|&c| self.grid.geometry.block3x3(c).any(|idx| self.grid.probability(idx) > tau && self.owns(j, idx)))
     }
 
+    /// With `spill_in_front`: cluster `k`, which does not touch object `j`'s own evidence, may still be the rest of
+    /// it when it stands where a box displaced away from the sensor leaves its near face: in front of the box on the
+    /// sensor's line of sight (its centroid's bearing within the footprint's, nearer than its centre:
+    /// [`Monitor::behind_exactly`]), with at least as many cells as the occupied cells the box owns (the evidence of
+    /// its shape in front of it outweighs what its region holds), and with no cell 8-adjacent to a hit cell another
+    /// object owns (a fragment of a neighbour's evidence is the neighbour's). Spill-over's reach and fit tests still
+    /// apply (docs/attribution.md, "Spill-over in front of the box"). Bounded: the cluster's cells and their 3 x 3
+    /// blocks.
+    pub(super) fn spills_in_front(&self, j: usize, region: &Region, k: usize) -> bool {
+        let Some(c) = self.clusters.get(k) else { return false };
+        let owned = self.scratch.get(j).map_or(0.0, |s| s.own_sum[2]);
+        (c.cells as f32) >= owned
+            && self.behind_exactly(&region.footprint, c.centroid_m)
+            && !self.cluster_touches_others(j, k)
+    }
+
+    /// True when a cell of cluster `k` is 8-adjacent to a hit cell that an object other than `j` owns.
+    fn cluster_touches_others(&self, j: usize, k: usize) -> bool {
+        let grid = &self.grid;
+        self.cluster_cells(k).iter().any(|&c| {
+            grid.geometry.block3x3(c).any(|idx| {
+                grid.hits(idx) > 0
+                    && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
+                    && self.owner.get(idx as usize).is_some_and(|&o| o as usize != j)
+            })
+        })
+    }
+
     /// The slack of the fit tests ([`Monitor::fits_with_own`], [`Monitor::spill_fits_with`]) beyond a box's length and
     /// width: one cell diagonal (a cell centre is within half a diagonal of every point of its cell) and twice the
     /// safety margin (LiDAR noise).

@@ -556,6 +556,32 @@ impl Monitor {
         false
     }
 
+    /// True when a footprint lies behind a point as the sensor sees them, exactly: the point's bearing within the
+    /// bearings of the footprint's corners (plus half a cell at the point's range) and the point nearer than the
+    /// footprint's centre. [`Monitor::behind`] takes the footprint's circumscribed circle instead; this test leaves
+    /// out a point beside the box's near end that the circle holds. Bearings are measured from the direction of the
+    /// footprint's centre, so they do not wrap for a footprint that does not hold the sensor.
+    pub(super) fn behind_exactly(&self, footprint: &crate::geometry::OrientedRect, point: [f32; 2]) -> bool {
+        let o = self.visibility.origin();
+        let (fx, fy) = (footprint.cx - o[0], footprint.cy - o[1]);
+        let (px, py) = (point[0] - o[0], point[1] - o[1]);
+        let (rf, rp) = (libm::hypotf(fx, fy), libm::hypotf(px, py));
+        // Also false for NaN distances.
+        if rp.partial_cmp(&rf) != Some(core::cmp::Ordering::Less) || rf <= 0.0 {
+            return false;
+        }
+        let bearing = |x: f32, y: f32| libm::atan2f(fx * y - fy * x, fx * x + fy * y);
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for c in footprint.corners() {
+            let a = bearing(c[0] - o[0], c[1] - o[1]);
+            lo = lo.min(a);
+            hi = hi.max(a);
+        }
+        let half_cell = 0.5 * self.grid.geometry.cell_size_m / rp.max(1e-3);
+        let a = bearing(px, py);
+        a >= lo - half_cell && a <= hi + half_cell
+    }
+
     /// True when a footprint lies behind a point as the sensor sees them: the point's bearing within the
     /// footprint's angular extent (plus half a cell), and the point nearer than the footprint's centre.
     pub(super) fn behind(&self, footprint: &crate::geometry::OrientedRect, point: [f32; 2]) -> bool {
