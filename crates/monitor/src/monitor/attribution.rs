@@ -57,9 +57,9 @@ impl Monitor {
     /// 3. Spill-over: a cluster left over that continues a confirmed object's own evidence (8-adjacent cells) and
     ///    fits its box together with it, or that touches an unconfirmed object's region (within half a cell)
     ///    and fits its box, is that object's evidence reaching over its edge (the nearest such object). With
-    ///    `spill_in_front`, a cluster that stands in front of a confirmed box on the sensor's line of sight, holds
-    ///    at least as many cells as the box owns and touches no other object's evidence need not touch the box's
-    ///    own evidence ([`Monitor::spills_in_front`]).
+    ///    `spill_in_front`, a cluster within `conflict_association_m` of a confirmed box's region that stands in
+    ///    front of it on the sensor's line of sight, holds at least as many cells as the box owns and touches no
+    ///    other object's evidence need not touch the box's own evidence ([`Monitor::spills_in_front`]).
     ///
     /// Everything else is a missed object. Bounded: pairs are kept up to a fixed capacity
     /// (`ASSOCIATION_CANDIDATES` per cluster on average), sorted in place.
@@ -183,6 +183,9 @@ impl Monitor {
         self.share_between_coincident_boxes();
         // Spill-over of the clusters left.
         let adjacent = core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 1e-3;
+        // How far from a confirmed box's grown region a cluster may stand: a cell diagonal for one that continues the
+        // box's own evidence (8-adjacent cells), the gate for one in front of it (`spill_in_front`).
+        let far = if self.params.spill_in_front { self.params.conflict_association_m.max(adjacent) } else { adjacent };
         self.own_spans.clear();
         self.own_spans.resize(self.scratch.len().min(self.own_spans.capacity()), None);
         for k in 0..self.clusters.len() {
@@ -190,7 +193,7 @@ impl Monitor {
                 continue;
             };
             let mut best: Option<(f32, usize)> = None;
-            let (lo, hi) = self.x_window(cb, adjacent);
+            let (lo, hi) = self.x_window(cb, far);
             for m in lo..hi {
                 let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
                 let Some(&(rb, bits)) = self.candidates.get(j) else { continue };
@@ -199,7 +202,7 @@ impl Monitor {
                 // is not its. An unconfirmed object takes a cluster that touches its region and fits its box.
                 let confirmed = bits & CANDIDATE_CONFIRMED != 0;
                 // A cell next to an owned cell (which overlaps the region) is at most a cell diagonal from it.
-                let reach = if confirmed { adjacent } else { touch };
+                let reach = if confirmed { far } else { touch };
                 if bits & CANDIDATE_REGION == 0 || self.far_apart(cb, rb, reach) {
                     continue;
                 }
@@ -210,7 +213,7 @@ impl Monitor {
                 }
                 let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
                 let ok = if confirmed {
-                    (self.cluster_touches_own_evidence(j, k)
+                    ((d <= adjacent && self.cluster_touches_own_evidence(j, k))
                         || (self.params.spill_in_front && self.spills_in_front(j, &region, k)))
                         && {
                             let own = self.own_spans(j, &region);

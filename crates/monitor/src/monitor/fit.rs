@@ -21,9 +21,10 @@ impl Monitor {
     /// sensor's line of sight (its centroid's bearing within the footprint's, nearer than its centre:
     /// [`Monitor::behind_exactly`]), with at least as many cells as the occupied cells the box owns (the evidence of
     /// its shape in front of it outweighs what its region holds), and with no cell 8-adjacent to a hit cell another
-    /// object owns (a fragment of a neighbour's evidence is the neighbour's). Spill-over's reach and fit tests still
-    /// apply (docs/attribution.md, "Spill-over in front of the box"). Bounded: the cluster's cells and their 3 x 3
-    /// blocks.
+    /// object owns (a fragment of a neighbour's evidence is the neighbour's). Spill-over offers such a cluster to a box
+    /// within `conflict_association_m` of its grown region (one that touches the box's evidence, within a cell
+    /// diagonal), and its fit tests still apply: the cluster with the box's own evidence fits the box
+    /// (docs/attribution.md, "Spill-over in front of the box"). Bounded: the cluster's cells and their 3 x 3 blocks.
     pub(super) fn spills_in_front(&self, j: usize, region: &Region, k: usize) -> bool {
         let Some(c) = self.clusters.get(k) else { return false };
         let owned = self.scratch.get(j).map_or(0.0, |s| s.own_sum[2]);
