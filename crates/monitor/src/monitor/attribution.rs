@@ -38,8 +38,16 @@ impl Monitor {
     /// whose region it lies deepest. Whether the cell is occupied is the caller's question.
     #[inline]
     pub(super) fn owns(&self, j: usize, c: u32) -> bool {
-        self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-            && self.owner.get(c as usize).is_some_and(|&o| o as usize == j)
+        self.owner_of(c) == Some(j)
+    }
+
+    /// The object that owns cell `c` (step 1), if any: the cell is explained and not known scenery.
+    #[inline]
+    pub(super) fn owner_of(&self, c: u32) -> Option<usize> {
+        if self.grid.flags(c) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED {
+            return None;
+        }
+        self.owner.get(c as usize).map(|&o| o as usize)
     }
 
     /// Gives the evidence no object explains to the objects it belongs to.
@@ -294,7 +302,7 @@ impl Monitor {
     fn own_evidence_runs_on(&self, j: usize, region: &Region, k: usize) -> bool {
         let geometry = self.grid.geometry;
         let half = 0.5 * geometry.cell_size_m;
-        let (grid, owner) = (&self.grid, &self.owner);
+        let grid = &self.grid;
         let cb = self.clusters.get(k).map_or([0.0; 4], |c| c.bounds_m);
         let in_k = |idx: u32, x: f32, y: f32| {
             x >= cb[0] && x <= cb[2] && y >= cb[1] && y <= cb[3] && self.cluster_cells(k).contains(&idx)
@@ -302,11 +310,7 @@ impl Monitor {
         let Some(range) = geometry.cell_range(region.grown.aabb()) else { return false };
         let mut runs_on = false;
         geometry.for_each_cell_overlapping(&region.grown, range, |idx, _, _| {
-            if runs_on
-                || grid.hits(idx) == 0
-                || grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED
-                || owner.get(idx as usize).is_none_or(|&o| o as usize != j)
-            {
+            if runs_on || grid.hits(idx) == 0 || !self.owns(j, idx) {
                 return;
             }
             runs_on = geometry.block3x3(idx).any(|c| {

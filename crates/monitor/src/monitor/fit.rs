@@ -37,11 +37,7 @@ impl Monitor {
     fn cluster_touches_others(&self, j: usize, k: usize) -> bool {
         let grid = &self.grid;
         self.cluster_cells(k).iter().any(|&c| {
-            grid.geometry.block3x3(c).any(|idx| {
-                grid.hits(idx) > 0
-                    && grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) == FLAG_EXPLAINED
-                    && self.owner.get(idx as usize).is_some_and(|&o| o as usize != j)
-            })
+            grid.geometry.block3x3(c).any(|idx| grid.hits(idx) > 0 && self.owner_of(idx).is_some_and(|o| o != j))
         })
     }
 

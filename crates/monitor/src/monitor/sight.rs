@@ -556,20 +556,30 @@ impl Monitor {
         false
     }
 
+    /// The footprint's centre and the point relative to the sensor, with their ranges, when the point is nearer
+    /// than the centre (and the centre not at the sensor); `None` otherwise, also for NaN ranges. The common start
+    /// of [`Monitor::behind`] and [`Monitor::behind_exactly`].
+    #[inline]
+    fn nearer_than_centre(
+        &self,
+        footprint: &crate::geometry::OrientedRect,
+        point: [f32; 2],
+    ) -> Option<([f32; 2], [f32; 2], f32, f32)> {
+        let o = self.visibility.origin();
+        let (fx, fy) = (footprint.cx - o[0], footprint.cy - o[1]);
+        let (px, py) = (point[0] - o[0], point[1] - o[1]);
+        let (rf, rp) = (libm::hypotf(fx, fy), libm::hypotf(px, py));
+        (rp.partial_cmp(&rf) == Some(core::cmp::Ordering::Less) && rf > 0.0).then_some(([fx, fy], [px, py], rf, rp))
+    }
+
     /// True when a footprint lies behind a point as the sensor sees them, exactly: the point's bearing within the
     /// bearings of the footprint's corners (plus half a cell at the point's range) and the point nearer than the
     /// footprint's centre. [`Monitor::behind`] takes the footprint's circumscribed circle instead; this test leaves
     /// out a point beside the box's near end that the circle holds. Bearings are measured from the direction of the
     /// footprint's centre, so they do not wrap for a footprint that does not hold the sensor.
     pub(super) fn behind_exactly(&self, footprint: &crate::geometry::OrientedRect, point: [f32; 2]) -> bool {
+        let Some(([fx, fy], [px, py], _, rp)) = self.nearer_than_centre(footprint, point) else { return false };
         let o = self.visibility.origin();
-        let (fx, fy) = (footprint.cx - o[0], footprint.cy - o[1]);
-        let (px, py) = (point[0] - o[0], point[1] - o[1]);
-        let (rf, rp) = (libm::hypotf(fx, fy), libm::hypotf(px, py));
-        // Also false for NaN distances.
-        if rp.partial_cmp(&rf) != Some(core::cmp::Ordering::Less) || rf <= 0.0 {
-            return false;
-        }
         let bearing = |x: f32, y: f32| libm::atan2f(fx * y - fy * x, fx * x + fy * y);
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for c in footprint.corners() {
@@ -585,14 +595,7 @@ impl Monitor {
     /// True when a footprint lies behind a point as the sensor sees them: the point's bearing within the
     /// footprint's angular extent (plus half a cell), and the point nearer than the footprint's centre.
     pub(super) fn behind(&self, footprint: &crate::geometry::OrientedRect, point: [f32; 2]) -> bool {
-        let o = self.visibility.origin();
-        let (fx, fy) = (footprint.cx - o[0], footprint.cy - o[1]);
-        let (px, py) = (point[0] - o[0], point[1] - o[1]);
-        let (rf, rp) = (libm::hypotf(fx, fy), libm::hypotf(px, py));
-        // Also false for NaN distances.
-        if rp.partial_cmp(&rf) != Some(core::cmp::Ordering::Less) || rf <= 0.0 {
-            return false;
-        }
+        let Some(([fx, fy], [px, py], rf, rp)) = self.nearer_than_centre(footprint, point) else { return false };
         let reach = libm::hypotf(footprint.half_length, footprint.half_width) + 0.5 * self.grid.geometry.cell_size_m;
         // The angle between the two directions is at most `asin(reach / rf)`: in front (positive dot product),
         // and `sin(angle) = |cross| / (rf rp) <= reach / rf` (any angle up to 90 degrees once `reach >= rf`).
