@@ -32,6 +32,7 @@ class Params:
     follow_gate: bool
     front_cluster: bool
     spill_in_front: bool
+    spill_near_side: bool
     memory_hold_s: float
     shadow_gate: bool
     roi_graze_fraction: float

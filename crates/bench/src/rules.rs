@@ -66,6 +66,10 @@ pub struct RuleSwitches {
     /// spill-over gives a confirmed box only clusters that touch its own evidence.
     #[cfg_attr(feature = "clap", arg(long))]
     pub no_spill_in_front: bool,
+    /// Check with `spill_near_side` off (the default before issue #10's round "The near side of the box"): spill-over
+    /// in front of a confirmed box counts all its own evidence, its far side too.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub no_spill_near_side: bool,
     /// Check with `memory_hold_s = 0`: a displaced track's offset lives one frame (the default before issue
     /// #10's round "Two rules together", which made it 1 s; docs/attribution.md, "Step 8 held over a gap").
     #[cfg_attr(feature = "clap", arg(long))]
@@ -111,6 +115,9 @@ impl RuleSwitches {
         }
         if self.no_spill_in_front {
             p.spill_in_front = false;
+        }
+        if self.no_spill_near_side {
+            p.spill_near_side = false;
         }
         if self.no_memory_hold {
             p.memory_hold_s = 0.0;
@@ -172,11 +179,12 @@ mod tests {
         assert!(!on(|s| s.no_follow_gate = true).follow_gate);
         assert!(!on(|s| s.no_front_cluster = true).front_cluster);
         assert!(!on(|s| s.no_spill_in_front = true).spill_in_front);
+        assert!(!on(|s| s.no_spill_near_side = true).spill_near_side);
         assert_eq!(on(|s| s.no_memory_hold = true).memory_hold_s.to_bits(), 0.0f64.to_bits());
         assert_eq!(on(|s| s.no_roi_graze = true).roi_graze_fraction.to_bits(), 0.0f32.to_bits());
         assert_eq!(on(|s| s.roi_graze = true).roi_graze_fraction.to_bits(), 0.5f32.to_bits());
         // The defaults these switches turn off are on in the default parameters (else the switch does nothing).
-        assert!(d.seen_body && d.follow_gate && d.front_cluster && d.spill_in_front);
+        assert!(d.seen_body && d.follow_gate && d.front_cluster && d.spill_in_front && d.spill_near_side);
         assert!(d.jump_from_returns && d.memory_hold_s > 0.0);
         assert!(d.roi_graze_fraction > 0.0);
     }

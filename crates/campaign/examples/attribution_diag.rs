@@ -7,7 +7,7 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `NONEARSIDE=1` `spill_near_side`; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
 //! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
@@ -1451,6 +1451,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // `NOSPILLFRONT=1`: `spill_in_front` off (the default since issue #10's round "Spill-over in front of
             // the box"): spill-over gives a confirmed box only clusters that touch its own evidence.
             r.spec.params.spill_in_front &= std::env::var_os("NOSPILLFRONT").is_none();
+            // `NONEARSIDE=1`: `spill_near_side` off (the default since issue #10's round "The near side of the box"):
+            // spill-over in front of a box counts all its own evidence, its far side too.
+            r.spec.params.spill_near_side &= std::env::var_os("NONEARSIDE").is_none();
             // `HOLD=S`: a track flagged as displaced keeps its offset S seconds after its last alarm for step 8
             // (the params key `memory_hold_s`).
             if let Some(s) = std::env::var("HOLD").ok().and_then(|v| v.parse().ok()) {

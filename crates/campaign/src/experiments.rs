@@ -235,7 +235,7 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 17] = [
+const LATE_PARAMS_KEYS: [&str; 18] = [
     "spill_over_fit",
     "seen_over",
     "face_in_front",
@@ -247,6 +247,7 @@ const LATE_PARAMS_KEYS: [&str; 17] = [
     "jump_first_return",
     "front_cluster",
     "spill_in_front",
+    "spill_near_side",
     "memory_hold_s",
     "jump_evidence_at_prediction",
     "jump_coincident_boxes",

@@ -36,6 +36,7 @@ mod sight;
 mod verdicts;
 use attribution::{claim, ASSOCIATION_CANDIDATES};
 use clusters::EDGE_MAP;
+use fit::OwnSpans;
 use graze::RoiAmount;
 #[doc(hidden)]
 pub use roi::roi_index_mismatch;
@@ -170,10 +171,11 @@ pub struct Monitor {
     /// last frame (looked at for every cluster), with where their offset puts that evidence now.
     by_x: Vec<(f32, u32)>,
     displaced: Vec<(u32, [f32; 2])>,
-    /// Per object, during spill-over (step 5): the span, in its box's axes, of the occupied cells it owns in its
-    /// grown region and of the hit cells it owns there (`[u min, u max, v min, v max]` each), computed the first
-    /// time spill-over asks (`Monitor::own_spans`); `None` until then. Ownership does not change during spill-over.
-    own_spans: Vec<Option<[[f32; 4]; 2]>>,
+    /// Per object, during spill-over (step 5): the spans, in its box's axes, of the occupied cells it owns in its
+    /// grown region and of the hit cells it owns there, all of them and those on its near side ([`OwnSpans`]),
+    /// computed the first time spill-over asks (`Monitor::own_spans`); `None` until then. Ownership does not change
+    /// during spill-over.
+    own_spans: Vec<Option<OwnSpans>>,
     /// Widest region bounding box of the frame, metres.
     widest_m: f32,
     /// Candidate (distance, cluster, object, group) pairs of the evidence assignment; the group is the connected
@@ -948,10 +950,11 @@ mod tests {
                 monitor.own_spans.iter_mut().for_each(|s| *s = None);
                 for j in 0..objects.len() {
                     let Some(region) = monitor.scratch.get(j).and_then(|s| s.region) else { continue };
-                    let own = monitor.own_spans(j, &region);
+                    let spans = monitor.own_spans(j, &region);
                     if let Some(Some(before)) = stored.get(j) {
-                        assert_eq!(before.map(|s| s.map(f32::to_bits)), own.map(|s| s.map(f32::to_bits)));
+                        assert_eq!(before, &spans);
                     }
+                    let own = spans.all;
                     for k in 0..monitor.clusters.len() {
                         let reference = monitor.evidence_fits_walking_own(j, &region, k);
                         assert_eq!(monitor.fits_with_own(&region, k, own[0]), reference, "frame {frame_no}, {j}, {k}");

@@ -221,15 +221,12 @@ impl Monitor {
                 }
                 let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
                 let ok = if confirmed {
-                    ((d <= adjacent && self.cluster_touches_own_evidence(j, k))
-                        || (self.params.spill_in_front && self.spills_in_front(j, &region, k)))
-                        && {
-                            let own = self.own_spans(j, &region);
-                            match self.spill_over_fit {
-                                SpillOverFit::Occupied => self.fits_with_own(&region, k, own[0]),
-                                SpillOverFit::EveryReturn => self.spill_fits_with(&region, k, own),
-                            }
-                        }
+                    if d <= adjacent && self.cluster_touches_own_evidence(j, k) {
+                        let own = self.own_spans(j, &region).all;
+                        self.spill_fit(&region, k, own)
+                    } else {
+                        self.params.spill_in_front && self.spills_in_front(j, &region, k)
+                    }
                 } else {
                     self.evidence_fits(&region, k)
                 };

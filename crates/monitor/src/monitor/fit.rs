@@ -19,18 +19,38 @@ impl Monitor {
     /// With `spill_in_front`: cluster `k`, which does not touch object `j`'s own evidence, may still be the rest of
     /// it when it stands where a box displaced away from the sensor leaves its near face: in front of the box on the
     /// sensor's line of sight (its centroid's bearing within the footprint's, nearer than its centre:
-    /// [`Monitor::behind_exactly`]), with at least as many cells as the occupied cells the box owns (the evidence of
-    /// its shape in front of it outweighs what its region holds), and with no cell 8-adjacent to a hit cell another
-    /// object owns (a fragment of a neighbour's evidence is the neighbour's). Spill-over offers such a cluster to a box
-    /// within `conflict_association_m` of its grown region (one that touches the box's evidence, within a cell
-    /// diagonal), and its fit tests still apply: the cluster with the box's own evidence fits the box
-    /// (docs/attribution.md, "Spill-over in front of the box"). Bounded: the cluster's cells and their 3 x 3 blocks.
-    pub(super) fn spills_in_front(&self, j: usize, region: &Region, k: usize) -> bool {
-        let Some(c) = self.clusters.get(k) else { return false };
-        let owned = self.scratch.get(j).map_or(0.0, |s| s.own_sum[2]);
-        (c.cells as f32) >= owned
-            && self.behind_exactly(&region.footprint, c.centroid_m)
-            && !self.cluster_touches_others(j, k)
+    /// [`Monitor::behind_exactly`]), with no cell 8-adjacent to a hit cell another object owns (a fragment of a
+    /// neighbour's evidence is the neighbour's), with at least as many cells as the occupied cells the box owns (the
+    /// evidence of its shape in front of it outweighs what its region holds), and the cluster with the box's own
+    /// evidence fitting the box (spill-over's fit test). With `spill_near_side` the last two leave out the occupied
+    /// cells the box owns beyond its near side ([`OwnSpans`]): what a box displaced away from the sensor holds at its
+    /// far side is whatever stands behind it (docs/attribution.md, "The near side of the box"). Spill-over offers such a cluster
+    /// to a box within `conflict_association_m` of its grown region (docs/attribution.md, "Spill-over in front of the
+    /// box"). Bounded: the cluster's cells and their 3 x 3 blocks, and the walk of [`Monitor::own_spans`] once per
+    /// frame.
+    pub(super) fn spills_in_front(&mut self, j: usize, region: &Region, k: usize) -> bool {
+        let Some((cells, centroid)) = self.clusters.get(k).map(|c| (c.cells as f32, c.centroid_m)) else {
+            return false;
+        };
+        if !self.behind_exactly(&region.footprint, centroid) || self.cluster_touches_others(j, k) {
+            return false;
+        }
+        let spans = self.own_spans(j, region);
+        let (owned, own) = if self.params.spill_near_side {
+            (spans.near_cells, spans.near)
+        } else {
+            (self.scratch.get(j).map_or(0.0, |s| s.own_sum[2]), spans.all)
+        };
+        cells >= owned && self.spill_fit(region, k, own)
+    }
+
+    /// Spill-over's fit test of cluster `k` with a confirmed object's own spans `own` ([`SpillOverFit`]: over the
+    /// occupied cells, or over every return).
+    pub(super) fn spill_fit(&self, region: &Region, k: usize, own: [[f32; 4]; 2]) -> bool {
+        match self.spill_over_fit {
+            SpillOverFit::Occupied => self.fits_with_own(region, k, own[0]),
+            SpillOverFit::EveryReturn => self.spill_fits_with(region, k, own),
+        }
     }
 
     /// True when a cell of cluster `k` is 8-adjacent to a hit cell that an object other than `j` owns.
@@ -140,17 +160,24 @@ impl Monitor {
         span_fits(span, fp, slack)
     }
 
-    /// Object `j`'s own spans in its box's axes (see the field `own_spans`): the occupied cells and the hit cells
-    /// it owns in its grown region, each as `[u min, u max, v min, v max]` (infinite bounds when there are none).
-    /// One walk over the region's cells the first time spill-over asks in a frame, the stored answer after.
-    pub(super) fn own_spans(&mut self, j: usize, region: &Region) -> [[f32; 4]; 2] {
+    /// Object `j`'s own spans in its box's axes (see the field `own_spans` and [`OwnSpans`]): the occupied cells and
+    /// the hit cells it owns in its grown region, each as `[u min, u max, v min, v max]` (infinite bounds when there
+    /// are none), all of them and those on its near side. One walk over the region's cells the first time spill-over
+    /// asks in a frame, the stored answer after.
+    pub(super) fn own_spans(&mut self, j: usize, region: &Region) -> OwnSpans {
         if let Some(Some(spans)) = self.own_spans.get(j) {
             return *spans;
         }
-        let mut spans = [NO_SPAN; 2];
+        let mut spans = OwnSpans { all: [NO_SPAN; 2], near: [NO_SPAN; 2], near_cells: 0.0 };
         let geometry = self.grid.geometry;
         let fp = &region.footprint;
         let tau = self.params.tau_fn;
+        // The near side: cell centres no farther from the sensor than the box's centre plus half a cell diagonal
+        // (a cell whose centre lies beyond may still hold a return nearer than the centre). Only occupied cells are
+        // left out beyond it (`OwnSpans`).
+        let o = self.visibility.origin();
+        let reach = libm::hypotf(fp.cx - o[0], fp.cy - o[1]) + core::f32::consts::FRAC_1_SQRT_2 * geometry.cell_size_m;
+        let near_sq = reach * reach;
         // Own cells have hits: the walk over the region's hit cells (empty cells skipped 64 at a time) finds them
         // all. Every one of them is a hit cell its owner owns (the second span); the occupied ones, the first.
         if let Some(range) = geometry.cell_range(region.grown.aabb()) {
@@ -161,10 +188,19 @@ impl Monitor {
                 }
                 let (x, y) = geometry.cell_center(idx);
                 let uv = fp.local(x, y);
-                if grid.probability(idx) > tau {
-                    spans[0] = grown(spans[0], uv);
+                let near = (x - o[0]) * (x - o[0]) + (y - o[1]) * (y - o[1]) <= near_sq;
+                let occupied = grid.probability(idx) > tau;
+                if occupied {
+                    spans.all[0] = grown(spans.all[0], uv);
+                    if near {
+                        spans.near[0] = grown(spans.near[0], uv);
+                        spans.near_cells += 1.0;
+                    }
                 }
-                spans[1] = grown(spans[1], uv);
+                spans.all[1] = grown(spans.all[1], uv);
+                if near || !occupied {
+                    spans.near[1] = grown(spans.near[1], uv);
+                }
             });
         }
         if let Some(slot) = self.own_spans.get_mut(j) {
@@ -212,6 +248,20 @@ impl Monitor {
         }
         span_fits(span, fp, slack)
     }
+}
+
+/// A confirmed object's own evidence in its grown region, in its box's axes, for spill-over (step 5;
+/// [`Monitor::own_spans`]): the spans (`[u min, u max, v min, v max]`) of the occupied cells it owns and of every hit
+/// cell it owns (`[occupied, every return]`), all of them (`all`) and without the occupied cells beyond its **near
+/// side** (`near`: occupied cells whose centres are no farther from the sensor than the box's centre plus half a
+/// cell diagonal, and every hit cell that is not occupied), and how many occupied cells it owns on its near side. A
+/// face dense enough to be occupied at the box's far side is something standing behind it; sparse returns along a box
+/// (its side at a grazing angle, its roof) are its own and still bound where its evidence ends.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct OwnSpans {
+    pub(super) all: [[f32; 4]; 2],
+    pub(super) near: [[f32; 4]; 2],
+    pub(super) near_cells: f32,
 }
 
 /// `span` (`[u min, u max, v min, v max]` in a box's axes) grown to take the point `(u, v)`.
