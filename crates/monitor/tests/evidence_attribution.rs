@@ -1300,18 +1300,24 @@ fn a_box_hidden_behind_far_evidence_takes_the_free_evidence_beyond_it() {
     }
 }
 
+/// A column of returns across a car's width (one every 5 cm, three heights): the face the sensor sees.
+fn face_column(x: f32, y_from: f32, width: f32) -> Vec<[f32; 3]> {
+    let mut pts = Vec::new();
+    let mut y = y_from;
+    while y <= y_from + width + 1e-3 {
+        for z in [0.5f32, 1.0, 1.5] {
+            pts.push([x, y, z]);
+        }
+        y += 0.05;
+    }
+    pts
+}
+
 /// The returns of a car seen along its length from the side at a grazing angle: its near face (x = `near`, across
 /// its width) every 5 cm, and its side facing the sensor (y = `side`) one return column per metre, as a 64-beam
 /// lidar sees a car 46 m out (heights 0.5, 1.0, 1.5 m).
 fn grazing_car_points(near: f32, side: f32, width: f32, length: f32) -> Vec<[f32; 3]> {
-    let mut pts = Vec::new();
-    let mut y = side;
-    while y <= side + width + 1e-3 {
-        for z in [0.5f32, 1.0, 1.5] {
-            pts.push([near, y, z]);
-        }
-        y += 0.05;
-    }
+    let mut pts = face_column(near, side, width);
     let mut x = near + 1.0;
     while x <= near + length + 1e-3 {
         for z in [0.5f32, 1.0, 1.5] {
@@ -1368,19 +1374,6 @@ fn a_near_face_in_front_of_a_box_displaced_away_goes_to_it_without_touching_its_
             assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "{at}, the pedestrian: {:?}", r[1].sensor);
         }
     }
-}
-
-/// A column of returns across a car's width (one every 5 cm, three heights): the face the sensor sees.
-fn face_column(x: f32, y_from: f32, width: f32) -> Vec<[f32; 3]> {
-    let mut pts = Vec::new();
-    let mut y = y_from;
-    while y <= y_from + width + 1e-3 {
-        for z in [0.5f32, 1.0, 1.5] {
-            pts.push([x, y, z]);
-        }
-        y += 0.05;
-    }
-    pts
 }
 
 /// The near side of the box (params key `spill_near_side`, on by default since issue #10's round of that name;
