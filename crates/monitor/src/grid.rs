@@ -661,7 +661,9 @@ impl OccupancyGrid {
     }
 
     /// The grid also keeps, per cell with hits, the nearest squared range and the lowest and highest z of its
-    /// returns ([`OccupancyGrid::returns`]; the params key `seen_over`). Allocates one entry per cell.
+    /// returns ([`OccupancyGrid::returns`]), folded as the rasterizer fills it. Allocates one entry per cell. The
+    /// monitor no longer asks for it: with the params key `seen_over` it gathers these values for the few cells it
+    /// reads (`monitor/over.rs`, at a fraction of this fold's cost), and its test checks them against this fold.
     #[must_use]
     pub fn with_returns(mut self) -> Self {
         self.returns = vec![NO_RETURNS; self.hits.len()];

@@ -31,6 +31,7 @@ mod face;
 mod fit;
 mod graze;
 mod memory_steps;
+mod over;
 mod roi;
 mod sight;
 mod verdicts;
@@ -197,8 +198,9 @@ pub struct Monitor {
     spill_over_fit: SpillOverFit,
     /// This frame's region-of-interest polygons, indexed by grid row (`roi.rs`).
     roi: RoiIndex,
-    /// In frames with a region of interest: each point's grid cell as the rasterizer found it (`NO_CELL` for
-    /// points not in the obstacle band or not in the grid), for the returns of the ROI's edge cells.
+    /// In frames with a region of interest, and in every frame with `seen_over`: each point's grid cell as the
+    /// rasterizer found it (`NO_CELL` for points not in the obstacle band or not in the grid), for the returns of
+    /// the ROI's edge cells and of the cells `seen_over` reads.
     point_cells: Vec<u32>,
     /// The prefilter of the scan of the recorded cells (`roi_by_returns`): byte `c & 0xFFFF` is 1 when a cell `c`
     /// marked `FLAG_ROI_EDGE` this frame maps to it ([`EDGE_MAP`] bytes; all 0 between frames). Exact for grids of
@@ -214,20 +216,26 @@ pub struct Monitor {
     roi_cell_counts: Vec<u8>,
     /// The second half's buffers of the rasterize stage on two threads ([`Monitor::enable_split`]).
     split: Option<crate::split::SecondHalf>,
-    /// The sensor origin's height in the ego frame this frame, m (for `seen_over`: the grid keeps each hit cell's
-    /// returns with `OccupancyGrid::with_returns`).
+    /// The sensor origin's height in the ego frame this frame, m (for `seen_over`).
     sensor_z: f32,
+    /// With `seen_over`: the cells it may read this frame, sorted (`over.rs`; at most
+    /// [`over::OVER_CELLS_PER_POINT`] per sample point of each object, the capacity made in `new`), and each one's
+    /// nearest squared range and lowest and highest z of its returns. Empty without the key.
+    over_cells: Vec<u32>,
+    over_entries: Vec<[f32; 3]>,
+    /// With `seen_over`: per object of the frame, per sample point of the free-space test, the evidence cell behind
+    /// it that `seen_over`'s walks found and the point's occluder (`NO_CELL`: the point is not looked over).
+    over_points: Vec<[[u32; 2]; 9]>,
+    /// With `seen_over`: the prefilter of its scan of the recorded cells ([`EDGE_MAP`] bytes, as `edge_map`; all 0
+    /// between frames). Empty without the key.
+    over_map: Vec<u8>,
 }
 
-/// The occupancy grid the parameters ask for (touched cells bounded by `max_points`; each hit cell's returns kept
-/// with `seen_over`; each hit cell's sums of its returns' x and y with `jump_from_returns`; a bit per cell for the
+/// The occupancy grid the parameters ask for (touched cells bounded by `max_points`; each hit cell's sums of its returns' x and y with `jump_from_returns`; a bit per cell for the
 /// returns above the grazing rule's height with `roi_graze_fraction > 0`): the monitor's and the second half's of
 /// the rasterize stage on two threads.
 fn grid_for(params: &MonitorParams, geometry: GridGeometry) -> OccupancyGrid {
     let mut grid = OccupancyGrid::new(geometry, params.hit_probability, params.max_points as usize);
-    if params.seen_over {
-        grid = grid.with_returns();
-    }
     if params.jump_from_returns {
         grid = if params.jump_first_return { grid.with_first_returns() } else { grid.with_sums() };
     }
@@ -310,6 +318,18 @@ impl Monitor {
             roi_cell_counts: if params.roi_graze_fraction > 0.0 { alloc::vec![0; cells] } else { Vec::new() },
             split: None,
             sensor_z: 0.0,
+            over_cells: Vec::with_capacity(if params.seen_over {
+                9 * over::OVER_CELLS_PER_POINT * max_objects
+            } else {
+                0
+            }),
+            over_entries: Vec::with_capacity(if params.seen_over {
+                9 * over::OVER_CELLS_PER_POINT * max_objects
+            } else {
+                0
+            }),
+            over_points: Vec::with_capacity(if params.seen_over { max_objects } else { 0 }),
+            over_map: if params.seen_over { alloc::vec![0; EDGE_MAP] } else { Vec::new() },
             params,
         })
     }
@@ -530,6 +550,10 @@ impl Monitor {
             &self.params,
         );
         on_stage(Stage::Plausibility);
+        if self.params.seen_over {
+            let status = self.sensor_status;
+            self.gather_over_returns(cloud.filter(|_| status.is_none()));
+        }
         self.finish_reports(frame);
         on_stage(Stage::Verdicts);
         Ok(FrameReport {
@@ -639,9 +663,10 @@ impl Monitor {
             second.grid.set_tall_this_frame(tall);
         }
         let (grid, visibility) = (&mut self.grid, &mut self.visibility);
-        // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them).
+        // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them), and with
+        // `seen_over` (`over.rs` reads them).
         let cells = &mut self.point_cells;
-        let record = !frame.roi_in_ego.is_empty();
+        let record = !frame.roi_in_ego.is_empty() || self.params.seen_over;
         // The blocked loop with the wider vector unit or on the baseline; `None`: the scalar reference.
         let wide = match self.rasterizer {
             Rasterizer::Blocked => Some(true),

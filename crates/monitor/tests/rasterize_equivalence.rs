@@ -235,6 +235,11 @@ fn synthetic_sequences_give_identical_reports() {
     let params = MonitorParams { jump_first_return: true, ..params };
     run_sequence(&seq32, params, &[upright, yawed]);
     run_sequence(&seq64, params, &[upright]);
+    // With `seen_over`: every frame's cells recorded (the 64-beam frames on two threads too), and the returns of the
+    // cells it reads gathered from them before the verdicts (`monitor/over.rs`).
+    let params = MonitorParams { seen_over: true, ..MonitorParams::PAPER };
+    run_sequence(&seq32, params, &[upright, yawed]);
+    run_sequence(&seq64, params, &[upright]);
 }
 
 #[test]

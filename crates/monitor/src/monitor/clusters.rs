@@ -23,7 +23,7 @@ pub(super) const EDGE_MAP: usize = 1 << 16;
 
 /// The byte of the prefilter that stands for cell `c` (`NO_CELL`: byte 0xFFFF).
 #[inline]
-const fn edge_slot(c: u32) -> usize {
+pub(super) const fn edge_slot(c: u32) -> usize {
     (c & 0xFFFF) as usize
 }
 
@@ -54,7 +54,8 @@ fn marked_points(map: &[u8; EDGE_MAP], cells: &[u32]) -> u64 {
 }
 
 /// Every obstacle-band return of the sweep that may stand in a cell the prefilter `edge_map` marks, in the order
-/// of the sweep, as `visit(cell, point in the sensor frame)`: the scan of `roi_by_returns` and `roi_by_amount`.
+/// of the sweep, as `visit(cell, point in the sensor frame)`: the scan of `roi_by_returns` and `roi_by_amount`, and
+/// of `seen_over`'s returns (`over.rs`, with its own prefilter).
 /// Through the cells the rasterizer recorded per point, 64 at a time ([`marked_points`]: no branch per point), when
 /// they were recorded for this sweep; else (never with the capacities of `new`) by a pass over the sweep that finds
 /// each band return outside the ego footprint and its cell. Either way `visit` tests the cell's flags itself (they

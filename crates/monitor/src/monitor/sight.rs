@@ -410,38 +410,31 @@ impl Monitor {
         // With `seen_body`: for each free point whose ray ends on the own evidence, the range where it ends less
         // the box's depth along the ray (points freed by `seen_over` are not kept: `NEG_INFINITY`).
         let mut ends = [f32::NEG_INFINITY; 9];
-        for u in [-0.6f32, 0.0, 0.6] {
-            for v in [-0.6f32, 0.0, 0.6] {
-                let (lu, lv) = (u * fp.half_length, v * fp.half_width);
-                let (x, y) = (fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos);
-                let Some((clearance, cell)) = self.visibility.clearance(x, y) else {
-                    let behind_other = |c: u32| c != crate::visibility::NO_CELL && !near_own(c);
-                    if self.params.seen_over {
-                        if let crate::visibility::Sight::Shadowed(occluder) = self.visibility.sight(x, y) {
-                            if behind_other(occluder) && self.seen_over(x, y, margin, fp, occluder, &near_own) {
-                                free += 1;
-                            }
-                        }
-                    }
-                    continue;
-                };
-                if clearance > margin && near_own(cell) {
-                    if self.params.seen_body {
-                        let (dx, dy) = (x - o[0], y - o[1]);
-                        let r = libm::sqrtf(dx * dx + dy * dy);
-                        // The box's extent along the ray: the ranges of a body inside it differ by no more.
-                        let (along, across) = if r > 0.0 {
-                            ((dx * fp.cos + dy * fp.sin) / r, (dy * fp.cos - dx * fp.sin) / r)
-                        } else {
-                            (1.0, 1.0)
-                        };
-                        let depth = 2.0 * (fp.half_length * along.abs() + fp.half_width * across.abs());
-                        if let Some(end) = ends.get_mut(free as usize) {
-                            *end = r + clearance - depth;
-                        }
-                    }
+        for (k, [x, y]) in super::over::sample_points(fp).into_iter().enumerate() {
+            let Some((clearance, cell)) = self.visibility.clearance(x, y) else {
+                // With `seen_over`: shadowed by an obstacle that is not the object's own evidence, and seen over it
+                // (`over.rs` walked its ray before the verdicts and kept the point's cells when it may be).
+                if self.params.seen_over && self.seen_over(j, k, x, y, margin) {
                     free += 1;
                 }
+                continue;
+            };
+            if clearance > margin && near_own(cell) {
+                if self.params.seen_body {
+                    let (dx, dy) = (x - o[0], y - o[1]);
+                    let r = libm::sqrtf(dx * dx + dy * dy);
+                    // The box's extent along the ray: the ranges of a body inside it differ by no more.
+                    let (along, across) = if r > 0.0 {
+                        ((dx * fp.cos + dy * fp.sin) / r, (dy * fp.cos - dx * fp.sin) / r)
+                    } else {
+                        (1.0, 1.0)
+                    };
+                    let depth = 2.0 * (fp.half_length * along.abs() + fp.half_width * across.abs());
+                    if let Some(end) = ends.get_mut(free as usize) {
+                        *end = r + clearance - depth;
+                    }
+                }
+                free += 1;
             }
         }
         let needed = self.params.ghost_visible_fraction * 9.0;
@@ -483,77 +476,40 @@ impl Monitor {
     /// heights, and some return of the evidence cell must lie above that line where it stands. The lowest return
     /// of a cell a cell wide may have come beside the occluder, along another direction, and says nothing
     /// about the point (the sensor false alarms it raised: docs/attribution.md, "Seen over the occluder").
-    /// Bounded: two walks of at most `4 (half length + half width + margin) / cell` steps.
-    fn seen_over(
-        &self,
-        x: f32,
-        y: f32,
-        margin: f32,
-        fp: &crate::geometry::OrientedRect,
-        occluder: u32,
-        near_own: &dyn Fn(u32) -> bool,
-    ) -> bool {
-        let o = self.visibility.origin();
-        let (dx, dy) = (x - o[0], y - o[1]);
-        let r = libm::sqrtf(dx * dx + dy * dy);
-        if r.is_nan() || r <= 1e-3 {
-            return false;
-        }
-        let (ux, uy) = (dx / r, dy / r);
+    /// The walks of (1)-(3) were done before the verdicts (`over.rs`, which keeps the cell of (3) for sample point
+    /// `k` of object `j`, and gathers its returns and the occluder's); here only the heights.
+    fn seen_over(&self, j: usize, k: usize, x: f32, y: f32, margin: f32) -> bool {
+        // Its preconditions (`over.rs`): the point shadowed by an occluder that is not the object's own evidence, seen
+        // empty in its cell, no face of the object in front of it, and the first cell with returns behind it the
+        // object's own evidence.
+        let Some((r, c, occluder)) = self.over_evidence_kept(j, k, x, y) else { return false };
         let geometry = self.grid.geometry;
-        let Some(c0) = geometry.point_to_cell(x, y) else { return false };
-        if self.grid.hits(c0) > 0 {
+        let Some([r2min, zlow, ztop]) = self.over_returns(c) else { return false };
+        let rmin = libm::sqrtf(r2min);
+        let clearance = rmin - r;
+        if clearance.is_nan() || clearance <= margin {
             return false;
         }
-        let step = 0.5 * geometry.cell_size_m;
-        let reach = 2.0 * (fp.half_length + fp.half_width + margin);
-        // Towards the sensor: no return of the object's own evidence in front of the point (its face is there).
-        let mut t = step;
-        while t <= reach {
-            let Some(c) = geometry.point_to_cell(x - ux * t, y - uy * t) else { break };
-            t += step;
-            if c != c0 && self.grid.hits(c) > 0 && near_own(c) {
-                return false;
+        // The lowest ray that reached the cell, from its lowest return and a range that bounds that return's
+        // from the side that lowers the ray least: the cell's returns lie within a cell diagonal of its nearest.
+        let diagonal = core::f32::consts::SQRT_2 * geometry.cell_size_m;
+        // The slope of a ray from the sensor through a return at height `z`, nearest range `range` of its cell:
+        // the return lies within a cell diagonal beyond it, taken where the ray is highest.
+        let slope_through = |z: f32, range: f32| {
+            let dz = z - self.sensor_z;
+            if dz < 0.0 {
+                dz / (range + diagonal)
+            } else {
+                dz / range
             }
-        }
-        let mut t = step;
-        while t <= reach {
-            let Some(c) = geometry.point_to_cell(x + ux * t, y + uy * t) else { return false };
-            t += step;
-            if c == c0 || self.grid.hits(c) == 0 {
-                continue;
-            }
-            if !near_own(c) {
-                return false;
-            }
-            let Some([r2min, zlow, ztop]) = self.grid.returns(c) else { return false };
-            let rmin = libm::sqrtf(r2min);
-            let clearance = rmin - r;
-            if clearance.is_nan() || clearance <= margin {
-                return false;
-            }
-            // The lowest ray that reached the cell, from its lowest return and a range that bounds that return's
-            // from the side that lowers the ray least: the cell's returns lie within a cell diagonal of its nearest.
-            let diagonal = core::f32::consts::SQRT_2 * geometry.cell_size_m;
-            // The slope of a ray from the sensor through a return at height `z`, nearest range `range` of its cell:
-            // the return lies within a cell diagonal beyond it, taken where the ray is highest.
-            let slope_through = |z: f32, range: f32| {
-                let dz = z - self.sensor_z;
-                if dz < 0.0 {
-                    dz / (range + diagonal)
-                } else {
-                    dz / range
-                }
-            };
-            let h = self.sensor_z + slope_through(zlow, rmin) * r;
-            // The occluder's shadow line: no ray along this direction passed over it lower.
-            let Some([o2min, _, otop]) = self.grid.returns(occluder) else { return false };
-            let shadow = slope_through(otop, libm::sqrtf(o2min));
-            let h = h.max(self.sensor_z + shadow * r);
-            let (lo, _) = self.params.obstacle_band_m();
-            return h <= ztop - SEEN_OVER_BELOW_TOP_M && h >= lo && self.sensor_z + shadow * rmin <= ztop;
-        }
-        false
+        };
+        let h = self.sensor_z + slope_through(zlow, rmin) * r;
+        // The occluder's shadow line: no ray along this direction passed over it lower.
+        let Some([o2min, _, otop]) = self.over_returns(occluder) else { return false };
+        let shadow = slope_through(otop, libm::sqrtf(o2min));
+        let h = h.max(self.sensor_z + shadow * r);
+        let (lo, _) = self.params.obstacle_band_m();
+        h <= ztop - SEEN_OVER_BELOW_TOP_M && h >= lo && self.sensor_z + shadow * rmin <= ztop
     }
 
     /// The footprint's centre and the point relative to the sensor, with their ranges, when the point is nearer
