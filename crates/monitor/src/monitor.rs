@@ -231,9 +231,9 @@ pub struct Monitor {
     over_map: Vec<u8>,
 }
 
-/// The occupancy grid the parameters ask for (touched cells bounded by `max_points`; each hit cell's sums of its returns' x and y with `jump_from_returns`; a bit per cell for the
-/// returns above the grazing rule's height with `roi_graze_fraction > 0`): the monitor's and the second half's of
-/// the rasterize stage on two threads.
+/// The occupancy grid the parameters ask for (touched cells bounded by `max_points`; each hit cell's sums of its
+/// returns' x and y with `jump_from_returns`; a bit per cell for the returns above the grazing rule's height with
+/// `roi_graze_fraction > 0`): the monitor's and the second half's of the rasterize stage on two threads.
 fn grid_for(params: &MonitorParams, geometry: GridGeometry) -> OccupancyGrid {
     let mut grid = OccupancyGrid::new(geometry, params.hit_probability, params.max_points as usize);
     if params.jump_from_returns {
@@ -283,6 +283,8 @@ impl Monitor {
         let max_objects = params.max_objects as usize;
         let max_clusters = params.max_clusters as usize;
         let cells = geometry.cell_count();
+        // With `seen_over`: the cells it may read per frame (two per sample point of each object; `over.rs`).
+        let over_cells = if params.seen_over { 9 * over::OVER_CELLS_PER_POINT * max_objects } else { 0 };
         let mut tracks = TrackTable::new(max_objects);
         // The calibrated rule's gates now, not in the first frame (bounded time per frame).
         let _ = tracks.prepare_gates(params.false_alarm_probability);
@@ -318,16 +320,8 @@ impl Monitor {
             roi_cell_counts: if params.roi_graze_fraction > 0.0 { alloc::vec![0; cells] } else { Vec::new() },
             split: None,
             sensor_z: 0.0,
-            over_cells: Vec::with_capacity(if params.seen_over {
-                9 * over::OVER_CELLS_PER_POINT * max_objects
-            } else {
-                0
-            }),
-            over_entries: Vec::with_capacity(if params.seen_over {
-                9 * over::OVER_CELLS_PER_POINT * max_objects
-            } else {
-                0
-            }),
+            over_cells: Vec::with_capacity(over_cells),
+            over_entries: Vec::with_capacity(over_cells),
             over_points: Vec::with_capacity(if params.seen_over { max_objects } else { 0 }),
             over_map: if params.seen_over { alloc::vec![0; EDGE_MAP] } else { Vec::new() },
             params,

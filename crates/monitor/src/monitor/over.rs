@@ -168,9 +168,7 @@ impl Monitor {
             let tau = self.params.tau_fn;
             let own = |c: u32| self.grid.probability(c) > tau && self.owns(j, c);
             let near_own = |c: u32| own(c) || self.grid.geometry.neighbours4(c).any(own);
-            let mut kept = [NO_CELL; 9 * OVER_CELLS_PER_POINT];
             let mut evidence = [[NO_CELL; 2]; 9];
-            let mut n = 0;
             for (k, [x, y]) in sample_points(&fp).into_iter().enumerate() {
                 if self.visibility.clearance(x, y).is_some() {
                     continue;
@@ -183,18 +181,13 @@ impl Monitor {
                     if let Some(e) = evidence.get_mut(k) {
                         *e = [c, occluder];
                     }
-                    for cell in [c, occluder] {
-                        if let Some(k) = kept.get_mut(n) {
-                            *k = cell;
-                            n += 1;
-                        }
-                    }
                 }
             }
             if let Some(p) = self.over_points.get_mut(j) {
                 *p = evidence;
             }
-            for &c in kept.get(..n).unwrap_or(&[]) {
+            // Both cells of each kept point (at most `OVER_CELLS_PER_POINT` per point: the capacity made in `new`).
+            for &c in evidence.iter().filter(|&&[c, _]| c != NO_CELL).flatten() {
                 if self.over_cells.len() < self.over_cells.capacity() {
                     self.over_cells.push(c);
                 }
@@ -252,16 +245,7 @@ mod tests {
     use crate::frame::{Isometry3, PointCloud, Pose2};
     use crate::grid::OccupancyGrid;
 
-    /// A small deterministic generator (xorshift), for the sweeps below.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use super::super::roi::tests::Rng;
 
     /// The returns `fold_over_returns` folds for a cell are the grid's own fold of that cell
     /// (`OccupancyGrid::with_returns`, filled by the reference loop), bit for bit: every hit cell of random sweeps
@@ -278,7 +262,7 @@ mod tests {
                     0 => [f32::NAN, 1.0, 0.0],
                     1 => [500.0, 0.0, 0.5],
                     2 => [0.3, 0.2, -0.5],
-                    _ => [(rng.next() - 0.5) * 90.0, (rng.next() - 0.5) * 90.0, rng.next() * 3.0 - 1.7],
+                    _ => [rng.range(-45.0, 45.0), rng.range(-45.0, 45.0), rng.range(-1.7, 1.3)],
                 };
                 // Runs of one cell, as rings put them.
                 points.push(p);
