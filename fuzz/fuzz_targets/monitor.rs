@@ -1,10 +1,10 @@
 //! `Monitor::check` on arbitrary frames: the bytes become timestamps, poses, objects (any f32 bit pattern:
 //! NaN, infinities, subnormals) and points, over three frames so that the plausibility checks run. Asserts the
 //! monitor's promises: no panic, one report per object, and no plausible verdict from non-finite estimates. With
-//! and without the params keys `seen_over`, `face_in_front`, `roi_graze_fraction` (with a region of interest) and
-//! `jump_from_returns`, with or without uncertainties on the objects and a turned sensor, and with or without
-//! `seen_body` (with `follow_gate`) and `memory_gate`, and with `jump_from_returns`, with or without
-//! `jump_first_return` (without it, with or without `front_cluster`).
+//! and without the params keys `seen_over`, `face_in_front` (with `returns_beyond_cells`), `roi_graze_fraction`
+//! (with a region of interest) and `jump_from_returns`, with or without uncertainties on the objects and a turned
+//! sensor, and with or without `seen_body` (with `follow_gate`) and `memory_gate`, and with `jump_from_returns`,
+//! with or without `jump_first_return` (without it, with or without `front_cluster`).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use pmon_monitor::{
@@ -60,7 +60,8 @@ fuzz_target!(|data: &[u8]| {
     // The first byte's top bit also switches the free-space test over nearer obstacles on (`seen_over`), without
     // shifting how the rest of the input is read.
     let seen_over = data.first().is_some_and(|b| b & 0x80 != 0);
-    // And its next bit the face-in-front test (`face_in_front`).
+    // And its next bit the face-in-front test (`face_in_front`), with own returns beyond the grown region
+    // (`returns_beyond_cells = 1`).
     let face_in_front = data.first().is_some_and(|b| b & 0x40 != 0);
     // And its next bit the grazing rule of a region of interest (`roi_graze_fraction`; the half plane x < 0, the
     // height low enough for the input's returns to reach it).
@@ -91,6 +92,7 @@ fuzz_target!(|data: &[u8]| {
         grid_size_m: 40.0,
         seen_over,
         face_in_front,
+        returns_beyond_cells: u32::from(face_in_front),
         jump_from_returns,
         jump_first_return,
         seen_body,

@@ -22,6 +22,7 @@ class Params:
     spill_over_fit: str
     seen_over: bool
     face_in_front: bool
+    returns_beyond_cells: int
     jump_from_returns: bool
     jump_first_return: bool
     jump_evidence_at_prediction: bool

@@ -781,6 +781,9 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
             out.push(format!("{key} = {value}"));
         }
     }
+    if d.returns_beyond_cells != p.returns_beyond_cells {
+        out.push(format!("returns_beyond_cells = {}", p.returns_beyond_cells));
+    }
     if d.memory_hold_s.to_bits() != p.memory_hold_s.to_bits() {
         out.push(format!("memory_hold_s = {}", p.memory_hold_s));
     }

@@ -10,13 +10,18 @@ use pmon_monitor::MonitorParams;
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct RuleSwitches {
     /// Check with the params key `seen_over` on: the free-space test towards the sensor also looks over
-    /// nearer obstacles, at the cost of each hit cell's returns kept by the grid (docs/attribution.md).
+    /// nearer obstacles, at the cost of the returns of the cells it reads, gathered before the verdicts (docs/attribution.md).
     #[cfg_attr(feature = "clap", arg(long))]
     pub seen_over: bool,
     /// Check with the params key `face_in_front` on: a box confirmed by its own evidence whose rays end on that
     /// evidence in front of its grown region is a position error (docs/attribution.md).
     #[cfg_attr(feature = "clap", arg(long))]
     pub face_in_front: bool,
+    /// Check with the params key `returns_beyond_cells = N`: a box confirmed by its own evidence with at least N own
+    /// cells whose first return lies beyond its grown region is a position error (docs/attribution.md, "Own returns
+    /// beyond the grown region"). Off by default.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "N"))]
+    pub returns_beyond_cells: Option<u32>,
     /// Check with the params key `jump_from_returns` on: step 9 (a box that jumps away from evidence that
     /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md). The
     /// default since issue #10; kept for older commands.
@@ -96,6 +101,9 @@ impl RuleSwitches {
     pub fn apply(&self, p: &mut MonitorParams) {
         p.seen_over |= self.seen_over;
         p.face_in_front |= self.face_in_front;
+        if let Some(n) = self.returns_beyond_cells {
+            p.returns_beyond_cells = n;
+        }
         p.jump_from_returns |= self.jump_from_returns || self.jump_first_return;
         p.jump_first_return |= self.jump_first_return;
         if self.no_jump_first_return {
@@ -159,6 +167,7 @@ mod tests {
         };
         assert!(on(|s| s.seen_over = true).seen_over);
         assert!(on(|s| s.face_in_front = true).face_in_front);
+        assert_eq!(on(|s| s.returns_beyond_cells = Some(2)).returns_beyond_cells, 2);
         assert!(on(|s| s.shadow_gate = true).shadow_gate);
         assert!(on(|s| s.memory_gate = true).memory_gate);
         let first = on(|s| s.jump_first_return = true);

@@ -7,7 +7,7 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `NONEARSIDE=1` `spill_near_side`; `FIRST=1`: `jump_first_return`; the jump keys are the default since issue #10:
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `NONEARSIDE=1` `spill_near_side`; `FIRST=1`: `jump_first_return`; `BEYOND=N`: `returns_beyond_cells = N`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
 //! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
@@ -1424,6 +1424,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut r = r.clone();
             r.spec.params.seen_over |= seen_over;
             r.spec.params.face_in_front |= std::env::var_os("FACE").is_some();
+            if let Some(k) = std::env::var("BEYOND").ok().and_then(|v| v.parse().ok()) {
+                r.spec.params.returns_beyond_cells = k;
+            }
             // `JUMP=1`: step 9 from the returns (the params key `jump_from_returns`, the default since issue #10;
             // `NOJUMP=1` turns it off, and with it `jump_first_return`).
             r.spec.params.jump_from_returns |= std::env::var_os("JUMP").is_some();

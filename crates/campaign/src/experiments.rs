@@ -235,7 +235,7 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 18] = [
+const LATE_PARAMS_KEYS: [&str; 19] = [
     "spill_over_fit",
     "seen_over",
     "face_in_front",
@@ -254,6 +254,7 @@ const LATE_PARAMS_KEYS: [&str; 18] = [
     "jump_jumped_boxes",
     "shadow_gate",
     "follow_gate",
+    "returns_beyond_cells",
 ];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].

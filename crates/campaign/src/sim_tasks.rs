@@ -355,7 +355,7 @@ mod tests {
         let a = plan(Scale::Smoke, IDS, &params, 7);
         let id = run_identity("pedestrians", &a[0].spec);
         assert!(!id.contains("spill_over_fit") && !id.contains("seen_over") && !id.contains("face_in_front"), "{id}");
-        assert!(!id.contains("roi_graze") && !id.contains("seen_body"), "{id}");
+        assert!(!id.contains("roi_graze") && !id.contains("seen_body") && !id.contains("returns_beyond"), "{id}");
         assert_eq!(a[0].spec.injection.seed, 5_901_858_983_376_117_566, "{id}");
         // `seen_body` and `follow_gate` are on by default since issue #10's round of rays on the body: off, they
         // are in the identity.

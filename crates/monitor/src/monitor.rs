@@ -25,6 +25,7 @@ use crate::visibility::{Sight, VisibilityMap, NO_CELL};
 
 mod assignment;
 mod attribution;
+mod beyond;
 mod clusters;
 mod distance;
 mod face;

@@ -252,9 +252,9 @@ pub struct MonitorParams {
     /// Off by default. The free-space test towards the sensor also looks over nearer obstacles: a sample point of
     /// a confirmed box hidden behind something in front of it (a pedestrian behind a parked car) counts as seen
     /// empty when the rays that reached the object's own evidence behind the point crossed it at a body's height
-    /// (docs/attribution.md, "Seen over the occluder"). The grid then also keeps, per hit cell, the nearest range
-    /// and the lowest and highest z of its returns: 1.2-1.4x the sensor checks' time (docs/performance.md). Not the
-    /// default: that cost. (Its first version also raised the sensor false alarms on the full plan of
+    /// (docs/attribution.md, "Seen over the occluder"). Before the verdicts it gathers the nearest range and the lowest
+    /// and highest z of the returns of the cells it will read (the cells the rasterizer records per point): 1.08-1.27x
+    /// the sensor checks' time, +11 to +24 % of their instructions (docs/performance.md). Not the default: that cost. (Its first version also raised the sensor false alarms on the full plan of
     /// `pmon reproduce`, 8 -> 14 on seed 23; since its rays must clear the occluder's shadow line, none on the
     /// plans measured.)
     pub seen_over: bool,
@@ -265,6 +265,16 @@ pub struct MonitorParams {
     /// it adds 0-4 sensor false alarms up to 0.3 m noise (draws beyond the margin that the cells hid) and costs
     /// up to 0.9 points of precision under the paper's conditions, for recall below `dx_min` and on real sweeps.
     pub face_in_front: bool,
+    /// Off by default (0). With N > 0, a box confirmed by its own evidence is a `position_error` when at least N of
+    /// its own hit cells have their first return more than `safety_margin_m` beyond its grown region and its own
+    /// first returns still fit its length and width (plus `2 safety_margin_m`); returns in another object's region or
+    /// near an object whose evidence is sought are left out. It catches displacements the cells of the grown region
+    /// still cover (below `dx_min`; docs/attribution.md, "Own returns beyond the grown region"). Not the default: with
+    /// N = 1 it flags 5 of the 80 clean Argoverse 2 boxes in scope (unlabelled things beside them) and adds sensor
+    /// false alarms up to 0.3 m noise, boxes beyond their stated margin (full plans: 9 / 7 / 3 -> 14 / 17 / 6 on
+    /// seeds 7 / 11 / 23); N = 2 flags no clean real box for a smaller gain. Needs the grid's first returns (`jump_first_return`) or sums
+    /// (`jump_from_returns`); without either it does nothing.
+    pub returns_beyond_cells: u32,
     /// On by default (issue #10; off before it). Step 9 of the attribution (a box that jumps away from evidence
     /// that stayed) is also made with each frame's evidence centre taken as the mean of the returns in the
     /// evidence's cells instead of the mean of the cells' centres, with an allowance along each axis that drops the
@@ -500,6 +510,7 @@ impl MonitorParams {
         spill_over_fit: SpillOverFit::EveryReturn,
         seen_over: false,
         face_in_front: false,
+        returns_beyond_cells: 0,
         jump_from_returns: true,
         jump_first_return: true,
         jump_evidence_at_prediction: true,
@@ -865,6 +876,7 @@ mod tests {
         assert!(MonitorParams { spill_in_front: false, ..d }.validate().is_ok());
         assert!(d.spill_near_side && MonitorParams { spill_near_side: false, ..d }.validate().is_ok());
         assert!(!d.seen_over && !d.face_in_front && !d.memory_gate && !d.shadow_gate);
+        assert_eq!(d.returns_beyond_cells, 0);
         assert!(d.seen_body && d.follow_gate, "on by default since issue #10's round of rays on the body");
         for ok in [0.0, 0.5, 10.0] {
             assert!(MonitorParams { memory_hold_s: ok, ..d }.validate().is_ok(), "{ok}");

@@ -63,7 +63,8 @@ fn check_allocates_nothing_after_construction() {
     // with evidence bounded by the gate (`memory_gate`), and with step 9 from each cell's first return
     // (`jump_first_return`, with and without the grazing rule), and with a free cluster in front of a confirmed box
     // offered to it (`front_cluster`). The last two cases also keep displaced offsets over frames (`memory_hold_s`),
-    // and the last one bounds step 8 by the gate (`follow_gate`) with `seen_body`.
+    // and the last one bounds step 8 by the gate (`follow_gate`) with `seen_body`, and counts own first returns
+    // beyond the grown regions (`returns_beyond_cells = 1`).
     for (seen_over, face_in_front, roi_graze_fraction, jump, seen_body, memory_gate, front_cluster) in [
         (false, false, 0.0, (false, false), false, false, false),
         (true, false, 0.0, (false, false), false, false, false),
@@ -94,6 +95,7 @@ fn check_allocates_nothing_after_construction() {
             follow_gate: seen_body && front_cluster,
             front_cluster,
             memory_hold_s: if front_cluster && jump_first_return { 1.0 } else { 0.0 },
+            returns_beyond_cells: u32::from(seen_body && front_cluster),
             ..MonitorParams::default()
         };
         let mut monitor = Monitor::new(params).unwrap();

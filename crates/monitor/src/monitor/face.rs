@@ -125,7 +125,7 @@ impl Monitor {
 impl Monitor {
     /// True when an ego-frame point lies in the grown region of an object other than `j` (the regions whose
     /// bounding boxes can reach it along x, by the attribution's sorted sweep).
-    fn in_other_region(&self, j: usize, x: f32, y: f32) -> bool {
+    pub(super) fn in_other_region(&self, j: usize, x: f32, y: f32) -> bool {
         let (lo, hi) = self.x_window([x, y, x, y], 0.0);
         (lo..hi).any(|m| {
             self.by_x.get(m).is_some_and(|&(_, k)| {
@@ -140,7 +140,7 @@ impl Monitor {
     /// True when an object other than `j` without evidence of its own and without a cluster (one that may be
     /// displaced and whose evidence is not found) has its grown region within `conflict_association_m` of the
     /// point: the return there may be its evidence, lying in `j`'s cells, and `j` is not blamed for it.
-    fn sought_nearby(&self, j: usize, x: f32, y: f32) -> bool {
+    pub(super) fn sought_nearby(&self, j: usize, x: f32, y: f32) -> bool {
         let gate = self.params.conflict_association_m;
         let tau_tp = self.params.tau_tp;
         let (lo, hi) = self.x_window([x, y, x, y], gate);

@@ -84,12 +84,26 @@ impl Monitor {
                 } else {
                     None
                 };
+                // Confirmed by its own evidence, but own returns stand beyond its grown region in the cells it owns
+                // (`returns_beyond_cells`, off by default): displaced by less than the cells show.
+                let beyond = if self.params.returns_beyond_cells > 0
+                    && cluster.is_none()
+                    && !seen_through
+                    && face.is_none()
+                    && eta_own >= tau_tp
+                    && own_sum[2] >= 1.0
+                {
+                    self.returns_beyond(j, &region)
+                } else {
+                    None
+                };
                 // Confirmed (or hidden) where it is reported, but its evidence stayed where the previous frame's
                 // evidence, moved by the object's stated motion, predicts it, and the box jumped away from it.
                 let moved = if cluster.is_none()
                     && followed.is_none()
                     && !seen_through
                     && face.is_none()
+                    && beyond.is_none()
                     && (eta_own >= tau_tp || shared || occluded)
                 {
                     self.moved_from_evidence(j, &region)
@@ -137,6 +151,11 @@ impl Monitor {
                     let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
                     let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
                     s.offset_m = [depth * dx / r, depth * dy / r];
+                    SensorVerdict::PositionError
+                } else if let Some(at) = beyond {
+                    // From its own returns beyond the region back to the box.
+                    let (nx, ny) = region.footprint.nearest_point(at[0], at[1]);
+                    s.offset_m = [nx - at[0], ny - at[1]];
                     SensorVerdict::PositionError
                 } else if eta_own >= tau_tp || shared {
                     SensorVerdict::Consistent
