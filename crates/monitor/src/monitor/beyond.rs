@@ -21,6 +21,7 @@
 //! (docs/attribution.md). Bounded: one walk over the grown region's hit cells per confirmed box that no other rule
 //! flags, and for each counted return the look at the nearby regions of `face.rs`.
 
+use super::fit::{grown, span_fits, NO_SPAN};
 use super::*;
 
 impl Monitor {
@@ -38,11 +39,6 @@ impl Monitor {
         let tolerance = self.params.safety_margin_m;
         let fp = &region.footprint;
         let slack = 2.0 * self.params.safety_margin_m;
-        let fits = |span: [f32; 4]| {
-            span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
-        };
-        let grow =
-            |span: [f32; 4], (u, v): (f32, f32)| [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
         // Each own hit cell's first return (with `jump_first_return`; else the mean of its returns).
         let first_return = |idx: u32| {
             self.grid.sums(idx).filter(|s| s[2] >= 1.0 && self.owns(j, idx)).map(|[sx, sy, n]| (sx / n, sy / n))
@@ -51,17 +47,17 @@ impl Monitor {
         // and the span of the others in the box's axes. Most boxes have fewer than K beyond, or evidence wider than
         // the box already, and stop here.
         let mut candidates = 0u32;
-        let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+        let mut span = NO_SPAN;
         self.grid.for_each_hit_cell(&region.grown, range, |idx| {
             if let Some((x, y)) = first_return(idx) {
                 if region.grown.distance(x, y) > tolerance {
                     candidates += 1;
                 } else {
-                    span = grow(span, fp.local(x, y));
+                    span = grown(span, fp.local(x, y));
                 }
             }
         });
-        if candidates < k_min || !fits(span) {
+        if candidates < k_min || !span_fits(span, fp, slack) {
             return None;
         }
         // Then the returns beyond, each unless it may be another object's.
@@ -73,11 +69,11 @@ impl Monitor {
             {
                 return;
             }
-            span = grow(span, fp.local(x, y));
+            span = grown(span, fp.local(x, y));
             beyond += 1;
             sum[0] += x;
             sum[1] += y;
         });
-        (beyond >= k_min && fits(span)).then(|| [sum[0] / beyond as f32, sum[1] / beyond as f32])
+        (beyond >= k_min && span_fits(span, fp, slack)).then(|| [sum[0] / beyond as f32, sum[1] / beyond as f32])
     }
 }

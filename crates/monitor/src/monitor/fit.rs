@@ -266,13 +266,13 @@ pub(super) struct OwnSpans {
 
 /// `span` (`[u min, u max, v min, v max]` in a box's axes) grown to take the point `(u, v)`.
 #[inline]
-fn grown(span: [f32; 4], (u, v): (f32, f32)) -> [f32; 4] {
+pub(super) fn grown(span: [f32; 4], (u, v): (f32, f32)) -> [f32; 4] {
     [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)]
 }
 
 /// A span in the axes of box `fp` no longer along and across than the box's length and width plus `slack`.
 #[inline]
-fn span_fits(span: [f32; 4], fp: &crate::geometry::OrientedRect, slack: f32) -> bool {
+pub(super) fn span_fits(span: [f32; 4], fp: &crate::geometry::OrientedRect, slack: f32) -> bool {
     span[1] - span[0] <= 2.0 * fp.half_length + slack && span[3] - span[2] <= 2.0 * fp.half_width + slack
 }
 
