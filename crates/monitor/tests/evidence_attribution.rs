@@ -923,31 +923,44 @@ fn a_box_displaced_towards_the_sensor_is_seen_over_a_parked_car() {
 /// car stays consistent.
 #[test]
 fn a_box_displaced_away_below_dx_min_is_caught_by_its_face_in_front() {
+    let on = MonitorParams { face_in_front: true, ..MonitorParams::default() };
+    let cases = [
+        ("face_in_front false", MonitorParams::default(), SensorVerdict::Consistent),
+        ("face_in_front true", on, SensorVerdict::PositionError),
+    ];
+    car_displaced_away_below_dx_min(&cases, 0.1, &[[0.0, 0.0], [0.0, 0.3]]);
+}
+
+/// The car of the two tests below dx_min, 18.05-22.45 m ahead, reported 0.7 m further away: for each case (a label,
+/// the params, the verdict wanted), the displaced box keeps its evidence by the cells and gets the verdict, a position
+/// error with its offset from the face back to the box (+0.5-0.8 m along x, less than `across` across); the car
+/// shifted by each of `clean` (metres along x and y, within its margin) stays consistent.
+fn car_displaced_away_below_dx_min(cases: &[(&str, MonitorParams, SensorVerdict)], across: f32, clean: &[[f32; 2]]) {
     let truth = object(1, 20.25, 0.0, 0.0, 4.4, 1.8);
     let pts = ray_cast(&[[18.05, -0.9, 22.45, 0.9, 1.5]]);
-    let on = MonitorParams { face_in_front: true, ..MonitorParams::default() };
     let mut away = truth;
     away.x_m += 0.7;
-    let mut aside = truth;
-    aside.y_m += 0.3;
-    for (params, want) in [(MonitorParams::default(), SensorVerdict::Consistent), (on, SensorVerdict::PositionError)] {
+    for &(label, params, want) in cases {
         let mut m = Monitor::new(params).unwrap();
         let r = run(&mut m, &[away], &pts);
         assert!(r[0].sensor.eta_own >= 0.8, "the box keeps its evidence by the cells: {:?}", r[0].sensor);
-        assert_eq!(r[0].sensor.verdict, want, "face_in_front {}: {:?}", params.face_in_front, r[0].sensor);
+        assert_eq!(r[0].sensor.verdict, want, "{label}: {:?}", r[0].sensor);
         if want == SensorVerdict::PositionError {
             assert!(r[0].sensor.offset_m[0] > 0.5 && r[0].sensor.offset_m[0] < 0.8, "{:?}", r[0].sensor.offset_m);
-            assert!(r[0].sensor.offset_m[1].abs() < 0.1, "{:?}", r[0].sensor.offset_m);
+            assert!(r[0].sensor.offset_m[1].abs() < across, "{:?}", r[0].sensor.offset_m);
         }
-        for clean in [truth, aside] {
+        for &[dx, dy] in clean {
+            let mut at = truth;
+            at.x_m += dx;
+            at.y_m += dy;
             let mut m = Monitor::new(params).unwrap();
-            let r = run(&mut m, &[clean], &pts);
+            let r = run(&mut m, &[at], &pts);
             assert_eq!(
                 r[0].sensor.verdict,
                 SensorVerdict::Consistent,
-                "at ({}, {}): {:?}",
-                clean.x_m,
-                clean.y_m,
+                "{label} at ({}, {}): {:?}",
+                at.x_m,
+                at.y_m,
                 r[0].sensor
             );
         }
@@ -962,39 +975,13 @@ fn a_box_displaced_away_below_dx_min_is_caught_by_its_face_in_front() {
 /// away within it (0.3 m), the car stays consistent.
 #[test]
 fn a_box_displaced_away_below_dx_min_is_caught_by_its_returns_beyond_the_region() {
-    let truth = object(1, 20.25, 0.0, 0.0, 4.4, 1.8);
-    let pts = ray_cast(&[[18.05, -0.9, 22.45, 0.9, 1.5]]);
-    let mut away = truth;
-    away.x_m += 0.7;
-    let mut aside = truth;
-    aside.y_m += 0.3;
-    let mut within = truth;
-    within.x_m += 0.3;
-    for (n, want) in
-        [(0, SensorVerdict::Consistent), (1, SensorVerdict::PositionError), (2, SensorVerdict::PositionError)]
-    {
-        let params = MonitorParams { returns_beyond_cells: n, ..MonitorParams::default() };
-        let mut m = Monitor::new(params).unwrap();
-        let r = run(&mut m, &[away], &pts);
-        assert!(r[0].sensor.eta_own >= 0.8, "the box keeps its evidence by the cells: {:?}", r[0].sensor);
-        assert_eq!(r[0].sensor.verdict, want, "returns_beyond_cells {n}: {:?}", r[0].sensor);
-        if want == SensorVerdict::PositionError {
-            assert!(r[0].sensor.offset_m[0] > 0.5 && r[0].sensor.offset_m[0] < 0.8, "{:?}", r[0].sensor.offset_m);
-            assert!(r[0].sensor.offset_m[1].abs() < 0.3, "{:?}", r[0].sensor.offset_m);
-        }
-        for clean in [truth, aside, within] {
-            let mut m = Monitor::new(params).unwrap();
-            let r = run(&mut m, &[clean], &pts);
-            assert_eq!(
-                r[0].sensor.verdict,
-                SensorVerdict::Consistent,
-                "returns_beyond_cells {n} at ({}, {}): {:?}",
-                clean.x_m,
-                clean.y_m,
-                r[0].sensor
-            );
-        }
-    }
+    let with = |n: u32| MonitorParams { returns_beyond_cells: n, ..MonitorParams::default() };
+    let cases = [
+        ("returns_beyond_cells 0", with(0), SensorVerdict::Consistent),
+        ("returns_beyond_cells 1", with(1), SensorVerdict::PositionError),
+        ("returns_beyond_cells 2", with(2), SensorVerdict::PositionError),
+    ];
+    car_displaced_away_below_dx_min(&cases, 0.3, &[[0.0, 0.0], [0.0, 0.3], [0.3, 0.0]]);
 }
 
 /// What `returns_beyond_cells = 1` gives up, and what it leaves out: the same car where it stands, with a thin post
