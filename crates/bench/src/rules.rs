@@ -18,8 +18,8 @@ pub struct RuleSwitches {
     #[cfg_attr(feature = "clap", arg(long))]
     pub face_in_front: bool,
     /// Check with the params key `returns_beyond_cells = N`: a box confirmed by its own evidence with at least N own
-    /// cells whose first return lies beyond its grown region is a position error (docs/attribution.md, "Own returns
-    /// beyond the grown region"). Off by default.
+    /// cells wholly beyond its grown region (every return of the cell) is a position error (docs/attribution.md, "Own
+    /// returns beyond the grown region"). Off by default.
     #[cfg_attr(feature = "clap", arg(long, value_name = "N"))]
     pub returns_beyond_cells: Option<u32>,
     /// Check with the params key `jump_from_returns` on: step 9 (a box that jumps away from evidence that

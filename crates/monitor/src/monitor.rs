@@ -199,9 +199,10 @@ pub struct Monitor {
     spill_over_fit: SpillOverFit,
     /// This frame's region-of-interest polygons, indexed by grid row (`roi.rs`).
     roi: RoiIndex,
-    /// In frames with a region of interest, and in every frame with `seen_over`: each point's grid cell as the
-    /// rasterizer found it (`NO_CELL` for points not in the obstacle band or not in the grid), for the returns of
-    /// the ROI's edge cells and of the cells `seen_over` reads.
+    /// In frames with a region of interest, and in every frame with `seen_over` or `returns_beyond_cells`: each
+    /// point's grid cell as the rasterizer found it (`NO_CELL` for points not in the obstacle band or not in the
+    /// grid), for the returns of the ROI's edge cells, of the cells `seen_over` reads and of the candidate cells of
+    /// `returns_beyond_cells` (`beyond.rs`).
     point_cells: Vec<u32>,
     /// The prefilter of the scan of the recorded cells (`roi_by_returns`): byte `c & 0xFFFF` is 1 when a cell `c`
     /// marked `FLAG_ROI_EDGE` this frame maps to it ([`EDGE_MAP`] bytes; all 0 between frames). Exact for grids of
@@ -230,6 +231,15 @@ pub struct Monitor {
     /// With `seen_over`: the prefilter of its scan of the recorded cells ([`EDGE_MAP`] bytes, as `edge_map`; all 0
     /// between frames). Empty without the key.
     over_map: Vec<u8>,
+    /// With `returns_beyond_cells`: the candidate cells of each confirmed box (its own hit cells whose first return
+    /// stands beyond its grown region), sorted by cell and box, with the distance beyond that region of each cell's
+    /// nearest return (`beyond.rs`). Empty without the key.
+    beyond_entries: Vec<beyond::BeyondEntry>,
+    /// With `returns_beyond_cells`: the prefilter of its scan of the recorded cells ([`EDGE_MAP`] bytes, as
+    /// `edge_map`; all 0 between frames). Empty without the key.
+    beyond_map: Vec<u8>,
+    /// With `returns_beyond_cells`: whether this frame's candidate cells were gathered and scanned.
+    beyond_gathered: bool,
 }
 
 /// The occupancy grid the parameters ask for (touched cells bounded by `max_points`; each hit cell's sums of its
@@ -286,6 +296,7 @@ impl Monitor {
         let cells = geometry.cell_count();
         // With `seen_over`: the cells it may read per frame (two per sample point of each object; `over.rs`).
         let over_cells = if params.seen_over { 9 * over::OVER_CELLS_PER_POINT * max_objects } else { 0 };
+        let beyond = params.returns_beyond_cells > 0;
         let mut tracks = TrackTable::new(max_objects);
         // The calibrated rule's gates now, not in the first frame (bounded time per frame).
         let _ = tracks.prepare_gates(params.false_alarm_probability);
@@ -325,6 +336,9 @@ impl Monitor {
             over_entries: Vec::with_capacity(over_cells),
             over_points: Vec::with_capacity(if params.seen_over { max_objects } else { 0 }),
             over_map: if params.seen_over { alloc::vec![0; EDGE_MAP] } else { Vec::new() },
+            beyond_entries: Vec::with_capacity(if beyond { beyond::BEYOND_CELLS_PER_OBJECT * max_objects } else { 0 }),
+            beyond_map: if beyond { alloc::vec![0; EDGE_MAP] } else { Vec::new() },
+            beyond_gathered: false,
             params,
         })
     }
@@ -549,7 +563,10 @@ impl Monitor {
             let status = self.sensor_status;
             self.gather_over_returns(cloud.filter(|_| status.is_none()));
         }
-        self.finish_reports(frame);
+        // `returns_beyond_cells`: its scan runs when a box first needs it (`beyond.rs`).
+        self.beyond_gathered = false;
+        let status = self.sensor_status;
+        self.finish_reports(frame, cloud.filter(|_| status.is_none()));
         on_stage(Stage::Verdicts);
         Ok(FrameReport {
             objects: &self.reports,
@@ -659,9 +676,9 @@ impl Monitor {
         }
         let (grid, visibility) = (&mut self.grid, &mut self.visibility);
         // With a region of interest the loop also records each point's cell (`roi_by_returns` reads them), and with
-        // `seen_over` (`over.rs` reads them).
+        // `seen_over` (`over.rs` reads them) or `returns_beyond_cells` (`beyond.rs`).
         let cells = &mut self.point_cells;
-        let record = !frame.roi_in_ego.is_empty() || self.params.seen_over;
+        let record = !frame.roi_in_ego.is_empty() || self.params.seen_over || self.params.returns_beyond_cells > 0;
         // The blocked loop with the wider vector unit or on the baseline; `None`: the scalar reference.
         let wide = match self.rasterizer {
             Rasterizer::Blocked => Some(true),

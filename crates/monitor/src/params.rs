@@ -266,14 +266,15 @@ pub struct MonitorParams {
     /// up to 0.9 points of precision under the paper's conditions, for recall below `dx_min` and on real sweeps.
     pub face_in_front: bool,
     /// Off by default (0). With N > 0, a box confirmed by its own evidence is a `position_error` when at least N of
-    /// its own hit cells have their first return more than `safety_margin_m` beyond its grown region and its own
-    /// first returns still fit its length and width (plus `2 safety_margin_m`); returns in another object's region or
-    /// near an object whose evidence is sought are left out. It catches displacements the cells of the grown region
-    /// still cover (below `dx_min`; docs/attribution.md, "Own returns beyond the grown region"). Not the default: with
-    /// N = 1 it flags 5 of the 80 clean Argoverse 2 boxes in scope (unlabelled things beside them) and adds sensor
-    /// false alarms up to 0.3 m noise, boxes beyond their stated margin (full plans: 9 / 7 / 3 -> 14 / 17 / 6 on
-    /// seeds 7 / 11 / 23); N = 2 flags no clean real box for a smaller gain. Needs the grid's first returns (`jump_first_return`) or sums
-    /// (`jump_from_returns`); without either it does nothing.
+    /// its own hit cells stand wholly beyond its grown region (their first return and every other return more than
+    /// `safety_margin_m` beyond it) and its own first returns still fit its length and width (plus
+    /// `2 safety_margin_m`); returns in another object's region or near an object whose evidence is sought are left
+    /// out. It catches displacements the cells of the grown region still cover (below `dx_min`; docs/attribution.md,
+    /// "Own returns beyond the grown region", "The whole cell, not its first return"). Not the default for its cost:
+    /// with N = 1, 13-26 % more instructions per check (a scan of the candidate cells' returns each frame); it
+    /// flags 2 of the 80 clean Argoverse 2 boxes in scope and adds sensor false alarms up to 0.3 m noise, boxes
+    /// beyond their stated margin (full plans: 9 / 7 / 3 -> 12 / 14 / 5 on seeds 7 / 11 / 23). Needs the grid's
+    /// first returns (`jump_first_return`) or sums (`jump_from_returns`); without either it does nothing.
     pub returns_beyond_cells: u32,
     /// On by default (issue #10; off before it). Step 9 of the attribution (a box that jumps away from evidence
     /// that stayed) is also made with each frame's evidence centre taken as the mean of the returns in the

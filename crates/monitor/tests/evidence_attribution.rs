@@ -1008,6 +1008,24 @@ fn a_post_beside_a_clean_box_is_its_returns_beyond_unless_labelled() {
     }
 }
 
+/// What a cell's first return alone would flag and the whole cell does not: the clean car of the test above with
+/// two thin posts in the one 0.5 m cell (17.5-18.0 m ahead, 0.5-1.0 m aside) in front of its face, like a bush
+/// standing into its margin: the first, 17.50 m ahead (0.15 m beyond the grown region), gives the cell its first
+/// return; the second, 17.62 m ahead, stands within `delta_safe` of the region (0.03 m beyond it). The cell is not
+/// wholly beyond the region, so it is not counted, and the car stays consistent with one cell; without the second
+/// post (the test above) the same first return flags it.
+#[test]
+fn a_cell_reaching_into_the_margin_of_a_clean_box_is_not_its_returns_beyond() {
+    let car = object(1, 20.25, 0.0, 0.0, 4.4, 1.8);
+    let pts =
+        ray_cast(&[[18.05, -0.9, 22.45, 0.9, 1.5], [17.50, 0.55, 17.56, 0.65, 1.5], [17.62, 0.70, 17.68, 0.80, 1.5]]);
+    let params = MonitorParams { returns_beyond_cells: 1, ..MonitorParams::default() };
+    let mut m = Monitor::new(params).unwrap();
+    let r = run(&mut m, &[car], &pts);
+    assert!(r[0].sensor.eta_own >= 0.8, "confirmed by its own evidence: {:?}", r[0].sensor);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{:?}", r[0].sensor);
+}
+
 /// Seen over the occluder, but not by returns that came beside it: a pedestrian 30 m ahead stands behind another,
 /// 20 m ahead, 1.75 m tall (the sensor is at 1.8 m, so nothing lower than 1.72 m at 30 m passed over it), and is
 /// confirmed by the edge of it the sensor sees beside the nearer one. An unlisted pedestrian 0.3 m behind it shows

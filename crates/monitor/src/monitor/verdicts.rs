@@ -14,7 +14,7 @@ use crate::evidence_memory::Motion;
 
 impl Monitor {
     /// Sensor verdicts (f(o) with the evidence attribution and the occlusion test) and the combined verdicts.
-    pub(super) fn finish_reports(&mut self, frame: &Frame<'_>) {
+    pub(super) fn finish_reports(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
         let tau_tp = self.params.tau_tp;
         self.memory.begin();
         for j in 0..self.reports.len() {
@@ -93,7 +93,7 @@ impl Monitor {
                     && eta_own >= tau_tp
                     && own_sum[2] >= 1.0
                 {
-                    self.returns_beyond(j, &region)
+                    self.returns_beyond(j, &region, cloud)
                 } else {
                     None
                 };
