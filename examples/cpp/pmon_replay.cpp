@@ -91,6 +91,7 @@ int main(int argc, char** argv) {
                          ",\"verdict\":" + str(text(r.verdict_name));
       if (r.reason_name[0]) line += ",\"reason\":" + str(text(r.reason_name));
       if (r.conditions_text[0]) line += ",\"conditions\":" + str(text(r.conditions_text));
+      if (r.position_cause_name[0]) line += ",\"position_cause\":" + str(text(r.position_cause_name));
       line += ",\"sensor\":" + str(text(r.sensor_text)) + ",\"motion\":" + str(text(r.motion_text)) +
               ",\"eta\":" + num(r.eta) + ",\"margin_length_m\":" + num(r.margin_length_m) +
               ",\"margin_width_m\":" + num(r.margin_width_m) + ",\"visible_fraction\":" + num(r.visible_fraction) +

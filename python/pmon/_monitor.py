@@ -33,7 +33,9 @@ class CheckResult:
 
     - ``id`` (uint64), ``class`` (str), ``verdict`` (str: ``consistent``, ``ghost``, ``position_error``,
       ``implausible_motion``, ``not_monitored``, ``motion_only_consistent``), ``reason`` (why not monitored,
-      else None), ``conditions`` (implausible motion's conditions), ``sensor`` and ``motion`` (each check's
+      else None), ``conditions`` (implausible motion's conditions), ``position_cause`` (which test found a
+      position error: ``displaced_evidence``, ``evidence_followed``, ``jumped_from_evidence``, ``seen_through``,
+      ``face_in_front``, ``returns_beyond``; else None), ``sensor`` and ``motion`` (each check's
       own verdict text), ``kind`` / ``error_size`` / ``error_unit`` / ``severity`` (implausible motion: what
       is wrong and how much; None / NaN otherwise), ``is_alarm`` (bool);
     - the sensor checks: ``eta`` (consistency, eq. 5), ``margin_length_m``, ``margin_width_m``,
@@ -123,6 +125,8 @@ class CheckResult:
                 r["reason"] = o["reason"][i]
             if o["conditions"][i] is not None:
                 r["conditions"] = o["conditions"][i]
+            if o["position_cause"][i] is not None:
+                r["position_cause"] = o["position_cause"][i]
             r["sensor"] = o["sensor"][i]
             r["motion"] = o["motion"][i]
             for k in ("eta", "margin_length_m", "margin_width_m", "visible_fraction"):

@@ -638,6 +638,7 @@ mod tests {
             visible_fraction: 1.0,
             cluster,
             offset_m,
+            position_cause: None,
         };
         let agrees = |verdict, cluster, offset_m| {
             reported_displacement_agrees(&flagged(verdict, cluster, offset_m), &clusters, &truth, [1.5, 1.5])

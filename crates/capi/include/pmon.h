@@ -55,6 +55,31 @@
 // A verdict this header does not know yet: read `verdict_name`.
 #define PMON_VERDICT_OTHER 255
 
+// `PmonObjectResult::position_cause`: not a position error.
+#define PMON_POSITION_CAUSE_NONE 0
+
+// A conflict cluster (evidence no object explains) was attributed to the object: its evidence lies outside its
+// grown region.
+#define PMON_POSITION_CAUSE_DISPLACED_EVIDENCE 1
+
+// Its evidence of the frames before, followed to where its offset puts it, lies apart from it.
+#define PMON_POSITION_CAUSE_EVIDENCE_FOLLOWED 2
+
+// The box jumped away from its evidence, which stayed where the object's motion predicts it.
+#define PMON_POSITION_CAUSE_JUMPED_FROM_EVIDENCE 3
+
+// The rays pass through the box to its own evidence behind it (displaced towards the sensor).
+#define PMON_POSITION_CAUSE_SEEN_THROUGH 4
+
+// Its evidence's face stands in front of the box along the rays (params key `face_in_front`).
+#define PMON_POSITION_CAUSE_FACE_IN_FRONT 5
+
+// Its own returns stand beyond its grown region (params key `returns_beyond_cells`).
+#define PMON_POSITION_CAUSE_RETURNS_BEYOND 6
+
+// A cause the core added after this header: its name is in `position_cause_name`.
+#define PMON_POSITION_CAUSE_OTHER 255
+
 // `PmonCluster::roi_status`: the frame has no region of interest (the whole grid is in it).
 #define PMON_ROI_NONE 0
 
@@ -245,6 +270,10 @@ typedef struct PmonObjectResult {
   float error_size;
   // `error_size` over the safety-critical size (>= 1: safety-critical; 0 without a kind).
   float severity;
+  // For a position error, which test found it (`PMON_POSITION_CAUSE_*`); else `PMON_POSITION_CAUSE_NONE`.
+  uint32_t position_cause;
+  // Its name (`displaced_evidence`, `seen_through`, ...), else empty.
+  uint8_t position_cause_name[32];
 } PmonObjectResult;
 
 // A conflict cluster: LiDAR evidence no object explains.

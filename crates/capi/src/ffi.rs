@@ -12,7 +12,7 @@ use std::path::Path;
 
 use pmon_monitor::{
     ClusterReport, Isometry3, MonitorParams, NotMonitoredReason, ObjectClass, ObjectReport, ObjectState, Pose2,
-    Uncertainty, Verdict,
+    PositionCause, Uncertainty, Verdict,
 };
 use pmon_recording::{RecordedFrame, RecordingReader};
 
@@ -51,6 +51,24 @@ pub const PMON_VERDICT_IMPLAUSIBLE_MOTION: u32 = 3;
 pub const PMON_VERDICT_NOT_MONITORED: u32 = 4;
 /// A verdict this header does not know yet: read `verdict_name`.
 pub const PMON_VERDICT_OTHER: u32 = 255;
+
+/// `PmonObjectResult::position_cause`: not a position error.
+pub const PMON_POSITION_CAUSE_NONE: u32 = 0;
+/// A conflict cluster (evidence no object explains) was attributed to the object: its evidence lies outside its
+/// grown region.
+pub const PMON_POSITION_CAUSE_DISPLACED_EVIDENCE: u32 = 1;
+/// Its evidence of the frames before, followed to where its offset puts it, lies apart from it.
+pub const PMON_POSITION_CAUSE_EVIDENCE_FOLLOWED: u32 = 2;
+/// The box jumped away from its evidence, which stayed where the object's motion predicts it.
+pub const PMON_POSITION_CAUSE_JUMPED_FROM_EVIDENCE: u32 = 3;
+/// The rays pass through the box to its own evidence behind it (displaced towards the sensor).
+pub const PMON_POSITION_CAUSE_SEEN_THROUGH: u32 = 4;
+/// Its evidence's face stands in front of the box along the rays (params key `face_in_front`).
+pub const PMON_POSITION_CAUSE_FACE_IN_FRONT: u32 = 5;
+/// Its own returns stand beyond its grown region (params key `returns_beyond_cells`).
+pub const PMON_POSITION_CAUSE_RETURNS_BEYOND: u32 = 6;
+/// A cause the core added after this header: its name is in `position_cause_name`.
+pub const PMON_POSITION_CAUSE_OTHER: u32 = 255;
 
 /// `PmonCluster::roi_status`: the frame has no region of interest (the whole grid is in it).
 pub const PMON_ROI_NONE: u32 = 0;
@@ -235,6 +253,10 @@ pub struct PmonObjectResult {
     pub error_size: f32,
     /// `error_size` over the safety-critical size (>= 1: safety-critical; 0 without a kind).
     pub severity: f32,
+    /// For a position error, which test found it (`PMON_POSITION_CAUSE_*`); else `PMON_POSITION_CAUSE_NONE`.
+    pub position_cause: u32,
+    /// Its name (`displaced_evidence`, `seen_through`, ...), else empty.
+    pub position_cause_name: [u8; 32],
 }
 
 /// A conflict cluster: LiDAR evidence no object explains.
@@ -500,6 +522,19 @@ fn verdict_code(v: Verdict) -> u32 {
     }
 }
 
+/// The position cause's code; by name, so that a cause the core adds later maps to `PMON_POSITION_CAUSE_OTHER`.
+fn position_cause_code(c: PositionCause) -> u32 {
+    match c.name() {
+        "displaced_evidence" => PMON_POSITION_CAUSE_DISPLACED_EVIDENCE,
+        "evidence_followed" => PMON_POSITION_CAUSE_EVIDENCE_FOLLOWED,
+        "jumped_from_evidence" => PMON_POSITION_CAUSE_JUMPED_FROM_EVIDENCE,
+        "seen_through" => PMON_POSITION_CAUSE_SEEN_THROUGH,
+        "face_in_front" => PMON_POSITION_CAUSE_FACE_IN_FRONT,
+        "returns_beyond" => PMON_POSITION_CAUSE_RETURNS_BEYOND,
+        _ => PMON_POSITION_CAUSE_OTHER,
+    }
+}
+
 /// The one mapping from the core's report to the C record: a field added to `ObjectReport` goes here.
 fn object_result(r: &ObjectReport) -> PmonObjectResult {
     let mut out = PmonObjectResult {
@@ -533,7 +568,12 @@ fn object_result(r: &ObjectReport) -> PmonObjectResult {
         error_unit: [0; 8],
         error_size: 0.0,
         severity: 0.0,
+        position_cause: r.sensor.position_cause.map_or(PMON_POSITION_CAUSE_NONE, position_cause_code),
+        position_cause_name: [0; 32],
     };
+    if let Some(cause) = r.sensor.position_cause {
+        write_display(&mut out.position_cause_name, &cause.name());
+    }
     write_display(&mut out.verdict_name, &r.verdict.name());
     if let Some(reason) = r.verdict.not_monitored_reason() {
         write_display(&mut out.reason_name, &reason);

@@ -4,7 +4,7 @@
 use std::ffi::CString;
 
 use pmon_capi::ffi::*;
-use pmon_monitor::{Monitor, MonitorParams};
+use pmon_monitor::{Monitor, MonitorParams, PositionCause};
 use pmon_recording::RecordingReader;
 
 fn text(b: &[u8]) -> String {
@@ -18,8 +18,24 @@ fn c_api_matches_the_core_on_a_simulated_recording() {
     let mut cfg = pmon_scenario::ScenarioConfig::builtin("pedestrians").unwrap();
     cfg.seed = 7;
     cfg.duration_s = 3.0; // long enough for clusters outside the street's region of interest
-    pmon_scenario::simulate_to_dir(&cfg, dir.path(), &mut |_, _| {}).unwrap();
-    let dir_path = std::env::var_os("PMON_CAPI_RECORDING").map_or_else(|| dir.path().to_path_buf(), Into::into);
+    let clean = dir.path().join("clean");
+    pmon_scenario::simulate_to_dir(&cfg, &clean, &mut |_, _| {}).unwrap();
+    // The first object of every frame from the fifth on displaced 1.5 m along x: position errors, with their causes.
+    let reader = RecordingReader::open(&clean).unwrap();
+    let displaced = dir.path().join("displaced");
+    let meta = pmon_recording::RecordingMeta { frames: 0, ..reader.meta.clone() };
+    let mut writer = pmon_recording::RecordingWriter::create(&displaced, meta).unwrap();
+    for frame in reader {
+        let mut frame = frame.unwrap();
+        if frame.index >= 4 {
+            if let Some(o) = frame.objects.first_mut() {
+                o.x_m += 1.5;
+            }
+        }
+        writer.write_frame(&frame).unwrap();
+    }
+    writer.finish().unwrap();
+    let dir_path = std::env::var_os("PMON_CAPI_RECORDING").map_or_else(|| displaced.clone(), Into::into);
     let path = CString::new(dir_path.to_str().unwrap()).unwrap();
     let mut rec = std::ptr::null_mut();
     let mut mon = std::ptr::null_mut();
@@ -30,7 +46,7 @@ fn c_api_matches_the_core_on_a_simulated_recording() {
     let mut core = Monitor::new(MonitorParams::default()).unwrap();
     let mut results = vec![unsafe { std::mem::zeroed::<PmonObjectResult>() }; 1024];
     let mut clusters = vec![PmonCluster::default(); 512];
-    let (mut frames, mut objects, mut alarms, mut excused) = (0, 0, 0, 0);
+    let (mut frames, mut objects, mut alarms, mut excused, mut causes) = (0, 0, 0, 0, 0);
     for expected in RecordingReader::open(&dir_path).unwrap() {
         let expected = expected.unwrap();
         let mut frame = unsafe { std::mem::zeroed::<PmonFrame>() };
@@ -60,6 +76,20 @@ fn c_api_matches_the_core_on_a_simulated_recording() {
             assert_eq!(text(&r.motion_text), want.motion.verdict.to_string());
             assert_eq!(r.eta.to_bits(), want.sensor.eta.to_bits());
             assert_eq!(r.position_residual_m.to_bits(), want.motion.position_residual_m.to_bits());
+            let cause = want.sensor.position_cause;
+            assert_eq!(
+                text(&r.position_cause_name),
+                cause.map_or("", |c| c.name()),
+                "frame {index} object {}",
+                want.id
+            );
+            let code = cause.map_or(0, |c| 1 + PositionCause::ALL.iter().position(|a| *a == c).unwrap() as u32);
+            assert_eq!(
+                r.position_cause, code,
+                "frame {index} object {}: PMON_POSITION_CAUSE_* is 1 + its index",
+                want.id
+            );
+            causes += usize::from(cause.is_some());
             alarms += usize::from(want.verdict.is_alarm());
         }
         assert_eq!(summary.clusters_available, report.clusters.len());
@@ -83,4 +113,5 @@ fn c_api_matches_the_core_on_a_simulated_recording() {
     assert!(alarms < objects, "every object raised an alarm: the comparison would prove little");
     // The simulated street has a region of interest: some clusters lie outside it.
     assert!(excused > 0, "no cluster outside the region of interest: the reasons were not compared");
+    assert!(causes > 0, "no position error: the causes were not compared");
 }

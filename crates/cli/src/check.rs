@@ -12,7 +12,7 @@ use pmon_datasets::roi::{RoiMode, RoiOptions};
 use pmon_datasets::ReadOptions;
 use pmon_monitor::{
     ClusterReport, FrameReport, Monitor, MonitorParams, MotionOutcome, MotionVerdict, NotMonitoredReason, ObjectReport,
-    ObjectState, SensorVerdict, Verdict,
+    ObjectState, PositionCause, SensorVerdict, Verdict,
 };
 use pmon_recording::{RecordedFrame, RecordingReader};
 use serde::Serialize;
@@ -132,6 +132,9 @@ struct ObjectRecord<'a> {
     reason: Option<&'static str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     conditions: Option<String>,
+    /// For a position error, which test found it (`displaced_evidence`, `seen_through`, ...).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    position_cause: Option<&'static str>,
     sensor: String,
     motion: String,
     eta: f32,
@@ -215,6 +218,7 @@ fn object_record<'a>(f: &RecordedFrame, o: &'a ObjectState, r: &ObjectReport) ->
             Verdict::ImplausibleMotion(c) => Some(c.to_string()),
             _ => None,
         },
+        position_cause: r.sensor.position_cause.map(PositionCause::name),
         sensor: r.sensor.verdict.to_string(),
         motion: r.motion.verdict.to_string(),
         eta: r.sensor.eta,
@@ -260,9 +264,10 @@ fn describe_alarm(o: &ObjectState, r: &ObjectReport) -> String {
     let what = match r.verdict {
         Verdict::Ghost => format!("ghost (eta {:.2}, footprint {:.0} % visible)", r.sensor.eta, 100.0 * r.sensor.visible_fraction),
         Verdict::PositionError => format!(
-            "position error (eta {:.2}, evidence {:.2} m away)",
+            "position error (eta {:.2}, evidence {:.2} m away{})",
             r.sensor.eta,
-            r.sensor.offset_m[0].hypot(r.sensor.offset_m[1])
+            r.sensor.offset_m[0].hypot(r.sensor.offset_m[1]),
+            r.sensor.position_cause.map_or(String::new(), |c| format!(": {}", c.description()))
         ),
         Verdict::ImplausibleMotion(_) if r.motion.kind.is_some() => {
             let k = r.motion.kind.map_or("", |k| k.name());

@@ -92,6 +92,7 @@ fn clean_walk_has_no_alarm_and_displacement_is_reported() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let out = text(&o);
     assert!(out.contains("frame     3") && out.contains("position error"), "{out}");
+    assert!(out.contains("its evidence lies outside its region"), "the alarm says why: {out}");
     // The jump also breaks the motion history: frame 3 is a position error (sensor first) and the
     // plausibility check sees the 1.5 m jump.
     let o = pmon(&["check", "--format", "jsonl", shifted.to_str().unwrap()]);
@@ -105,6 +106,9 @@ fn clean_walk_has_no_alarm_and_displacement_is_reported() {
     assert_eq!(lines.len(), 6);
     assert_eq!(lines[2]["verdict"], "consistent");
     assert_eq!(lines[3]["verdict"], "position_error");
+    // Why: the box jumped 1.5 m away from its evidence, which the cells show outside its region.
+    assert_eq!(lines[3]["position_cause"], "displaced_evidence", "{}", lines[3]);
+    assert_eq!(lines[2]["position_cause"], serde_json::Value::Null, "only a position error has a cause");
     assert!(lines[3]["motion"].as_str().unwrap().contains("position"), "{}", lines[3]);
     assert_eq!(lines[0]["reason"], serde_json::Value::Null);
     assert_eq!(lines[0]["motion"], "not_monitored(first_frame_of_track)");

@@ -41,7 +41,7 @@ pub use params::{
 };
 pub use verdict::{
     ClusterReport, Conditions, FrameError, FrameReport, GridStats, ImplausibilityKind, MotionOutcome, MotionVerdict,
-    NotMonitoredReason, ObjectReport, RoiStatus, SensorOutcome, SensorVerdict, Verdict,
+    NotMonitoredReason, ObjectReport, PositionCause, RoiStatus, SensorOutcome, SensorVerdict, Verdict,
 };
 
 pub mod calibrated;

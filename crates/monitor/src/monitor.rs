@@ -279,6 +279,7 @@ const fn sensor_outcome(verdict: SensorVerdict) -> SensorOutcome {
         visible_fraction: 0.0,
         cluster: None,
         offset_m: [0.0, 0.0],
+        position_cause: None,
     }
 }
 

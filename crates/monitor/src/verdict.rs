@@ -68,6 +68,73 @@ impl fmt::Display for NotMonitoredReason {
     }
 }
 
+/// Which test of the sensor checks found a position error: the evidence that shows the object is not where the
+/// object list says (docs/attribution.md, "The rule, step by step"). A user sees why an alarm fired, and which
+/// alarms a rule that is off by default would add.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(rename_all = "snake_case"))]
+pub enum PositionCause {
+    /// A conflict cluster (evidence no object explains) was attributed to the object: its evidence lies outside
+    /// its grown region (the paper's test, with pmon's gated assignment; steps 2-7).
+    DisplacedEvidence,
+    /// The object's evidence of the frames before, followed to where its offset from the box puts it now, lies in
+    /// a neighbour's margin (step 8).
+    EvidenceFollowed,
+    /// The box jumped away from its evidence, which stayed where the object's stated motion predicts it (step 9).
+    JumpedFromEvidence,
+    /// The LiDAR rays pass through the box's footprint to its own evidence behind it: the object stands behind
+    /// where it is reported (displaced towards the sensor; the free-space test).
+    SeenThrough,
+    /// Its evidence's face stands in front of the box along the rays (params key `face_in_front`).
+    FaceInFront,
+    /// Its own returns stand beyond its grown region (params key `returns_beyond_cells`).
+    ReturnsBeyond,
+}
+
+impl PositionCause {
+    /// Every cause, in the order of their codes (`pmon.h`'s `PMON_POSITION_CAUSE_*` are 1 + the index).
+    pub const ALL: [Self; 6] = [
+        Self::DisplacedEvidence,
+        Self::EvidenceFollowed,
+        Self::JumpedFromEvidence,
+        Self::SeenThrough,
+        Self::FaceInFront,
+        Self::ReturnsBeyond,
+    ];
+
+    /// Short snake_case name, as in JSON output.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::DisplacedEvidence => "displaced_evidence",
+            Self::EvidenceFollowed => "evidence_followed",
+            Self::JumpedFromEvidence => "jumped_from_evidence",
+            Self::SeenThrough => "seen_through",
+            Self::FaceInFront => "face_in_front",
+            Self::ReturnsBeyond => "returns_beyond",
+        }
+    }
+
+    /// A sentence for a person reading an alarm.
+    #[must_use]
+    pub const fn description(self) -> &'static str {
+        match self {
+            Self::DisplacedEvidence => "its evidence lies outside its region",
+            Self::EvidenceFollowed => "its evidence, followed from the frames before, lies apart from it",
+            Self::JumpedFromEvidence => "the box jumped away from its evidence, which stayed",
+            Self::SeenThrough => "the rays pass through the box to its evidence behind it",
+            Self::FaceInFront => "its evidence's face stands in front of the box along the rays",
+            Self::ReturnsBeyond => "its own returns stand beyond its region",
+        }
+    }
+}
+
+impl fmt::Display for PositionCause {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// Which implausibility conditions fired (bit set).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -172,6 +239,8 @@ pub struct SensorOutcome {
     /// For a position error: vector from the attributed cluster's centroid to the nearest point of the
     /// object's (ungrown) box, ego frame, metres: how far the object sits from its evidence.
     pub offset_m: [f32; 2],
+    /// For a position error: which test found it (`None` for every other verdict).
+    pub position_cause: Option<PositionCause>,
 }
 
 /// Result of the plausibility checks for one object (Section III-C).
@@ -586,6 +655,23 @@ impl core::error::Error for FrameError {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The position causes' names are distinct snake_case words (JSON, Python, C and ROS 2 carry them), `ALL`
+    /// lists each once in code order, and `Display` is the name.
+    #[test]
+    fn position_causes_have_distinct_snake_case_names() {
+        extern crate alloc;
+        use alloc::string::ToString;
+        for (i, a) in PositionCause::ALL.iter().enumerate() {
+            assert!(a.name().bytes().all(|b| b.is_ascii_lowercase() || b == b'_'), "{}", a.name());
+            assert_eq!(a.to_string(), a.name());
+            assert!(!a.description().is_empty());
+            for b in PositionCause::ALL.iter().skip(i + 1) {
+                assert_ne!(a.name(), b.name());
+                assert!(a < b, "ALL is in code order");
+            }
+        }
+    }
 
     /// Issue 15: `consistent` means the LiDAR confirmed the object. An object the sensor could not judge
     /// (occluded, no LiDAR, ...) whose motion is plausible is `motion_only_consistent(reason)`, never

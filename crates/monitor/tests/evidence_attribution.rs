@@ -6,7 +6,9 @@
 mod common;
 
 use common::*;
-use pmon_monitor::{Frame, Monitor, MonitorParams, ObjectReport, PointCloud, Pose2, SensorVerdict, SpillOverFit};
+use pmon_monitor::{
+    Frame, Monitor, MonitorParams, ObjectReport, PointCloud, Pose2, PositionCause, SensorVerdict, SpillOverFit,
+};
 
 fn run(monitor: &mut Monitor, objects: &[pmon_monitor::ObjectState], points_ego: &[[f32; 3]]) -> Vec<ObjectReport> {
     run_frame(monitor, objects, points_ego).0
@@ -52,6 +54,9 @@ fn displaced_pedestrian_takes_its_evidence_and_its_neighbour_is_not_blamed() {
             r[0].sensor
         );
         assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "{cells} m cells: displaced {:?}", r[1].sensor);
+        // Found by its evidence outside its region (a cluster attributed to it); the neighbour has no cause.
+        assert_eq!(r[1].sensor.position_cause, Some(PositionCause::DisplacedEvidence), "{:?}", r[1].sensor);
+        assert_eq!(r[0].sensor.position_cause, None);
         // The offset points from the evidence back to the reported box: about +1.5 m along x, less the box.
         assert!(r[1].sensor.offset_m[0] > 0.5 && r[1].sensor.offset_m[0] < 1.7, "{:?}", r[1].sensor.offset_m);
     }
@@ -267,6 +272,7 @@ fn displaced_evidence_in_a_neighbours_margin_still_follows_its_track() {
     let r = check_at(&mut m, 0.1, &[neighbour, reported], &second, Pose2::default());
     assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "neighbour: {:?}", r[0].sensor);
     assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "followed: {:?}", r[1].sensor);
+    assert_eq!(r[1].sensor.position_cause, Some(PositionCause::EvidenceFollowed), "{:?}", r[1].sensor);
     assert!(r[1].sensor.offset_m[0] > 0.5, "from its evidence back to the box: {:?}", r[1].sensor.offset_m);
     let mut alone = Monitor::new(MonitorParams::default()).unwrap();
     let r = check_at(&mut alone, 0.1, &[neighbour, reported], &second, Pose2::default());
@@ -542,6 +548,8 @@ fn a_box_that_jumps_away_from_evidence_that_stayed_is_a_position_error() {
                 r[1].sensor
             );
             if car_flagged {
+                // Step 3c hands it the evidence it left behind, a cluster outside its region.
+                assert_eq!(r[0].sensor.position_cause, Some(PositionCause::DisplacedEvidence), "{:?}", r[0].sensor);
                 // From where the evidence puts the car to the reported box: about the 2 m along the ray.
                 let o = r[0].sensor.offset_m;
                 assert!(o[0] > 1.4 && o[0] < 2.6 && o[1].abs() < 0.6, "{o:?}");
@@ -585,6 +593,7 @@ fn a_box_that_jumps_1_m_from_returns_that_stayed_is_caught_by_their_mean() {
         let r = verdicts(params, (0.0, 0.0), (1.0, 0.0));
         let first = params.jump_first_return;
         assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "with the key ({first}): {:?}", r[0].sensor);
+        assert_eq!(r[0].sensor.position_cause, Some(PositionCause::JumpedFromEvidence), "{:?}", r[0].sensor);
         let o = r[0].sensor.offset_m;
         assert!(o[0] > 0.7 && o[0] < 1.3 && o[1].abs() < 0.3, "offset {o:?} ({first})");
         assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "pedestrian ({first}): {:?}", r[1].sensor);
@@ -900,6 +909,7 @@ fn a_box_displaced_towards_the_sensor_is_seen_over_a_parked_car() {
                 params.seen_over, r[1].sensor
             );
             if want {
+                assert_eq!(r[1].sensor.position_cause, Some(PositionCause::SeenThrough), "{:?}", r[1].sensor);
                 // From the evidence (about 14.7-15 m) back to the box: about -0.5 to -1 m along x.
                 assert!(r[1].sensor.offset_m[0] < -0.3 && r[1].sensor.offset_m[0] > -1.2, "{:?}", r[1].sensor.offset_m);
             }
@@ -946,6 +956,8 @@ fn car_displaced_away_below_dx_min(cases: &[(&str, MonitorParams, SensorVerdict)
         assert!(r[0].sensor.eta_own >= 0.8, "the box keeps its evidence by the cells: {:?}", r[0].sensor);
         assert_eq!(r[0].sensor.verdict, want, "{label}: {:?}", r[0].sensor);
         if want == SensorVerdict::PositionError {
+            let cause = if params.face_in_front { PositionCause::FaceInFront } else { PositionCause::ReturnsBeyond };
+            assert_eq!(r[0].sensor.position_cause, Some(cause), "{label}: {:?}", r[0].sensor);
             assert!(r[0].sensor.offset_m[0] > 0.5 && r[0].sensor.offset_m[0] < 0.8, "{:?}", r[0].sensor.offset_m);
             assert!(r[0].sensor.offset_m[1].abs() < across, "{:?}", r[0].sensor.offset_m);
         }

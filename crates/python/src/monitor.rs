@@ -262,7 +262,7 @@ struct ReportColumns {
 }
 
 /// Text columns whose empty value means "does not apply" (`None` in Python).
-const OPTIONAL_TEXTS: [&str; 4] = ["reason", "conditions", "kind", "error_unit"];
+const OPTIONAL_TEXTS: [&str; 5] = ["reason", "conditions", "position_cause", "kind", "error_unit"];
 
 /// A named float column of the report and how to read it.
 type Field<T> = (&'static str, fn(&ObjectReport) -> T);
@@ -304,6 +304,7 @@ fn report_columns(rep: &FrameReport<'_>) -> ReportColumns {
     let mut verdict = TextColumn::with_capacity(n);
     let mut reason = TextColumn::with_capacity(n);
     let mut conditions = TextColumn::with_capacity(n);
+    let mut cause = TextColumn::with_capacity(n);
     let mut sensor = TextColumn::with_capacity(n);
     let mut motion = TextColumn::with_capacity(n);
     let mut kind = TextColumn::with_capacity(n);
@@ -316,6 +317,7 @@ fn report_columns(rep: &FrameReport<'_>) -> ReportColumns {
             Verdict::ImplausibleMotion(cond) => cond.to_string(),
             _ => String::new(),
         });
+        cause.push(r.sensor.position_cause, |c| c.map_or_else(String::new, |c| c.name().to_string()));
         sensor.push(r.sensor.verdict, |v| v.to_string());
         motion.push(r.motion.verdict, |v| v.to_string());
         kind.push(r.motion.kind, |k| k.map_or_else(String::new, |k| k.name().to_string()));
@@ -333,6 +335,7 @@ fn report_columns(rep: &FrameReport<'_>) -> ReportColumns {
         ("verdict", verdict.into_parts()),
         ("reason", reason.into_parts()),
         ("conditions", conditions.into_parts()),
+        ("position_cause", cause.into_parts()),
         ("sensor", sensor.into_parts()),
         ("motion", motion.into_parts()),
         ("kind", kind.into_parts()),

@@ -375,7 +375,8 @@ pub struct ObjectVerdict {
     pub verdict: u8,
     /// The verdict's name.
     pub verdict_name: String,
-    /// Not monitored: why; implausible motion: the conditions.
+    /// Not monitored: why; implausible motion: the conditions; position error: which test found it
+    /// (`displaced_evidence`, `seen_through`, ...: `pmon_monitor::PositionCause`).
     pub reason: String,
     /// Centre, ego frame, metres.
     pub x_m: f32,

@@ -89,6 +89,9 @@ pub fn frame_verdicts(ctx: &FrameContext<'_>, objects: &[ObjectState], rep: &Fra
                 reason: match (r.verdict.not_monitored_reason(), r.verdict) {
                     (Some(reason), _) => reason.name().into(),
                     (None, Verdict::ImplausibleMotion(c)) => c.to_string(),
+                    (None, Verdict::PositionError) => {
+                        r.sensor.position_cause.map_or_else(String::new, |c| c.name().into())
+                    }
                     (None, _) => String::new(),
                 },
                 x_m: o.x_m,
@@ -263,6 +266,65 @@ mod tests {
 
     fn verdict(id: u64, code: u8, name: &str, reason: &str) -> ObjectVerdict {
         ObjectVerdict { id, verdict: code, verdict_name: name.into(), reason: reason.into(), ..Default::default() }
+    }
+
+    /// A position error carries the test that found it in `reason`, and `/diagnostics` names it beside the alarm.
+    #[test]
+    fn a_position_error_says_which_test_found_it() {
+        use pmon_monitor::{Frame, Isometry3, Monitor, MonitorParams, ObjectClass, PointCloud, Pose2};
+        // A 0.6 m post 14 m ahead (returns 0.3-1.3 m high; the sensor 1.8 m up), its box reported 1.5 m further.
+        let mut pts = Vec::new();
+        for i in 0..6 {
+            for j in 0..6 {
+                for k in 0..6 {
+                    pts.push([13.75 + 0.1 * i as f32, -0.25 + 0.1 * j as f32, 0.3 + 0.2 * k as f32 - 1.8]);
+                }
+            }
+        }
+        let o = ObjectState {
+            id: 1,
+            class: ObjectClass::Pedestrian,
+            x_m: 15.5,
+            y_m: 0.0,
+            heading_rad: 0.0,
+            speed_mps: 0.0,
+            length_m: 0.6,
+            width_m: 0.6,
+            uncertainty: None,
+        };
+        let cloud = PointCloud {
+            points_in_sensor: &pts,
+            ego_from_sensor: Isometry3::from_yaw_translation(0.0, [0.0, 0.0, 1.8]),
+        };
+        let frame = Frame {
+            timestamp_s: 0.1,
+            world_from_ego: Pose2::default(),
+            objects: std::slice::from_ref(&o),
+            cloud: Some(cloud),
+            roi_in_ego: &[],
+            static_in_ego: &[],
+        };
+        let mut m = Monitor::new(MonitorParams::default()).unwrap();
+        let rep = m.check(&frame).unwrap();
+        assert_eq!(rep.objects[0].verdict, Verdict::PositionError, "{:?}", rep.objects[0]);
+        let header = Header::default();
+        let ctx = FrameContext {
+            header: &header,
+            cloud_stamp: Some(Time::default()),
+            cloud_problem: None,
+            uuids: &[],
+            processing_time_s: 0.0,
+        };
+        let v = frame_verdicts(&ctx, &[o], &rep);
+        assert_eq!(v.objects[0].reason, "displaced_evidence", "{:?}", v.objects[0]);
+        let s = check_statuses(&v);
+        assert!(
+            s[0].values
+                .iter()
+                .any(|kv| kv.key == "object 1" && kv.value.starts_with("position_error (displaced_evidence)")),
+            "{:?}",
+            s[0]
+        );
     }
 
     #[test]

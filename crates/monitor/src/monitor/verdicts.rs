@@ -11,6 +11,7 @@ use super::attribution::s_eta;
 use super::sight::OCCLUDERS;
 use super::*;
 use crate::evidence_memory::Motion;
+use crate::verdict::PositionCause;
 
 impl Monitor {
     /// Sensor verdicts (f(o) with the evidence attribution and the occlusion test) and the combined verdicts.
@@ -122,20 +123,24 @@ impl Monitor {
                 if let Some(sight) = sight {
                     s.visible_fraction = sight.fraction(sight.visible);
                 }
+                s.position_cause = None;
                 s.verdict = if let Some(k) = cluster {
                     s.cluster = u16::try_from(k).ok();
                     if let Some(c) = self.clusters.get(k) {
                         let (nx, ny) = region.footprint.nearest_point(c.centroid_m[0], c.centroid_m[1]);
                         s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
                     }
+                    s.position_cause = Some(PositionCause::DisplacedEvidence);
                     SensorVerdict::PositionError
                 } else if let Some(c) = followed {
                     let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
                     s.offset_m = [nx - c[0], ny - c[1]];
+                    s.position_cause = Some(PositionCause::EvidenceFollowed);
                     SensorVerdict::PositionError
                 } else if let Some((_, at)) = moved {
                     // From where the evidence puts the box (its remembered offset back from the evidence) to the box.
                     s.offset_m = [region.footprint.cx - at[0], region.footprint.cy - at[1]];
+                    s.position_cause = Some(PositionCause::JumpedFromEvidence);
                     SensorVerdict::PositionError
                 } else if seen_through {
                     // Confirmed by evidence in its margin, but the rays prove its footprint empty: the object
@@ -144,6 +149,7 @@ impl Monitor {
                     let c = [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
                     let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
                     s.offset_m = [nx - c[0], ny - c[1]];
+                    s.position_cause = Some(PositionCause::SeenThrough);
                     SensorVerdict::PositionError
                 } else if let Some(depth) = face {
                     // Its face stands `depth` in front of it along the rays: the box is that far behind its evidence.
@@ -151,11 +157,13 @@ impl Monitor {
                     let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
                     let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
                     s.offset_m = [depth * dx / r, depth * dy / r];
+                    s.position_cause = Some(PositionCause::FaceInFront);
                     SensorVerdict::PositionError
                 } else if let Some(at) = beyond {
                     // From its own returns beyond the region back to the box.
                     let (nx, ny) = region.footprint.nearest_point(at[0], at[1]);
                     s.offset_m = [nx - at[0], ny - at[1]];
+                    s.position_cause = Some(PositionCause::ReturnsBeyond);
                     SensorVerdict::PositionError
                 } else if eta_own >= tau_tp || shared {
                     SensorVerdict::Consistent
