@@ -176,6 +176,8 @@ struct TotalsRecord<'a> {
     frames_with_alarms: u64,
     missed_objects: u64,
     verdicts: &'a BTreeMap<String, u64>,
+    /// The position errors by the test that found them (`position_cause`).
+    position_causes: &'a BTreeMap<&'static str, u64>,
     written_by: &'static str,
 }
 
@@ -248,6 +250,8 @@ struct Totals {
     frames: u64,
     objects: u64,
     verdicts: BTreeMap<String, u64>,
+    /// Position errors by the test that found them.
+    position_causes: BTreeMap<&'static str, u64>,
     /// Implausible motion by kind: (alarms, of those safety-critical).
     kinds: BTreeMap<&'static str, (u64, u64)>,
     missed_objects: u64,
@@ -486,6 +490,9 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
         }
         for r in rep.objects {
             *totals.verdicts.entry(summary_verdict(rep.sensor_status, r).to_string()).or_default() += 1;
+            if let (Verdict::PositionError, Some(c)) = (r.verdict, r.sensor.position_cause) {
+                *totals.position_causes.entry(c.name()).or_default() += 1;
+            }
             if let (Verdict::ImplausibleMotion(_), Some(k)) = (r.verdict, r.motion.kind) {
                 let e = totals.kinds.entry(k.name()).or_default();
                 e.0 += 1;
@@ -541,6 +548,12 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             let share = 100.0 * *v as f64 / totals.objects.max(1) as f64;
             writeln!(out, "  {k:<45} {v:>8}  {share:>5.1} %")?;
         }
+        if !totals.position_causes.is_empty() {
+            writeln!(out, "position errors by the test that found them (docs/cli.md):")?;
+            for (k, n) in &totals.position_causes {
+                writeln!(out, "  {k:<45} {n:>8}")?;
+            }
+        }
         if !totals.kinds.is_empty() {
             writeln!(out, "implausible motion by kind (alarms, of those safety-critical):")?;
             for (k, (n, crit)) in &totals.kinds {
@@ -557,6 +570,7 @@ pub fn run(args: &CheckArgs) -> Result<ExitCode> {
             frames_with_alarms: totals.frames_with_alarms,
             missed_objects: totals.missed_objects,
             verdicts: &totals.verdicts,
+            position_causes: &totals.position_causes,
             written_by: "pmon check (pmon-output)",
         };
         serde_json::to_writer(&mut *out, &rec)?;

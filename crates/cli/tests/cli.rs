@@ -93,6 +93,7 @@ fn clean_walk_has_no_alarm_and_displacement_is_reported() {
     let out = text(&o);
     assert!(out.contains("frame     3") && out.contains("position error"), "{out}");
     assert!(out.contains("its evidence lies outside its region"), "the alarm says why: {out}");
+    assert!(out.contains("position errors by the test that found them"), "{out}");
     // The jump also breaks the motion history: frame 3 is a position error (sensor first) and the
     // plausibility check sees the 1.5 m jump.
     let o = pmon(&["check", "--format", "jsonl", shifted.to_str().unwrap()]);
@@ -103,6 +104,11 @@ fn clean_walk_has_no_alarm_and_displacement_is_reported() {
     assert_eq!(totals["record"], "totals");
     assert_eq!(totals["frames"], 6);
     assert_eq!(totals["frames_with_alarms"], 3);
+    // Every position error counted by its cause.
+    let causes = totals["position_causes"].as_object().unwrap();
+    let errors = lines.iter().filter(|l| l["verdict"] == "position_error").count() as u64;
+    assert!(errors > 0);
+    assert_eq!(causes.values().map(|v| v.as_u64().unwrap()).sum::<u64>(), errors, "{totals}");
     assert_eq!(lines.len(), 6);
     assert_eq!(lines[2]["verdict"], "consistent");
     assert_eq!(lines[3]["verdict"], "position_error");
