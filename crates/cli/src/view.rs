@@ -62,6 +62,10 @@ fn short_verdict(r: &ObjectReport) -> String {
         Verdict::NotMonitored(reason) => format!("not monitored: {reason}"),
         Verdict::ImplausibleMotion(c) => format!("implausible {c}"),
         Verdict::MotionOnlyConsistent(reason) => format!("motion only: plausible (sensor: {reason})"),
+        Verdict::PositionError => match r.sensor.position_cause {
+            Some(c) => format!("position_error: {c} (eta {:.2})", r.sensor.eta),
+            None => format!("position_error (eta {:.2})", r.sensor.eta),
+        },
         v => format!("{} (eta {:.2})", v.name(), r.sensor.eta),
     }
 }
