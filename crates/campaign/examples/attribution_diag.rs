@@ -32,7 +32,8 @@
 //! `MISSES=1` or `DETAIL=1`) draws the cells around each listed box; `OWNERS=1` counts each verifiable miss by whose
 //! the occupied cells under its true footprint went to (docs/attribution.md, "Where a displaced box's evidence goes");
 //! `FAKIND=1` counts each false alarm by whether the box is confirmed by its own evidence in the faulted frame and by
-//! how far its offset reaches.
+//! how far its offset reaches. `BYCAUSE=1` counts every alarm, on injected errors and false, by the test that found it
+//! (the verdict's `position_cause`, or a ghost; docs/cli.md).
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -1106,10 +1107,22 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                     *out.entry(key).or_default() += 1;
                 }
             }
+            // `BYCAUSE=1`: every alarm by the test that found it (`PositionCause`, or a ghost), on injected objects
+            // (found errors) and on clean ones (false alarms).
+            if alarm && std::env::var_os("BYCAUSE").is_some() {
+                let cause = match r.sensor.verdict {
+                    SensorVerdict::Ghost => "ghost",
+                    _ => r.sensor.position_cause.map_or("none", |c| c.name()),
+                };
+                let kind = if injected { "alarm on an injected error" } else { "false alarm" };
+                *out.entry(format!("BYCAUSE {kind:<26} {cause}")).or_default() += 1;
+            }
             if !injected && alarm {
                 let how = match (r.sensor.verdict, r.sensor.cluster) {
                     (SensorVerdict::Ghost, _) => "ghost".to_string(),
-                    (_, None) => "seen_through".to_string(),
+                    // Without a cluster: the test that found it (before the verdicts carried it, every such alarm
+                    // was labelled `seen_through`, though step 8, step 9 and the opt-in rules give them too).
+                    (_, None) => r.sensor.position_cause.map_or("none", |c| c.name()).to_string(),
                     (_, Some(c)) => {
                         let c = clusters_out.get(usize::from(c));
                         format!("cluster {}", if c.is_some_and(cluster_at_truth) { "own(at truth)" } else { "foreign" })
