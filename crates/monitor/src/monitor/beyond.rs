@@ -8,10 +8,10 @@
 //! `returns_beyond_cells` of its own hit cells stand *wholly* beyond its grown region (every return of the cell
 //! more than `delta_safe` beyond it), and its own evidence still fits its size:
 //!
-//! - a cell whose first return stands beyond is a candidate; before the verdicts,
-//!   [`Monitor::gather_beyond_returns`] folds every return of the candidate cells (one scan of the cells the
-//!   rasterizer recorded per point, as `over.rs` does) into the distance beyond the region of the cell's nearest
-//!   return. A cell that also holds a return within `delta_safe` of the region is not counted: the box's own edge
+//! - a cell whose first return stands beyond is a candidate; the first time in a frame a box passes the other
+//!   tests, [`Monitor::gather_beyond_returns`] folds every return of the frame's candidate cells (one scan of the
+//!   cells the rasterizer recorded per point, as `over.rs` does) into the distance beyond the region of the cell's
+//!   nearest return. A cell that also holds a return within `delta_safe` of the region is not counted: the box's own edge
 //!   with something beside it (a mirror, a post, a bush) in the same cell;
 //! - a return inside another object's grown region, or near an object without evidence of its own and without a
 //!   cluster (whose evidence may be lying there), is not counted, and does not widen the span;
@@ -155,13 +155,14 @@ impl Monitor {
     }
 
     /// The second walk: the span of the box's own first returns (within the region's margin, and beyond it unless
-    /// they may be another object's), how many of the latter there are, and, with `wholly`, how many of those stand
-    /// in a cell wholly beyond the region and their sum.
-    fn beyond_walk(&self, j: usize, region: &Region, wholly: bool) -> ([f32; 4], u32, u32, [f32; 2]) {
+    /// they may be another object's), how many of the latter there are, and the first
+    /// [`BEYOND_CELLS_PER_OBJECT`] of them (cell and return; a later one has no candidate entry either, since
+    /// `gather_beyond_returns` keeps the first candidates in the same order).
+    fn beyond_walk(&self, j: usize, region: &Region) -> ([f32; 4], u32, [(u32, f32, f32); BEYOND_CELLS_PER_OBJECT]) {
         let tolerance = self.params.safety_margin_m;
         let fp = &region.footprint;
-        let (mut span, mut beyond, mut counted, mut sum) = (NO_SPAN, 0u32, 0u32, [0.0f32; 2]);
-        let Some(range) = self.grid.geometry.cell_range(region.grown.aabb()) else { return (span, 0, 0, sum) };
+        let (mut span, mut beyond, mut kept) = (NO_SPAN, 0u32, [(NO_CELL, 0.0, 0.0); BEYOND_CELLS_PER_OBJECT]);
+        let Some(range) = self.grid.geometry.cell_range(region.grown.aabb()) else { return (span, 0, kept) };
         self.grid.for_each_hit_cell(&region.grown, range, |idx| {
             let Some((x, y)) = self.own_first_return(j, idx) else { return };
             if region.grown.distance(x, y) <= tolerance {
@@ -172,14 +173,12 @@ impl Monitor {
                 return;
             }
             span = grown(span, fp.local(x, y));
-            beyond += 1;
-            if wholly && self.wholly_beyond(j, idx) {
-                counted += 1;
-                sum[0] += x;
-                sum[1] += y;
+            if let Some(k) = kept.get_mut(beyond as usize) {
+                *k = (idx, x, y);
             }
+            beyond += 1;
         });
-        (span, beyond, counted, sum)
+        (span, beyond, kept)
     }
 
     /// For a box confirmed by its own evidence (no cluster, not seen through, no face in front), with
@@ -193,14 +192,21 @@ impl Monitor {
             return None;
         }
         let slack = 2.0 * self.params.safety_margin_m;
-        let (span, beyond, _, _) = self.beyond_walk(j, region, false);
+        let (span, beyond, kept) = self.beyond_walk(j, region);
         if beyond < k_min || !span_fits(span, &region.footprint, slack) {
             return None;
         }
         if !self.beyond_gathered {
             self.gather_beyond_returns(j, cloud);
         }
-        let (_, _, counted, sum) = self.beyond_walk(j, region, true);
+        let (mut counted, mut sum) = (0u32, [0.0f32; 2]);
+        for &(idx, x, y) in kept.iter().take(beyond as usize) {
+            if self.wholly_beyond(j, idx) {
+                counted += 1;
+                sum[0] += x;
+                sum[1] += y;
+            }
+        }
         (counted >= k_min).then(|| [sum[0] / counted as f32, sum[1] / counted as f32])
     }
 }
