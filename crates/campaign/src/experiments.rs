@@ -11,7 +11,7 @@ use pmon_monitor::{MonitorParams, PlausibilityMode};
 use serde::{Deserialize, Serialize};
 
 use crate::inject::{Direction, Fault, InjectionConfig};
-use crate::metrics::{clustered_wilson, ClusteredRate, Metrics, Rate};
+use crate::metrics::{clustered_wilson, CauseTally, ClusteredRate, Metrics, Rate};
 use crate::run::{RunResult, RunSpec};
 
 /// Which number of a run a curve point shows.
@@ -59,6 +59,15 @@ impl Measure {
             Self::PlausibilityFalseAlarmRate => m.false_alarm_rate(&m.plausibility),
             Self::SensorOffsetAgrees => m.sensor_offset.rate(),
         }
+    }
+
+    /// Whether the alarms behind a point of this measure are broken down by the test that raised them
+    /// ([`Point::causes`]): the sensor checks' recall over verifiable errors (the errors found, and the false alarms
+    /// of the same runs, which their precision curve counts) and their false-alarm rate. One measure per run, so
+    /// that the runs' alarms are listed once per figure.
+    #[must_use]
+    pub fn sensor_causes(self) -> bool {
+        matches!(self, Self::SensorRecallVerifiable | Self::SensorFalseAlarmRate)
     }
 
     /// The per-track `(track, k, n)` of this measure in a run (tracks with `n > 0`), for the measures whose counts
@@ -134,13 +143,17 @@ pub struct Point {
     /// `<figure>_tracks.csv`).
     #[serde(skip)]
     pub clusters: Vec<Cluster>,
+    /// The sensor alarms of the runs feeding the point by the test that raised them, where the point shows a
+    /// sensor measure ([`Measure::sensor_causes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub causes: Option<CauseTally>,
 }
 
 impl Point {
     /// A point with its per-state interval only.
     #[must_use]
     pub fn new(x: f64, rate: Rate) -> Self {
-        Self { x, rate, by_track: None, clusters: Vec::new() }
+        Self { x, rate, by_track: None, clusters: Vec::new(), causes: None }
     }
 }
 
@@ -785,6 +798,9 @@ pub fn assemble(planned: &[PlannedRun], results: &[RunResult]) -> Vec<Figure> {
                 }
                 let Some(q) = c.points.iter_mut().find(|q| q.x == p.x) else { continue };
                 q.rate = Rate::wilson(q.rate.k + rate.k, q.rate.n + rate.n);
+                if p.measure.sensor_causes() {
+                    q.causes.get_or_insert_with(CauseTally::default).add(&res.metrics.sensor_causes);
+                }
                 let (run, kept) = fed.entry((fi, idx, p.x.to_bits())).or_insert((0, true));
                 match p.measure.by_track(res) {
                     Some(tracks) => {

@@ -17,8 +17,9 @@ pub mod tracker_eval;
 
 pub use inject::{Direction, Fault, Injection, InjectionConfig, Injector};
 pub use metrics::{
-    clustered_wilson, distance_to_box, offset_agrees, offset_outcome, reported_displacement_agrees, score,
-    score_by_track, ClusteredRate, Metrics, OffsetTally, Outcome, Rate, Score, TrackTally, OWN_EVIDENCE_TOLERANCE_M,
+    cause_index, cause_name, clustered_wilson, distance_to_box, offset_agrees, offset_outcome,
+    reported_displacement_agrees, score, score_by_track, CauseTally, ClusteredRate, Metrics, OffsetTally, Outcome,
+    Rate, Score, TrackTally, CAUSES, OWN_EVIDENCE_TOLERANCE_M,
 };
 pub use run::{
     confirmed_by_own_evidence, in_scope, paired_frames, replay_to, run_all, run_one, Example, PairedFrame, Replay,

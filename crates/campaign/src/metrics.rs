@@ -158,6 +158,8 @@ pub struct Outcome {
     /// it is, on the object's own evidence ([`reported_displacement_agrees`]). `None` when no position error was
     /// injected, nothing was flagged, or the offset was not looked at.
     pub sensor_offset_agrees: Option<bool>,
+    /// Which test raised the sensor alarm ([`cause_index`]); `None` without an alarm.
+    pub sensor_cause: Option<u8>,
 }
 
 /// How near the true box the centroid of the cluster a verdict attributes must stand for that evidence to count as
@@ -246,6 +248,65 @@ impl OffsetTally {
     }
 }
 
+/// The number of alarm causes [`CauseTally`] counts: a ghost, each [`pmon_monitor::PositionCause`], and a position
+/// error that names no cause.
+pub const CAUSES: usize = 2 + pmon_monitor::PositionCause::ALL.len();
+
+/// The index of the test that raised a sensor alarm, as [`CauseTally`] counts it: 0 for a ghost, `1 + i` for the
+/// position cause `PositionCause::ALL[i]`, `CAUSES - 1` for a position error without a cause; `None` when the
+/// verdict is not an alarm.
+#[must_use]
+pub fn cause_index(sensor: &pmon_monitor::SensorOutcome) -> Option<u8> {
+    use pmon_monitor::{PositionCause, SensorVerdict};
+    match sensor.verdict {
+        SensorVerdict::Ghost => Some(0),
+        SensorVerdict::PositionError => {
+            let i = sensor.position_cause.and_then(|c| PositionCause::ALL.iter().position(|&a| a == c));
+            Some(i.map_or(CAUSES - 1, |i| 1 + i) as u8)
+        }
+        _ => None,
+    }
+}
+
+/// The name of cause `index` ([`cause_index`]): `ghost`, a position cause's name (`displaced_evidence`, ...), or
+/// `position_error (no cause)`.
+#[must_use]
+pub fn cause_name(index: usize) -> &'static str {
+    match index {
+        0 => "ghost",
+        i => pmon_monitor::PositionCause::ALL.get(i - 1).map_or("position_error (no cause)", |c| c.name()),
+    }
+}
+
+/// The sensor alarms of a run by the test that raised them ([`cause_index`]): those on verifiable injected errors
+/// (they add up to [`Metrics::sensor_verifiable`]`.detected`) and those on clean object states (they add up to the
+/// sensor's false alarms), object states in scope only.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CauseTally {
+    /// Alarms on verifiable injected errors, by cause.
+    pub found: [u64; CAUSES],
+    /// False alarms (alarms on clean object states), by cause.
+    pub false_alarms: [u64; CAUSES],
+}
+
+impl CauseTally {
+    /// Adds `other`'s counts.
+    pub fn add(&mut self, other: &Self) {
+        for (a, b) in self.found.iter_mut().zip(other.found) {
+            *a += b;
+        }
+        for (a, b) in self.false_alarms.iter_mut().zip(other.false_alarms) {
+            *a += b;
+        }
+    }
+
+    /// Whether it counts no alarm at all.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.found.iter().chain(&self.false_alarms).all(|&n| n == 0)
+    }
+}
+
 /// Detection and alarm counts of one check.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Score {
@@ -304,6 +365,9 @@ pub struct Metrics {
     /// The displacement the sensor checks report for the verifiable position errors they flag.
     #[serde(default)]
     pub sensor_offset: OffsetTally,
+    /// The sensor alarms by the test that raised them.
+    #[serde(default)]
+    pub sensor_causes: CauseTally,
 }
 
 impl Metrics {
@@ -392,6 +456,11 @@ pub fn score_by_track(
                     m.sensor_offset.flagged += 1;
                     m.sensor_offset.agrees += u64::from(agrees);
                 }
+                if let (true, Some(c)) = (o.sensor_alarm, o.sensor_cause) {
+                    if let Some(n) = m.sensor_causes.found.get_mut(usize::from(c)) {
+                        *n += 1;
+                    }
+                }
             } else {
                 m.not_verifiable += 1;
             }
@@ -399,6 +468,11 @@ pub fn score_by_track(
         if o.sensor_alarm {
             m.sensor.alarms += 1;
             m.sensor.true_alarms += u64::from(o.injected);
+            if let (false, Some(c)) = (o.injected, o.sensor_cause) {
+                if let Some(n) = m.sensor_causes.false_alarms.get_mut(usize::from(c)) {
+                    *n += 1;
+                }
+            }
         }
         if o.plausibility_alarm {
             m.plausibility.alarms += 1;
@@ -569,6 +643,7 @@ mod tests {
                     sensor_judged: !bit(4),
                     plausibility_alarm: bit(5),
                     sensor_offset_agrees: bit(2).then(|| bit(3)),
+                    sensor_cause: None,
                 });
             }
         }
@@ -662,6 +737,80 @@ mod tests {
         assert_eq!(outcome(SensorVerdict::Consistent, Some([1.5, 1.5])), None);
     }
 
+    /// Each verdict's cause has its own slot, and the alarms by cause add up to the errors found and the false
+    /// alarms whatever mix of scope, injections, verifiability and alarms the states carry.
+    #[test]
+    fn alarms_by_cause_add_up_to_the_found_errors_and_the_false_alarms() {
+        use pmon_monitor::{PositionCause, SensorOutcome, SensorVerdict};
+        let mut sensor = SensorOutcome {
+            verdict: SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded),
+            eta: 0.0,
+            eta_own: 0.0,
+            margin_length_m: 0.0,
+            margin_width_m: 0.0,
+            visible_fraction: 0.0,
+            cluster: None,
+            offset_m: [0.0; 2],
+            position_cause: None,
+        };
+        assert_eq!(cause_index(&sensor), None);
+        sensor.verdict = SensorVerdict::Consistent;
+        assert_eq!(cause_index(&sensor), None);
+        sensor.verdict = SensorVerdict::Ghost;
+        assert_eq!(cause_index(&sensor), Some(0));
+        sensor.verdict = SensorVerdict::PositionError;
+        assert_eq!(cause_index(&sensor), Some((CAUSES - 1) as u8));
+        let mut names = vec![cause_name(0), cause_name(CAUSES - 1)];
+        for (i, c) in PositionCause::ALL.into_iter().enumerate() {
+            sensor.position_cause = Some(c);
+            assert_eq!(cause_index(&sensor), Some(1 + i as u8));
+            assert_eq!(cause_name(1 + i), c.name());
+            names.push(c.name());
+        }
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), CAUSES);
+
+        let mut x = 7u64;
+        let mut draw = |n: u64| {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (x >> 33) % n
+        };
+        let mut outs = Vec::new();
+        for frame in 0..60 {
+            for id in 0..7 {
+                let sensor_alarm = draw(3) == 0;
+                outs.push(Outcome {
+                    frame,
+                    id,
+                    in_scope: draw(8) != 0,
+                    injected: draw(2) == 0,
+                    sensor_alarm,
+                    sensor_judged: draw(4) != 0,
+                    plausibility_alarm: draw(5) == 0,
+                    sensor_offset_agrees: None,
+                    sensor_cause: sensor_alarm.then(|| draw(CAUSES as u64) as u8),
+                });
+            }
+        }
+        let m = score(&outs, 2, 60, 0);
+        let c = m.sensor_causes;
+        assert!(m.sensor_verifiable.detected > 0 && m.sensor.false_alarms() > 0, "{m:?}");
+        assert_eq!(c.found.iter().sum::<u64>(), m.sensor_verifiable.detected);
+        assert_eq!(c.false_alarms.iter().sum::<u64>(), m.sensor.false_alarms());
+        // Slot by slot: the states of that cause, counted here the straightforward way.
+        for k in 0..CAUSES {
+            let of = |o: &&Outcome| o.in_scope && o.sensor_alarm && o.sensor_cause == Some(k as u8);
+            let found = outs.iter().filter(of).filter(|o| o.injected && o.sensor_judged).count() as u64;
+            let false_alarms = outs.iter().filter(of).filter(|o| !o.injected).count() as u64;
+            assert_eq!((c.found[k], c.false_alarms[k]), (found, false_alarms), "cause {k}");
+        }
+        let mut twice = c;
+        twice.add(&c);
+        assert_eq!(twice.found[1], 2 * c.found[1]);
+        assert!(!c.is_empty() && CauseTally::default().is_empty());
+    }
+
     fn o(frame: u64, injected: bool, s: bool, p: bool) -> Outcome {
         Outcome {
             frame,
@@ -672,6 +821,7 @@ mod tests {
             sensor_judged: true,
             plausibility_alarm: p,
             sensor_offset_agrees: None,
+            sensor_cause: None,
         }
     }
 

@@ -248,6 +248,7 @@ pub fn run_one_split(
                 plausibility_alarm: matches!(r.motion.verdict, pmon_monitor::MotionVerdict::Implausible(_)),
                 // A position error flagged: does the verdict report its displacement?
                 sensor_offset_agrees: offset_outcome(&r.sensor, p.clusters, p.clean.objects.get(i), offset),
+                sensor_cause: crate::metrics::cause_index(&r.sensor),
             };
             if set_apart {
                 apart_outcomes.push(o);

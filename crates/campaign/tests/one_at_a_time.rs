@@ -76,6 +76,15 @@ fn a_run_split_by_track_adds_up_to_the_whole_run() {
         );
     }
     assert!(whole.sensor.injected > 0 && whole.sensor.alarms > 0, "{whole:?}");
+    // Every sensor alarm names the test that raised it: the alarms by cause add up to the errors found and the
+    // false alarms, here and in the two parts; the displaced evidence finds some of these 1.5 m errors.
+    let mut parts = rest.sensor_causes;
+    parts.add(&on_apart.sensor_causes);
+    assert_eq!(parts, whole.sensor_causes);
+    let c = whole.sensor_causes;
+    assert_eq!(c.found.iter().sum::<u64>(), whole.sensor_verifiable.detected);
+    assert_eq!(c.false_alarms.iter().sum::<u64>(), whole.sensor.false_alarms());
+    assert!(c.found[1] > 0, "{c:?}");
     // Nothing apart: the first part is the whole run.
     let (all, none) = run_one_split(&scene, &spec, scene.injector(&spec), &BTreeSet::new()).unwrap();
     assert_eq!(all.metrics, whole);

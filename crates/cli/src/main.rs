@@ -2,6 +2,7 @@
 
 mod bag;
 mod calibrate;
+mod causes;
 mod check;
 mod config;
 mod evaluate;

@@ -366,6 +366,7 @@ impl RunState {
                     clean.objects.get(i),
                     offset,
                 ),
+                sensor_cause: crate::metrics::cause_index(&r.sensor),
             });
             if details {
                 let object = objects.get(i).copied().unwrap_or_else(|| clean.objects.get(i).copied().unwrap_or(OBJ0));
@@ -443,6 +444,7 @@ fn add_metrics(a: &mut Metrics, b: &Metrics) {
         sensor_verifiable,
         missed_object_alarms,
         sensor_offset,
+        sensor_causes,
     } = b;
     a.frames += frames;
     a.states_in_scope += states_in_scope;
@@ -455,6 +457,7 @@ fn add_metrics(a: &mut Metrics, b: &Metrics) {
     a.missed_object_alarms += missed_object_alarms;
     a.sensor_offset.flagged += sensor_offset.flagged;
     a.sensor_offset.agrees += sensor_offset.agrees;
+    a.sensor_causes.add(sensor_causes);
 }
 
 fn fmt_rate(r: &Rate) -> String {
