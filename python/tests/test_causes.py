@@ -25,7 +25,8 @@ def read(path):
 
 def test_alarms_by_test_add_up_to_each_figures_counts(reproduce_local):
     figures = sorted(p.name[: -len("_causes.csv")] for p in reproduce_local.glob("*_causes.csv"))
-    for must in ("false_alarms", "permanent_position", "permanent_position_paper", "position_direction"):
+    # The noise runs' figure appears only when they raised a false alarm (a short run may raise none).
+    for must in ("permanent_position", "permanent_position_paper", "position_direction"):
         assert must in figures, figures
     checked_found = checked_false = 0
     for fig in figures:

@@ -18,8 +18,8 @@ pub mod tracker_eval;
 pub use inject::{Direction, Fault, Injection, InjectionConfig, Injector};
 pub use metrics::{
     cause_index, cause_name, clustered_wilson, distance_to_box, offset_agrees, offset_outcome,
-    reported_displacement_agrees, score, score_by_track, CauseTally, ClusteredRate, Metrics, OffsetTally, Outcome,
-    Rate, Score, TrackTally, CAUSES, OWN_EVIDENCE_TOLERANCE_M,
+    reported_displacement_agrees, score, score_by_track, CauseCounts, CauseTally, ClusteredRate, Metrics, OffsetTally,
+    Outcome, Rate, Score, TrackTally, CAUSES, OWN_EVIDENCE_TOLERANCE_M,
 };
 pub use run::{
     confirmed_by_own_evidence, in_scope, paired_frames, replay_to, run_all, run_one, Example, PairedFrame, Replay,

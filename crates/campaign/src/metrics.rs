@@ -278,32 +278,89 @@ pub fn cause_name(index: usize) -> &'static str {
     }
 }
 
+/// Alarm counts by the test that raised them, one named field per cause (the JSON keys; `no_cause` is a position
+/// error that names none), read and written by cause index ([`cause_index`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CauseCounts {
+    /// Ghosts (index 0).
+    pub ghost: u64,
+    /// `PositionCause::DisplacedEvidence`.
+    pub displaced_evidence: u64,
+    /// `PositionCause::EvidenceFollowed`.
+    pub evidence_followed: u64,
+    /// `PositionCause::JumpedFromEvidence`.
+    pub jumped_from_evidence: u64,
+    /// `PositionCause::SeenThrough`.
+    pub seen_through: u64,
+    /// `PositionCause::FaceInFront`.
+    pub face_in_front: u64,
+    /// `PositionCause::ReturnsBeyond`.
+    pub returns_beyond: u64,
+    /// Position errors without a cause (index `CAUSES - 1`).
+    pub no_cause: u64,
+}
+
+impl CauseCounts {
+    /// The counter of cause `index`; `None` beyond [`CAUSES`].
+    pub fn slot(&mut self, index: usize) -> Option<&mut u64> {
+        Some(match index {
+            0 => &mut self.ghost,
+            1 => &mut self.displaced_evidence,
+            2 => &mut self.evidence_followed,
+            3 => &mut self.jumped_from_evidence,
+            4 => &mut self.seen_through,
+            5 => &mut self.face_in_front,
+            6 => &mut self.returns_beyond,
+            7 => &mut self.no_cause,
+            _ => return None,
+        })
+    }
+
+    /// The count of cause `index` (0 beyond [`CAUSES`]).
+    #[must_use]
+    pub fn get(&self, index: usize) -> u64 {
+        let mut copy = *self;
+        copy.slot(index).map_or(0, |n| *n)
+    }
+
+    /// All counts.
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        (0..CAUSES).map(|k| self.get(k)).sum()
+    }
+
+    /// Adds `other`'s counts.
+    pub fn add(&mut self, other: &Self) {
+        for k in 0..CAUSES {
+            if let Some(n) = self.slot(k) {
+                *n += other.get(k);
+            }
+        }
+    }
+}
+
 /// The sensor alarms of a run by the test that raised them ([`cause_index`]): those on verifiable injected errors
 /// (they add up to [`Metrics::sensor_verifiable`]`.detected`) and those on clean object states (they add up to the
 /// sensor's false alarms), object states in scope only.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CauseTally {
     /// Alarms on verifiable injected errors, by cause.
-    pub found: [u64; CAUSES],
+    pub found: CauseCounts,
     /// False alarms (alarms on clean object states), by cause.
-    pub false_alarms: [u64; CAUSES],
+    pub false_alarms: CauseCounts,
 }
 
 impl CauseTally {
     /// Adds `other`'s counts.
     pub fn add(&mut self, other: &Self) {
-        for (a, b) in self.found.iter_mut().zip(other.found) {
-            *a += b;
-        }
-        for (a, b) in self.false_alarms.iter_mut().zip(other.false_alarms) {
-            *a += b;
-        }
+        self.found.add(&other.found);
+        self.false_alarms.add(&other.false_alarms);
     }
 
     /// Whether it counts no alarm at all.
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.found.iter().chain(&self.false_alarms).all(|&n| n == 0)
+        self.found.total() + self.false_alarms.total() == 0
     }
 }
 
@@ -457,7 +514,7 @@ pub fn score_by_track(
                     m.sensor_offset.agrees += u64::from(agrees);
                 }
                 if let (true, Some(c)) = (o.sensor_alarm, o.sensor_cause) {
-                    if let Some(n) = m.sensor_causes.found.get_mut(usize::from(c)) {
+                    if let Some(n) = m.sensor_causes.found.slot(usize::from(c)) {
                         *n += 1;
                     }
                 }
@@ -469,7 +526,7 @@ pub fn score_by_track(
             m.sensor.alarms += 1;
             m.sensor.true_alarms += u64::from(o.injected);
             if let (false, Some(c)) = (o.injected, o.sensor_cause) {
-                if let Some(n) = m.sensor_causes.false_alarms.get_mut(usize::from(c)) {
+                if let Some(n) = m.sensor_causes.false_alarms.slot(usize::from(c)) {
                     *n += 1;
                 }
             }
@@ -796,18 +853,28 @@ mod tests {
         let m = score(&outs, 2, 60, 0);
         let c = m.sensor_causes;
         assert!(m.sensor_verifiable.detected > 0 && m.sensor.false_alarms() > 0, "{m:?}");
-        assert_eq!(c.found.iter().sum::<u64>(), m.sensor_verifiable.detected);
-        assert_eq!(c.false_alarms.iter().sum::<u64>(), m.sensor.false_alarms());
+        assert_eq!(c.found.total(), m.sensor_verifiable.detected);
+        assert_eq!(c.false_alarms.total(), m.sensor.false_alarms());
         // Slot by slot: the states of that cause, counted here the straightforward way.
         for k in 0..CAUSES {
             let of = |o: &&Outcome| o.in_scope && o.sensor_alarm && o.sensor_cause == Some(k as u8);
             let found = outs.iter().filter(of).filter(|o| o.injected && o.sensor_judged).count() as u64;
             let false_alarms = outs.iter().filter(of).filter(|o| !o.injected).count() as u64;
-            assert_eq!((c.found[k], c.false_alarms[k]), (found, false_alarms), "cause {k}");
+            assert_eq!((c.found.get(k), c.false_alarms.get(k)), (found, false_alarms), "cause {k}");
         }
         let mut twice = c;
         twice.add(&c);
-        assert_eq!(twice.found[1], 2 * c.found[1]);
+        assert_eq!(twice.found.get(1), 2 * c.found.get(1));
+        // Its JSON names each cause as `cause_name` does (the last, `position_error (no cause)`, as `no_cause`).
+        for k in 0..CAUSES {
+            let mut one = CauseCounts::default();
+            *one.slot(k).unwrap() = 1;
+            let json = serde_json::to_value(one).unwrap();
+            let key = if k == CAUSES - 1 { "no_cause" } else { cause_name(k) };
+            assert_eq!(json.get(key), Some(&serde_json::json!(1)), "{k}: {json}");
+            assert_eq!(one.total(), 1);
+        }
+        assert!(CauseCounts::default().slot(CAUSES).is_none());
         assert!(!c.is_empty() && CauseTally::default().is_empty());
     }
 

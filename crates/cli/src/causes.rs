@@ -28,29 +28,27 @@ fn by_curve(fig: &Figure) -> Vec<(&str, CauseTally)> {
 
 /// The causes that raised at least one alarm on some curve of `curves`, in the order of their indices.
 fn seen(curves: &[(&str, CauseTally)]) -> Vec<usize> {
-    (0..CAUSES)
-        .filter(|&k| {
-            curves
-                .iter()
-                .any(|(_, t)| t.found.get(k).copied().unwrap_or(0) + t.false_alarms.get(k).copied().unwrap_or(0) > 0)
-        })
-        .collect()
+    (0..CAUSES).filter(|&k| curves.iter().any(|(_, t)| t.found.get(k) + t.false_alarms.get(k) > 0)).collect()
 }
 
 /// Whether the chart shows the errors found (else the false alarms: a figure of clean runs).
 fn shows_found(curves: &[(&str, CauseTally)]) -> bool {
-    curves.iter().any(|(_, t)| t.found.iter().sum::<u64>() > 0)
+    curves.iter().any(|(_, t)| t.found.total() > 0)
 }
 
 fn count(t: &CauseTally, k: usize, found: bool) -> u64 {
-    if found { t.found.get(k) } else { t.false_alarms.get(k) }.copied().unwrap_or(0)
+    if found {
+        t.found.get(k)
+    } else {
+        t.false_alarms.get(k)
+    }
 }
 
 fn total(t: &CauseTally, found: bool) -> u64 {
     if found {
-        t.found.iter().sum()
+        t.found.total()
     } else {
-        t.false_alarms.iter().sum()
+        t.false_alarms.total()
     }
 }
 
@@ -116,6 +114,23 @@ pub fn write(dir: &Path, fig: &Figure) -> Result<bool> {
     Ok(true)
 }
 
+/// Adds a figure's alarms by cause to the report (the chart [`write`] drew, a paragraph and the [`table`]), when
+/// it has causes.
+pub fn add_to_report(html: &mut pmon_report::HtmlReport, fig: &Figure) {
+    let Some((headers, rows)) = table(fig) else { return };
+    let id = &fig.spec.id;
+    html.figure_with_data(
+        &format!("{id}_causes.png"),
+        &format!(
+            "{}: which test raised the sensor alarms (a ghost, or the position cause of a position error; docs/cli.md), as a share of each curve's errors found over all its points (of its false alarms for runs without errors), with 95 % intervals",
+            fig.spec.title
+        ),
+        &format!("{id}_causes.csv"),
+    );
+    html.paragraph("The same alarms counted: errors found are verifiable injected errors the sensor checks flagged; false alarms are alarms on clean object states of the same runs (the precision curve's). Summed over each curve's points; per point in the CSV.");
+    html.table(&headers, &rows);
+}
+
 /// The report's table of a figure's alarms by cause: per curve and test, the errors found and the false alarms
 /// (counts and shares of the curve's), summed over the curve's points. `None` when the figure has no causes.
 #[must_use]
@@ -177,11 +192,11 @@ mod tests {
     #[test]
     fn alarms_by_test_are_summed_over_a_curve() {
         let mut a = CauseTally::default();
-        a.found[1] = 3;
-        a.found[4] = 1;
-        a.false_alarms[0] = 2;
+        a.found.displaced_evidence = 3;
+        a.found.seen_through = 1;
+        a.false_alarms.ghost = 2;
         let mut b = CauseTally::default();
-        b.found[1] = 4;
+        b.found.displaced_evidence = 4;
         let rate = Rate::wilson(0, 0);
         let fig = figure(vec![
             Point { causes: Some(a), ..Point::new(0.5, rate) },

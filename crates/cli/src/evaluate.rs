@@ -181,6 +181,7 @@ fn write_report(out: &Path, args: &EvaluateArgs, ev: &Evaluation) -> Result<()> 
             &format!("{} — {}", f.spec.title, f.spec.paper_ref),
             &format!("{}.csv", f.spec.id),
         );
+        crate::causes::add_to_report(&mut html, f);
     }
     html.heading("Claims, per log");
     let rows: Vec<Vec<TableCell>> =

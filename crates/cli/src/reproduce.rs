@@ -699,15 +699,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
                 &format!("{}.csv", f.spec.id),
             );
         }
-        if let Some((headers, rows)) = crate::causes::table(f) {
-            html.figure_with_data(
-                &format!("{}_causes.png", f.spec.id),
-                &format!("{}: which test raised the sensor alarms (a ghost, or the position cause of a position error; docs/cli.md), as a share of each curve's errors found over all its points (of its false alarms for runs without errors), with 95 % intervals", f.spec.title),
-                &format!("{}_causes.csv", f.spec.id),
-            );
-            html.paragraph("The same alarms counted: errors found are verifiable injected errors the sensor checks flagged; false alarms are alarms on clean object states of the same runs (the precision curve's). Summed over each curve's points; per point in the CSV.");
-            html.table(&headers, &rows);
-        }
+        crate::causes::add_to_report(&mut html, f);
     }
     html.figure_with_data("dv_theory_permanent.png", "Theory: minimal detectable permanent speed error against speed and time step (Delta x = 0.1 m, Delta v = 1 m/s, Delta theta = 10 deg).", "dv_theory_permanent.csv");
     html.figure_with_data(
@@ -726,6 +718,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
             &format!("{} — {}", f.spec.title, f.spec.paper_ref),
             &format!("{}.csv", f.spec.id),
         );
+        crate::causes::add_to_report(&mut html, f);
     }
     for (title, headers, rows) in &real.tables {
         html.subheading(title);

@@ -37,7 +37,7 @@ use super::plausibility::{plausibility_experiments, TrackScene};
 use super::sensor::{sensor_experiments, FrameStream, SensorSet};
 use super::{mix, roi_label, RealDataOptions, RealDataResults, Table};
 use crate::experiments::{Claim, Curve, Figure, FigureSpec, Point};
-use crate::metrics::Rate;
+use crate::metrics::{CauseTally, Rate};
 
 /// `format` of a task description.
 pub const TASK_FORMAT: &str = "pmon-evaluate-task/1";
@@ -135,6 +135,9 @@ pub struct CountCurve {
     pub dashed: bool,
     /// `[x, k, n]` by increasing x.
     pub points: Vec<(f64, u64, u64)>,
+    /// The sensor alarms behind the points that keep them (`Point::causes`), by x.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub causes: Vec<(f64, CauseTally)>,
 }
 
 /// What one task found on its log.
@@ -586,6 +589,7 @@ fn count_figure(f: &Figure) -> CountFigure {
                 label: c.label.clone(),
                 dashed: c.dashed,
                 points: c.points.iter().map(|p| (p.x, p.rate.k, p.rate.n)).collect(),
+                causes: c.points.iter().filter_map(|p| Some((p.x, p.causes?))).collect(),
             })
             .collect(),
     }
@@ -718,6 +722,8 @@ struct MergedCurve {
     dashed: bool,
     /// (x, k, n) in first-seen order of x.
     points: Vec<(f64, u64, u64)>,
+    /// The alarms by cause, summed per x.
+    causes: Vec<(f64, CauseTally)>,
 }
 
 struct MergedFigure {
@@ -771,6 +777,7 @@ pub fn merge(tasks: &[LogTask], results: &BTreeMap<String, TaskResult>) -> Evalu
                                     label: c.label.clone(),
                                     dashed: c.dashed,
                                     points: Vec::new(),
+                                    causes: Vec::new(),
                                 });
                                 let Some(mc) = m.curves.last_mut() else { continue };
                                 mc
@@ -783,6 +790,12 @@ pub fn merge(tasks: &[LogTask], results: &BTreeMap<String, TaskResult>) -> Evalu
                                     p.2 += n;
                                 }
                                 None => mc.points.push((x, k, n)),
+                            }
+                        }
+                        for (x, t) in &c.causes {
+                            match mc.causes.iter_mut().find(|p| p.0.to_bits() == x.to_bits()) {
+                                Some(p) => p.1.add(t),
+                                None => mc.causes.push((*x, *t)),
                             }
                         }
                     }
@@ -824,7 +837,14 @@ pub fn merge(tasks: &[LogTask], results: &BTreeMap<String, TaskResult>) -> Evalu
                     .map(|c| Curve {
                         label: c.label,
                         dashed: c.dashed,
-                        points: c.points.into_iter().map(|(x, k, n)| Point::new(x, Rate::wilson(k, n))).collect(),
+                        points: c
+                            .points
+                            .into_iter()
+                            .map(|(x, k, n)| Point {
+                                causes: c.causes.iter().find(|p| p.0.to_bits() == x.to_bits()).map(|p| p.1),
+                                ..Point::new(x, Rate::wilson(k, n))
+                            })
+                            .collect(),
                     })
                     .collect(),
             }

@@ -596,9 +596,17 @@ fn sensor_experiments_in_passes(
         let consistent_recall = |m: usize| pass.consistent.get(m).map(|&(k, n)| Rate::wilson(k, n));
         let curves = vec![
             curve("sensor recall, all boxes (every box displaced)".into(), false, &|m| all_m(m, Measure::SensorRecall)),
-            curve("sensor recall, verifiable boxes (every box displaced)".into(), false, &|m| {
-                all_m(m, Measure::SensorRecallVerifiable)
-            }),
+            {
+                let mut c = curve("sensor recall, verifiable boxes (every box displaced)".into(), false, &|m| {
+                    all_m(m, Measure::SensorRecallVerifiable)
+                });
+                // Its alarms by the test that raised them (`Point::causes`).
+                for p in &mut c.points {
+                    let run = mags.iter().position(|&y| y.to_bits() == p.x.to_bits()).and_then(|m| all_runs.get(m));
+                    p.causes = run.copied().flatten().map(|r| r.metrics.sensor_causes);
+                }
+                c
+            },
             curve("share not verifiable (every box displaced)".into(), true, &|m| all_m(m, Measure::NotVerifiable)),
             curve(format!("sensor recall, half the boxes displaced ({reps} seeds pooled)"), false, &|m| {
                 half.get(m).map(|x| Measure::SensorRecall.of(x))
