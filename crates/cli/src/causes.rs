@@ -31,11 +31,6 @@ fn seen(curves: &[(&str, CauseTally)]) -> Vec<usize> {
     (0..CAUSES).filter(|&k| curves.iter().any(|(_, t)| t.found.get(k) + t.false_alarms.get(k) > 0)).collect()
 }
 
-/// Whether the chart shows the errors found (else the false alarms: a figure of clean runs).
-fn shows_found(curves: &[(&str, CauseTally)]) -> bool {
-    curves.iter().any(|(_, t)| t.found.total() > 0)
-}
-
 fn count(t: &CauseTally, k: usize, found: bool) -> u64 {
     if found {
         t.found.get(k)
@@ -53,9 +48,9 @@ fn total(t: &CauseTally, found: bool) -> u64 {
 }
 
 /// Writes `<figure>_causes.csv` (one row per curve, point and cause with an alarm: `curve,x,cause,found,
-/// false_alarms`) and the bar chart `<figure>_causes.{svg,png}` (per curve, the share of the errors found that
-/// each test found, with its 95 % interval; of the false alarms for a figure without errors). Returns whether the
-/// figure has causes (nothing is written otherwise).
+/// false_alarms`) and the bar chart `<figure>_causes.{svg,png}` (per curve, the share of its errors found and of
+/// its false alarms that each test raised, side by side, with 95 % intervals). Returns whether the figure has
+/// causes (nothing is written otherwise).
 ///
 /// # Errors
 /// Writing a file.
@@ -89,25 +84,27 @@ pub fn write(dir: &Path, fig: &Figure) -> Result<bool> {
         &["curve", "x", "cause", "found", "false_alarms"],
         &rows,
     )?;
-    let found = shows_found(&curves);
-    let what = if found { "errors found" } else { "false alarms" };
     let mut chart = BarChart::new(
         format!("{}: the test that raised each alarm", fig.spec.title),
         "test (position cause, or ghost)",
-        format!("share of the {what} [%]"),
+        "share of the curve's errors found / false alarms [%]",
         causes.iter().map(|&k| cause_name(k).to_string()).collect(),
     )
     .with_y_range(0.0, 100.0);
+    // Per curve, the errors found and the false alarms side by side: a test whose share of the false alarms
+    // exceeds its share of the errors found costs precision out of proportion.
     for (label, t) in &curves {
-        let n = total(t, found);
-        if n == 0 {
-            continue;
+        for (found, what) in [(true, "errors found"), (false, "false alarms")] {
+            let n = total(t, found);
+            if n == 0 {
+                continue;
+            }
+            let rates: Vec<Rate> = causes.iter().map(|&k| Rate::wilson(count(t, k, found), n)).collect();
+            chart = chart.with_group(
+                BarGroup::new(format!("{label}: {n} {what}"), rates.iter().map(|r| 100.0 * r.value).collect())
+                    .with_errors(rates.iter().map(|r| (100.0 * r.lo, 100.0 * r.hi)).collect()),
+            );
         }
-        let rates: Vec<Rate> = causes.iter().map(|&k| Rate::wilson(count(t, k, found), n)).collect();
-        chart = chart.with_group(
-            BarGroup::new(format!("{label} ({n} {what})"), rates.iter().map(|r| 100.0 * r.value).collect())
-                .with_errors(rates.iter().map(|r| (100.0 * r.lo, 100.0 * r.hi)).collect()),
-        );
     }
     chart.render_svg(dir.join(format!("{id}_causes.svg")))?;
     chart.render_png(dir.join(format!("{id}_causes.png")), 1600, 1000)?;
@@ -122,7 +119,7 @@ pub fn add_to_report(html: &mut pmon_report::HtmlReport, fig: &Figure) {
     html.figure_with_data(
         &format!("{id}_causes.png"),
         &format!(
-            "{}: which test raised the sensor alarms (a ghost, or the position cause of a position error; docs/cli.md), as a share of each curve's errors found over all its points (of its false alarms for runs without errors), with 95 % intervals",
+            "{}: which test raised the sensor alarms (a ghost, or the position cause of a position error; docs/cli.md), as a share of each curve's errors found and, beside it, of its false alarms, over all its points, with 95 % intervals: a test whose share of the false alarms exceeds its share of the errors found costs precision out of proportion",
             fig.spec.title
         ),
         &format!("{id}_causes.csv"),
