@@ -33,7 +33,9 @@
 //! the occupied cells under its true footprint went to (docs/attribution.md, "Where a displaced box's evidence goes");
 //! `FAKIND=1` counts each false alarm by whether the box is confirmed by its own evidence in the faulted frame and by
 //! how far its offset reaches. `BYCAUSE=1` counts every alarm, on injected errors and false, by the test that found it
-//! (the verdict's `position_cause`, or a ghost; docs/cli.md).
+//! (the verdict's `position_cause`, or a ghost; docs/cli.md), and each alarm on an injected error also by whether it
+//! is reported on the object's own evidence (`metrics::reported_displacement_agrees`) and by whether the object is
+//! confirmed by its own evidence in the clean twin of the frame (`clean-confirmed 1`: a verifiable error).
 use std::collections::BTreeMap;
 
 use pmon_campaign::experiments::{self, Measure, PlannedRun, Scale, SceneIds};
@@ -1116,6 +1118,18 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                 };
                 let kind = if injected { "alarm on an injected error" } else { "false alarm" };
                 *out.entry(format!("BYCAUSE {kind:<26} {cause}")).or_default() += 1;
+                if injected {
+                    let agrees = pmon_campaign::metrics::reported_displacement_agrees(
+                        &r.sensor,
+                        clusters_out,
+                        truth,
+                        [o.x_m - truth.x_m, o.y_m - truth.y_m],
+                    );
+                    let how = if agrees { "on its own evidence" } else { "wrong evidence" };
+                    *out.entry(format!("BYCAUSE {kind:<26} {cause} {how}")).or_default() += 1;
+                    let verifiable = u8::from(confirmed.get(i).copied().unwrap_or(false));
+                    *out.entry(format!("BYCAUSE {kind:<26} {cause} clean-confirmed {verifiable}")).or_default() += 1;
+                }
             }
             if !injected && alarm {
                 let how = match (r.sensor.verdict, r.sensor.cluster) {
