@@ -36,6 +36,7 @@ class Params:
     spill_near_side: bool
     memory_hold_s: float
     shadow_gate: bool
+    follow_owner_fit: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

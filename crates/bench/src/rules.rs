@@ -58,6 +58,10 @@ pub struct RuleSwitches {
     /// within its gate (docs/attribution.md, "The shadow of far evidence").
     #[cfg_attr(feature = "clap", arg(long))]
     pub shadow_gate: bool,
+    /// Check with the params key `follow_owner_fit` on: step 8 does not follow cells that fit the body of the
+    /// neighbour whose margin holds them (docs/attribution.md, "Step 8 judged by the evidence it follows").
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub follow_owner_fit: bool,
     /// Check with the params key `front_cluster` on: a free cluster in front of a confirmed box, fitting it and
     /// outweighing its own cells, goes to it when the evidence confirming the box runs on beyond it
     /// (docs/attribution.md, "One box displaced 2 m in a single sweep"). The default since issue #10's round
@@ -117,6 +121,7 @@ impl RuleSwitches {
         p.memory_gate |= self.memory_gate;
         p.follow_gate |= self.follow_gate;
         p.shadow_gate |= self.shadow_gate;
+        p.follow_owner_fit |= self.follow_owner_fit;
         p.front_cluster |= self.front_cluster;
         if self.no_front_cluster {
             p.front_cluster = false;
@@ -169,6 +174,7 @@ mod tests {
         assert!(on(|s| s.face_in_front = true).face_in_front);
         assert_eq!(on(|s| s.returns_beyond_cells = Some(2)).returns_beyond_cells, 2);
         assert!(on(|s| s.shadow_gate = true).shadow_gate);
+        assert!(on(|s| s.follow_owner_fit = true).follow_owner_fit);
         assert!(on(|s| s.memory_gate = true).memory_gate);
         let first = on(|s| s.jump_first_return = true);
         assert!(first.jump_from_returns && first.jump_first_return);

@@ -277,6 +277,49 @@ fn displaced_evidence_in_a_neighbours_margin_still_follows_its_track() {
     let mut alone = Monitor::new(MonitorParams::default()).unwrap();
     let r = check_at(&mut alone, 0.1, &[neighbour, reported], &second, Pose2::default());
     assert_ne!(r[1].sensor.verdict, SensorVerdict::PositionError, "without the memory: {:?}", r[1].sensor);
+    // With `follow_owner_fit` too: the track's returns and the neighbour's, side by side, are wider than the
+    // neighbour's box, so they are no spill of its body and step 8 still follows them.
+    let mut fit = Monitor::new(MonitorParams { follow_owner_fit: true, ..MonitorParams::default() }).unwrap();
+    check_at(&mut fit, 0.0, &[reported], &first, Pose2::default());
+    let r = check_at(&mut fit, 0.1, &[neighbour, reported], &second, Pose2::default());
+    assert_eq!(r[1].sensor.position_cause, Some(PositionCause::EvidenceFollowed), "with the key: {:?}", r[1].sensor);
+}
+
+/// Step 8's false alarm on a transient error (docs/attribution.md, "Step 8 judged by the evidence it follows"): a
+/// pedestrian reported 1.5 m beyond its face is flagged with that face (right); in the next sweep its box is back
+/// where it stands (the error ended), but a neighbour now walks in front of it and hides it. The neighbour's box
+/// stands 0.7 m short of its body, within its wide stated uncertainty, so its returns lie in its margin, outside its
+/// box, exactly where the track's remembered offset points from the clean box. Step 8 follows them and flags the
+/// clean track; with `follow_owner_fit` those returns fit the neighbour's own box (they can be its body), step 8
+/// does not follow them, and the hidden track is occluded. Fails if the key is ignored, or if the default changes.
+#[test]
+fn step_8_does_not_follow_a_neighbours_body_with_follow_owner_fit() {
+    let truth = object(2, 14.0, 0.0, 0.0, 0.6, 0.6);
+    let mut displaced = truth;
+    displaced.x_m += 1.5;
+    let body = object(1, 13.0, 0.0, 0.0, 0.6, 0.6);
+    let neighbour = pmon_monitor::ObjectState { x_m: 12.3, uncertainty: Some(sigma(0.3)), ..body };
+    let mut first = visible_face_points(&truth, 0.05);
+    first.extend(ground_points(45.0));
+    let mut second = visible_face_points(&body, 0.05);
+    second.extend(ground_points(45.0));
+    for (key, want_followed) in [(false, true), (true, false)] {
+        let mut m = Monitor::new(MonitorParams { follow_owner_fit: key, ..MonitorParams::default() }).unwrap();
+        let r = check_at(&mut m, 0.0, &[displaced], &first, Pose2::default());
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}, error frame: {:?}", r[0].sensor);
+        let r = check_at(&mut m, 0.1, &[neighbour, truth], &second, Pose2::default());
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "key {key}, neighbour: {:?}", r[0].sensor);
+        let followed = r[1].sensor.position_cause == Some(PositionCause::EvidenceFollowed);
+        assert_eq!(followed, want_followed, "key {key}, clean hidden track: {:?}", r[1].sensor);
+        if key {
+            assert_eq!(
+                r[1].sensor.verdict,
+                SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded),
+                "{:?}",
+                r[1].sensor
+            );
+        }
+    }
 }
 
 /// Step 8 after a gap (params key `memory_hold_s`): a track found displaced in two frames in a row, then not flagged

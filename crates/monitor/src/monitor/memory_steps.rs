@@ -6,6 +6,7 @@
 //! Part of [`Monitor`]; the memory itself is `crate::evidence_memory`, and the verdicts that ask these are in
 //! `verdicts.rs` (`finish_reports`).
 
+use super::fit::{grown, span_fits, NO_SPAN};
 use super::*;
 
 impl Monitor {
@@ -44,6 +45,10 @@ impl Monitor {
             (self.params.memory_gate || self.params.follow_gate) && region.grown.distance(x, y) > gate
         };
         let mut sum = [0.0f32; 3];
+        // With `follow_owner_fit`: the neighbour whose margin holds the cells counted (`None` once a second one
+        // does), and the span of their first returns in that neighbour's box axes.
+        let mut owner_fit: Option<Option<usize>> = None;
+        let mut followed_span = NO_SPAN;
         for iy in iy0..=iy1 {
             for ix in ix0..=ix1 {
                 let idx = iy * n + ix;
@@ -65,9 +70,47 @@ impl Monitor {
                     continue;
                 }
                 sum = [sum[0] + x, sum[1] + y, sum[2] + 1.0];
+                if self.params.follow_owner_fit {
+                    owner_fit = match owner_fit {
+                        None => Some(Some(owner)),
+                        Some(o) => Some(o.filter(|&o| o == owner)),
+                    };
+                    let first = self.grid.sums(idx).filter(|s| s[2] >= 1.0);
+                    if let (Some(Some(_)), Some([sx, sy, m]), Some(o)) =
+                        (owner_fit, first, self.scratch.get(owner).and_then(|o| o.region))
+                    {
+                        followed_span = grown(followed_span, o.footprint.local(sx / m, sy / m));
+                    }
+                }
+            }
+        }
+        if let Some(Some(o)) = owner_fit {
+            if self.fits_owner_with(o, followed_span) {
+                return None;
             }
         }
         (sum[2] >= 1.0).then(|| [sum[0] / sum[2], sum[1] / sum[2]])
+    }
+
+    /// With `follow_owner_fit`: whether the first returns of the hit cells object `o` owns in its grown region,
+    /// together with `span` (first returns in `o`'s box axes), fit `o`'s box: along and across no longer than its
+    /// length and width plus twice the safety margin (the LiDAR's noise on both ends). Then the cells step 8 would
+    /// follow can be `o`'s own body. False without the grid's first returns, or with no return in `span`. Bounded: one
+    /// walk over `o`'s grown region.
+    fn fits_owner_with(&self, o: usize, span: [f32; 4]) -> bool {
+        let Some(region) = self.scratch.get(o).and_then(|s| s.region) else { return false };
+        if !self.grid.has_first_returns() || span[0].is_nan() || span[0] > span[1] {
+            return false;
+        }
+        let geometry = self.grid.geometry;
+        let Some(range) = geometry.cell_range(region.grown.aabb()) else { return false };
+        let mut span = span;
+        self.grid.for_each_hit_cell(&region.grown, range, |idx| {
+            if let Some([sx, sy, m]) = self.grid.sums(idx).filter(|s| s[2] >= 1.0 && self.owns(o, idx)) {
+                span = grown(span, region.footprint.local(sx / m, sy / m));
+            }
+        });
+        span_fits(span, &region.footprint, 2.0 * self.params.safety_margin_m)
     }
 
     /// With `memory_gate`: whether cluster `k`, which shadows an unconfirmed box's footprint, stands within the
