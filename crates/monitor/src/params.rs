@@ -431,8 +431,9 @@ pub struct MonitorParams {
     /// neighbour's own body, spilling out of its box within its stated uncertainty, and then they prove nothing
     /// about the track. Needs the grid's first returns (`jump_from_returns` with `jump_first_return`, the
     /// defaults); without them the key does nothing. Measured (full plan of seed 7): step 8's false alarms on the
-    /// report's occlusion figure 3,021 -> 254 and its precision 98.0 -> 99.2 % at 1 m, for 0.5 points of its
-    /// recall; but up to 4.5 points of recall lost on the transient errors at 50-80 % error rates, where a
+    /// report's occlusion figure 3,021 -> 254 and its precision 98.0 -> 99.2 % at 1 m, for 0.1-0.7 points of its
+    /// recall; but up to 2.4 points of verifiable recall lost on the transient errors at 50-80 % error rates (4.5
+    /// on the quick plan), where a
     /// displaced pedestrian's own returns often stand within a neighbour's extent, so off by default. Costs one
     /// walk over the neighbour's grown region, only when step 8 finds cells.
     pub follow_owner_fit: bool,

@@ -46,7 +46,7 @@ pub(super) struct BeyondEntry {
 
 impl Monitor {
     /// Each own hit cell's first return (with `jump_first_return`; else the mean of its returns).
-    fn own_first_return(&self, j: usize, idx: u32) -> Option<(f32, f32)> {
+    pub(super) fn own_first_return(&self, j: usize, idx: u32) -> Option<(f32, f32)> {
         self.grid.sums(idx).filter(|s| s[2] >= 1.0 && self.owns(j, idx)).map(|[sx, sy, n]| (sx / n, sy / n))
     }
 

@@ -65,7 +65,8 @@ impl Monitor {
                     continue;
                 }
                 let owner = self.owner.get(idx as usize).map_or(j, |&o| o as usize);
-                let in_box = self.scratch.get(owner).and_then(|o| o.region).is_some_and(|o| o.footprint.contains(x, y));
+                let owner_region = self.scratch.get(owner).and_then(|o| o.region);
+                let in_box = owner_region.is_some_and(|o| o.footprint.contains(x, y));
                 if owner == j || in_box || beyond_gate(region, x, y) {
                     continue;
                 }
@@ -75,11 +76,10 @@ impl Monitor {
                         None => Some(Some(owner)),
                         Some(o) => Some(o.filter(|&o| o == owner)),
                     };
-                    let first = self.grid.sums(idx).filter(|s| s[2] >= 1.0);
-                    if let (Some(Some(_)), Some([sx, sy, m]), Some(o)) =
-                        (owner_fit, first, self.scratch.get(owner).and_then(|o| o.region))
-                    {
-                        followed_span = grown(followed_span, o.footprint.local(sx / m, sy / m));
+                    if let (Some(Some(_)), Some(o)) = (owner_fit, owner_region) {
+                        if let Some(at) = self.own_first_return(owner, idx) {
+                            followed_span = grown(followed_span, o.footprint.local(at.0, at.1));
+                        }
                     }
                 }
             }
@@ -106,8 +106,8 @@ impl Monitor {
         let Some(range) = geometry.cell_range(region.grown.aabb()) else { return false };
         let mut span = span;
         self.grid.for_each_hit_cell(&region.grown, range, |idx| {
-            if let Some([sx, sy, m]) = self.grid.sums(idx).filter(|s| s[2] >= 1.0 && self.owns(o, idx)) {
-                span = grown(span, region.footprint.local(sx / m, sy / m));
+            if let Some((x, y)) = self.own_first_return(o, idx) {
+                span = grown(span, region.footprint.local(x, y));
             }
         });
         span_fits(span, &region.footprint, 2.0 * self.params.safety_margin_m)
