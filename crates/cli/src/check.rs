@@ -64,7 +64,8 @@ pub struct CheckArgs {
     /// as `kitti:DIR`, `kitti-tracking:FILE`, `nuscenes:DIR`, `nuscenes-v1:DIR[#scene]`, `av2:LOG_DIR` or
     /// `commonroad:FILE.xml` (see docs/datasets.md).
     pub recording: PathBuf,
-    /// Monitor parameters (TOML); defaults to the paper's Table I. See `pmon params`.
+    /// Monitor parameters (TOML), or a profile pmon ships (`profile:recall`: three opt-in rules that find more
+    /// small displacements, at a measured price; README); defaults to the paper's Table I. See `pmon params`.
     #[arg(long)]
     pub params: Option<PathBuf>,
     /// Output format.

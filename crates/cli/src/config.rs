@@ -16,12 +16,37 @@ pub fn load_params(path: Option<&Path>) -> Result<MonitorParams> {
     load_params_over(MonitorParams::default(), path)
 }
 
+/// The parameter profiles pmon ships (`--params profile:NAME`): partial TOML files over the defaults, each with
+/// what it buys and costs in its comments (README, "The recall profile").
+pub const PROFILES: &[(&str, &str)] = &[("recall", include_str!("../profiles/recall.toml"))];
+
+/// The profile a `--params` value names (`profile:NAME`), if it names one: its name and text, or an error that
+/// lists the profiles there are. `None` for a file path (a file whose name begins with `profile:` is given as
+/// `./profile:...`).
+fn profile_of(path: &Path) -> Option<Result<(&'static str, &'static str)>> {
+    let name = path.to_str()?.strip_prefix("profile:")?;
+    Some(PROFILES.iter().find(|(n, _)| *n == name).copied().ok_or_else(|| {
+        let names: Vec<String> = PROFILES.iter().map(|(n, _)| format!("profile:{n}")).collect();
+        anyhow::anyhow!(
+            "unknown parameter profile `{name}`: pmon ships {} (a file of that name: `--params ./profile:{name}`)",
+            names.join(", ")
+        )
+    }))
+}
+
 /// Loads a TOML file's values over `base` (keys left out keep `base`'s values, nested tables too), validated.
+/// `profile:NAME` loads one of the [`PROFILES`] the same way.
 pub fn load_params_over(base: MonitorParams, path: Option<&Path>) -> Result<MonitorParams> {
     let Some(path) = path else {
         base.validate().map_err(|e| anyhow::anyhow!("parameters: {e}"))?;
         return Ok(base);
     };
+    if let Some(profile) = profile_of(path) {
+        let (name, text) = profile?;
+        let params = params_from_str_over(base, text).map_err(|e| anyhow::anyhow!("profile:{name}: {e}"))?;
+        params.validate().map_err(|e| anyhow::anyhow!("profile:{name}: {e}"))?;
+        return Ok(params);
+    }
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read parameter file {}", path.display()))?;
     let yaml = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("yaml") || e.eq_ignore_ascii_case("yml"));
@@ -88,6 +113,9 @@ pub fn print_params(path: Option<&Path>) -> Result<()> {
     let params = load_params(path)?;
     let text = toml::to_string_pretty(&params).context("cannot serialise parameters")?;
     println!("# pmon monitor parameters (defaults: the paper's Table I). Units are in the names.");
+    if let Some(Ok((name, _))) = path.and_then(profile_of) {
+        println!("# The profile `{name}` over them (crates/cli/profiles/{name}.toml: what it buys and costs).");
+    }
     println!("# Load with --params FILE; keys left out keep these values; unknown keys are rejected.");
     print!("{text}");
     Ok(())
@@ -155,6 +183,24 @@ mod tests {
         // A key the file gives wins over the dataset's.
         let p = params_from_str_over(dataset, "ground_z_m = 0.0\n").unwrap();
         assert_eq!(p.ground_z_m, 0.0);
+    }
+
+    /// Every shipped profile loads and validates, and changes the defaults (a profile that changed nothing
+    /// would be a stub); `recall` turns on exactly its three rules. An unknown name is an error that lists the
+    /// profiles; a path that does not begin with `profile:` is still a file.
+    #[test]
+    fn profiles_load_over_the_defaults() {
+        let d = MonitorParams::default();
+        for (name, _) in PROFILES {
+            let p = load_params(Some(Path::new(&format!("profile:{name}")))).unwrap();
+            assert_ne!(p, d, "profile {name} changes nothing");
+        }
+        let p = load_params(Some(Path::new("profile:recall"))).unwrap();
+        assert_eq!(p, MonitorParams { returns_beyond_cells: 1, face_in_front: true, seen_over: true, ..d });
+        let e = load_params(Some(Path::new("profile:fast"))).unwrap_err().to_string();
+        assert!(e.contains("unknown parameter profile `fast`") && e.contains("profile:recall"), "{e}");
+        let e = load_params(Some(Path::new("./profile:recall"))).unwrap_err().to_string();
+        assert!(e.contains("cannot read parameter file ./profile:recall"), "{e}");
     }
 
     #[test]

@@ -49,8 +49,8 @@ pub struct EvaluateArgs {
     /// Campaign seed: each task's seed is derived from it and the task's identity.
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
-    /// Monitor parameters (TOML or YAML); defaults to the paper's Table I. Each dataset's ground height and ego
-    /// footprint go over them.
+    /// Monitor parameters (TOML or YAML, or a profile pmon ships: `profile:recall`); defaults to the paper's
+    /// Table I. Each dataset's ground height and ego footprint go over them.
     #[arg(long)]
     pub params: Option<PathBuf>,
     /// Three position and two speed magnitudes, two seeds: checks the pipeline, no conclusions.

@@ -145,7 +145,8 @@ enum Command {
     Calibrate(calibrate::CalibrateArgs),
     /// Print the monitor parameters as TOML (the paper's Table I, or a file's values merged over it).
     Params {
-        /// A TOML file of parameters to validate and print merged over the defaults.
+        /// A TOML file of parameters to validate and print merged over the defaults, or a profile pmon ships
+        /// (`profile:recall`; README, "The recall profile").
         #[arg(long)]
         params: Option<PathBuf>,
     },

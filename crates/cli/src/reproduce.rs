@@ -34,8 +34,8 @@ pub struct ReproduceArgs {
     /// Seed of the scenes and of every injection.
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
-    /// Monitor parameters (TOML) for every run; defaults to the paper's Table I. (The 0.2 m cell curves
-    /// override the cell size only.)
+    /// Monitor parameters (TOML) for every run, or a profile pmon ships (`profile:recall`); defaults to the
+    /// paper's Table I. (The 0.2 m cell curves override the cell size only.)
     #[arg(long)]
     pub params: Option<PathBuf>,
     /// Length of each simulated scene, seconds (default: the scenario's own, 15 s with --quick).

@@ -115,7 +115,8 @@ pub struct Ros2Args {
     #[arg(long)]
     pub max_frames: Option<u64>,
     /// Monitor parameters: a ROS 2 parameter file in Autoware's style (`.yaml`: `/**:` -> `ros__parameters:`) or
-    /// pmon's TOML; any subset of `pmon params`' keys, the same validation everywhere.
+    /// pmon's TOML, or a profile pmon ships (`profile:recall`); any subset of `pmon params`' keys, the same
+    /// validation everywhere.
     #[arg(long)]
     pub params: Option<PathBuf>,
 }

@@ -31,8 +31,8 @@ pub struct ViewArgs {
     /// Centre the picture on this object id instead of the ego vehicle.
     #[arg(long)]
     pub object: Option<u64>,
-    /// Monitor parameters (TOML); defaults to the paper's Table I (with a dataset's ground height and ego
-    /// footprint under the file's keys).
+    /// Monitor parameters (TOML, or a profile pmon ships: `profile:recall`); defaults to the paper's Table I (with
+    /// a dataset's ground height and ego footprint under the file's keys).
     #[arg(long)]
     pub params: Option<PathBuf>,
     /// Replace `--out` even when it is a file pmon did not write.

@@ -77,6 +77,39 @@ fn params_round_trip_and_unknown_keys_are_named() {
     assert!(text(&bad).contains("every_returns"), "{}", text(&bad));
 }
 
+/// `--params profile:recall` is the shipped profile: `pmon params` prints the defaults with its three keys turned
+/// on (and says which profile), `check` runs with it, an unknown profile exits 2 and names the ones there are, and
+/// the printed set read back as a file gives the same parameters.
+#[test]
+fn the_recall_profile_loads_everywhere_params_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let defaults = text(&pmon(&["params"]));
+    let o = pmon(&["params", "--params", "profile:recall"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let out = text(&o);
+    assert!(out.contains("The profile `recall`"), "{out}");
+    for (key, on, off) in [
+        ("returns_beyond_cells", "returns_beyond_cells = 1", "returns_beyond_cells = 0"),
+        ("face_in_front", "face_in_front = true", "face_in_front = false"),
+        ("seen_over", "seen_over = true", "seen_over = false"),
+    ] {
+        assert!(out.contains(on) && defaults.contains(off), "{key}: {out}");
+    }
+    let p = dir.path().join("recall.toml");
+    std::fs::write(&p, &o.stdout).unwrap();
+    let again = pmon(&["params", "--params", p.to_str().unwrap()]);
+    assert!(text(&again).contains("returns_beyond_cells = 1"), "{}", text(&again));
+    let bad = pmon(&["params", "--params", "profile:fastest"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(text(&bad).contains("unknown parameter profile `fastest`"), "{}", text(&bad));
+    assert!(text(&bad).contains("profile:recall"), "{}", text(&bad));
+    let walk = dir.path().join("walk");
+    write_walk(&walk, 4, Some(2));
+    let o = pmon(&["check", walk.to_str().unwrap(), "--params", "profile:recall"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("position error"), "{}", text(&o));
+}
+
 #[test]
 fn clean_walk_has_no_alarm_and_displacement_is_reported() {
     let dir = tempfile::tempdir().unwrap();
