@@ -15,7 +15,8 @@
 //! each displaced box (the error starts at this sweep: the evidence memory knows where each object's evidence was).
 //! With `HISTORY=1` alone, every box is displaced at once as without it, but each displaced frame's check starts with
 //! a fresh track memory and a check of the previous sweep, clean (the paper's form at the onset of the error).
-//! `BEYOND=N` checks with the params key `returns_beyond_cells = N` (own returns beyond the grown region).
+//! `BEYOND=N` checks with the params key `returns_beyond_cells = N` (own returns beyond the grown region),
+//! `SEEN_OVER=1` with `seen_over` (`BEYOND=1 FACE=1 SEEN_OVER=1`: the parameters of `--params profile:recall`).
 //! `FACE=1` checks with the params key `face_in_front`, `BODY=1` with `seen_body` (the free-space test counts only
 //! rays that end on the body), `MEMGATE=1` with `memory_gate` (evidence beyond the gate is never a box's),
 //! `FOLLOWGATE=1` with `follow_gate` (step 8 alone bounded by the gate); both `seen_body` and `follow_gate` are the
@@ -62,6 +63,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ground_z_m: ds.info.ground_z_m,
         ego_footprint_m: ds.info.format.ego_footprint_m(),
         face_in_front: std::env::var_os("FACE").is_some(),
+        // `SEEN_OVER=1`: the params key `seen_over` (off by default; with `BEYOND=1 FACE=1`, `profile:recall`).
+        seen_over: std::env::var_os("SEEN_OVER").is_some(),
         // `BEYOND=N`: the params key `returns_beyond_cells = N` (off by default).
         returns_beyond_cells: std::env::var("BEYOND").ok().and_then(|v| v.parse().ok()).unwrap_or(0),
         // The jump keys are the default since issue #10: `NOJUMP=1` turns both off, `NOFIRST=1` the first return.
