@@ -560,12 +560,13 @@ impl Monitor {
             &self.params,
         );
         on_stage(Stage::Plausibility);
+        // `returns_beyond_cells`: its scan runs when a box first needs it (`beyond.rs`), or with `seen_over` in
+        // the same scan as the latter's (`over.rs`).
+        self.beyond_gathered = false;
         if self.params.seen_over {
             let status = self.sensor_status;
             self.gather_over_returns(cloud.filter(|_| status.is_none()));
         }
-        // `returns_beyond_cells`: its scan runs when a box first needs it (`beyond.rs`).
-        self.beyond_gathered = false;
         let status = self.sensor_status;
         self.finish_reports(frame, cloud.filter(|_| status.is_none()));
         on_stage(Stage::Verdicts);

@@ -44,6 +44,32 @@ pub(super) struct BeyondEntry {
     pub(super) nearest: f32,
 }
 
+/// Folds a return of `cell` (`point`: its ego-frame position, computed only when the cell has entries) into the
+/// nearest return of each candidate entry of that cell. `last` caches the cell's range of `entries` over a run of
+/// returns in one cell (a ring puts several in a row: one search per run).
+#[inline]
+pub(super) fn fold_beyond_return(
+    entries: &mut [BeyondEntry],
+    scratch: &[ObjectScratch],
+    last: &mut (u32, usize, usize),
+    cell: u32,
+    point: impl FnOnce() -> [f32; 3],
+) {
+    if cell != last.0 {
+        let from = entries.partition_point(|e| e.cell < cell);
+        let to = from + entries.get(from..).map_or(0, |rest| rest.partition_point(|e| e.cell == cell));
+        *last = (cell, from, to);
+    }
+    if last.1 == last.2 {
+        return;
+    }
+    let q = point();
+    for e in entries.get_mut(last.1..last.2).into_iter().flatten() {
+        let Some(region) = scratch.get(e.object as usize).and_then(|s| s.region.as_ref()) else { continue };
+        e.nearest = e.nearest.min(region.grown.distance(q[0], q[1]));
+    }
+}
+
 impl Monitor {
     /// Each own hit cell's first return (with `jump_first_return`; else the mean of its returns).
     pub(super) fn own_first_return(&self, j: usize, idx: u32) -> Option<(f32, f32)> {
@@ -79,9 +105,39 @@ impl Monitor {
     /// nearest return, from one scan of the cells the rasterizer recorded per point (the prefilter of `over.rs`).
     /// `returns_beyond` counts a candidate only when that distance exceeds `delta_safe`.
     pub(super) fn gather_beyond_returns(&mut self, from: usize, cloud: Option<Cloud<'_>>) {
-        self.beyond_entries.clear();
         self.beyond_gathered = true;
-        let Some(cloud) = cloud else { return };
+        let Some(cloud) = cloud else {
+            self.beyond_entries.clear();
+            return;
+        };
+        if !self.beyond_entries_from(from) {
+            return;
+        }
+        for e in &self.beyond_entries {
+            if let Some(b) = self.beyond_map.get_mut(edge_slot(e.cell)) {
+                *b = 1;
+            }
+        }
+        let t = cloud.ego_from_sensor;
+        let (band, geometry) = (self.band(), self.grid.geometry);
+        let (scratch, entries) = (&self.scratch, &mut self.beyond_entries);
+        let mut last = (NO_CELL, 0usize, 0usize);
+        for_each_marked_return(&self.beyond_map, &self.point_cells, cloud, band, geometry, |cell, p| {
+            fold_beyond_return(entries, scratch, &mut last, cell, || t.transform(p));
+        });
+        // The prefilter is empty again for the next frame.
+        for e in &self.beyond_entries {
+            if let Some(b) = self.beyond_map.get_mut(edge_slot(e.cell)) {
+                *b = 0;
+            }
+        }
+    }
+
+    /// The candidate cells of box `from` and of every later box confirmed by its own evidence, each with its
+    /// nearest return at infinity, sorted by cell and box (`beyond_entries`); false when there are none. Each
+    /// entry depends on its cell and box only, so entries of boxes that never ask change nothing for the others.
+    pub(super) fn beyond_entries_from(&mut self, from: usize) -> bool {
+        self.beyond_entries.clear();
         let tau_tp = self.params.tau_tp;
         for j in from..self.scratch.len() {
             let Some(s) = self.scratch.get(j) else { continue };
@@ -106,41 +162,8 @@ impl Monitor {
                 }
             }
         }
-        if self.beyond_entries.is_empty() {
-            return;
-        }
         self.beyond_entries.sort_unstable_by_key(|e| (e.cell, e.object));
-        for e in &self.beyond_entries {
-            if let Some(b) = self.beyond_map.get_mut(edge_slot(e.cell)) {
-                *b = 1;
-            }
-        }
-        let t = cloud.ego_from_sensor;
-        let (band, geometry) = (self.band(), self.grid.geometry);
-        let (scratch, entries) = (&self.scratch, &mut self.beyond_entries);
-        // A ring puts several points of a run in one cell: one search per run.
-        let mut last = (NO_CELL, 0usize, 0usize);
-        for_each_marked_return(&self.beyond_map, &self.point_cells, cloud, band, geometry, |cell, p| {
-            if cell != last.0 {
-                let from = entries.partition_point(|e| e.cell < cell);
-                let to = from + entries.get(from..).map_or(0, |rest| rest.partition_point(|e| e.cell == cell));
-                last = (cell, from, to);
-            }
-            if last.1 == last.2 {
-                return;
-            }
-            let q = t.transform(p);
-            for e in entries.get_mut(last.1..last.2).into_iter().flatten() {
-                let Some(region) = scratch.get(e.object as usize).and_then(|s| s.region.as_ref()) else { continue };
-                e.nearest = e.nearest.min(region.grown.distance(q[0], q[1]));
-            }
-        });
-        // The prefilter is empty again for the next frame.
-        for e in &self.beyond_entries {
-            if let Some(b) = self.beyond_map.get_mut(edge_slot(e.cell)) {
-                *b = 0;
-            }
-        }
+        !self.beyond_entries.is_empty()
     }
 
     /// Whether candidate cell `idx` of box `j` stands wholly beyond its grown region: every return of it more than

@@ -13,6 +13,7 @@
 //! entry has the bits of the grid's fold (tested: `over_returns_equal_the_grids_fold`; the verdicts: the same
 //! `attribution_diag` curves and `pmon check` lines as with the grid's fold).
 
+use super::beyond::fold_beyond_return;
 use super::clusters::{edge_slot, for_each_marked_return};
 use super::*;
 
@@ -195,15 +196,24 @@ impl Monitor {
         }
         self.over_cells.sort_unstable();
         self.over_cells.dedup();
-        self.fold_over_returns(cloud);
+        // With `returns_beyond_cells` too, its candidate cells are gathered here for every box, and one scan folds
+        // the returns of both kinds of cells (`beyond.rs` then finds them gathered): one scan instead of two.
+        let beyond = self.params.returns_beyond_cells > 0 && {
+            self.beyond_gathered = true;
+            self.beyond_entries_from(0)
+        };
+        self.fold_over_returns(cloud, beyond);
     }
 
     /// The returns of the cells in `over_cells` (sorted, no repeats): one scan of the cells the rasterizer recorded
     /// per point (or, when they were not recorded, a pass over the sweep), the points of the kept cells transformed
-    /// and folded as the grid's reference loop folds them.
-    fn fold_over_returns(&mut self, cloud: Cloud<'_>) {
+    /// and folded as the grid's reference loop folds them. With `beyond`, the same scan also folds the returns of
+    /// `returns_beyond_cells`' candidate cells (`beyond_entries`) into their nearest return: each fold reads only
+    /// the points of its own cells, and neither depends on the order of the points (minima and maxima), so both
+    /// get the bits of a scan of their own.
+    fn fold_over_returns(&mut self, cloud: Cloud<'_>, beyond: bool) {
         self.over_entries.clear();
-        if self.over_cells.is_empty() {
+        if self.over_cells.is_empty() && !beyond {
             return;
         }
         for &c in &self.over_cells {
@@ -212,13 +222,25 @@ impl Monitor {
                 *b = 1;
             }
         }
+        if beyond {
+            for e in &self.beyond_entries {
+                if let Some(b) = self.over_map.get_mut(edge_slot(e.cell)) {
+                    *b = 1;
+                }
+            }
+        }
         let t = cloud.ego_from_sensor;
         let o = self.visibility.origin();
         let (band, geometry) = (self.band(), self.grid.geometry);
         let (grid, cells, entries) = (&self.grid, &self.over_cells, &mut self.over_entries);
+        let (scratch, beyond_entries) = (&self.scratch, &mut self.beyond_entries);
         // A ring puts several points of a run in one cell: one search per run.
         let mut last = (NO_CELL, None);
+        let mut last_beyond = (NO_CELL, 0usize, 0usize);
         for_each_marked_return(&self.over_map, &self.point_cells, cloud, band, geometry, |cell, p| {
+            if beyond {
+                fold_beyond_return(beyond_entries, scratch, &mut last_beyond, cell, || t.transform(p));
+            }
             if cell != last.0 {
                 last = (cell, cells.binary_search(&cell).ok().filter(|_| grid.hits(cell) > 0));
             }
@@ -234,6 +256,13 @@ impl Monitor {
         for &c in &self.over_cells {
             if let Some(b) = self.over_map.get_mut(edge_slot(c)) {
                 *b = 0;
+            }
+        }
+        if beyond {
+            for e in &self.beyond_entries {
+                if let Some(b) = self.over_map.get_mut(edge_slot(e.cell)) {
+                    *b = 0;
+                }
             }
         }
     }
@@ -306,7 +335,7 @@ mod tests {
                 m.over_cells.clear();
                 m.over_cells.extend_from_slice(m.grid.touched());
                 m.over_cells.sort_unstable();
-                m.fold_over_returns(Cloud::from(cloud));
+                m.fold_over_returns(Cloud::from(cloud), false);
                 assert_eq!(m.over_entries.len(), m.over_cells.len());
                 for &c in &m.over_cells {
                     let want = grid.returns(c).map(|v| v.map(f32::to_bits));
@@ -316,5 +345,106 @@ mod tests {
                 assert!(m.over_map.iter().all(|&b| b == 0), "case {case}: the prefilter is empty again");
             }
         }
+    }
+
+    /// With `returns_beyond_cells` too, the one scan that folds both kinds of cells (`fold_over_returns` with
+    /// `beyond`) gives each candidate entry the bits `gather_beyond_returns`' own scan gives it and each seen-over
+    /// cell the bits of the scan without the candidates, and leaves the prefilter empty: random sweeps with boxes
+    /// on them, every hit cell a candidate of every box (so the two kinds of cells overlap and interleave), with
+    /// and without the recorded cells.
+    #[test]
+    fn one_scan_for_seen_over_and_the_returns_beyond_equals_two() {
+        let mut rng = Rng(0x5CA1_AB1E_0DD5_EED5);
+        let mut compared = 0usize;
+        for case in 0..8 {
+            let n = [100usize, 1000, 4097, 20_000][case % 4];
+            let mut points = alloc::vec::Vec::with_capacity(n);
+            for i in 0..n {
+                let p = [rng.range(-30.0, 30.0), rng.range(-30.0, 30.0), rng.range(-1.7, 1.3)];
+                points.push(p);
+                if i % 3 == 0 {
+                    points.push([p[0] + 0.02, p[1] - 0.01, p[2] + 0.3]);
+                }
+            }
+            let objects: alloc::vec::Vec<ObjectState> = (0..6)
+                .map(|k| ObjectState {
+                    id: k,
+                    class: crate::frame::ObjectClass::Car,
+                    x_m: rng.range(-25.0, 25.0),
+                    y_m: rng.range(-25.0, 25.0),
+                    heading_rad: rng.range(-3.0, 3.0),
+                    speed_mps: 0.0,
+                    length_m: 4.5,
+                    width_m: 1.8,
+                    uncertainty: None,
+                })
+                .collect();
+            let params = MonitorParams { seen_over: true, returns_beyond_cells: 1, ..MonitorParams::default() };
+            let t = Isometry3::from_yaw_translation(0.2, [0.5, -0.3, 1.8]);
+            let mut m = Monitor::new(params).unwrap();
+            let cloud = PointCloud { points_in_sensor: &points, ego_from_sensor: t };
+            let frame = Frame {
+                timestamp_s: 0.1,
+                world_from_ego: Pose2::default(),
+                objects: &objects,
+                cloud: Some(cloud),
+                roi_in_ego: &[],
+                static_in_ego: &[],
+            };
+            m.check(&frame).unwrap();
+            let boxes = (0..m.scratch.len()).filter(|&j| m.scratch[j].region.is_some()).count();
+            assert!(boxes > 0, "case {case}: boxes with a region");
+            for recorded in [true, false] {
+                if !recorded {
+                    m.point_cells.clear();
+                }
+                let candidates = |m: &mut Monitor| {
+                    m.beyond_entries.clear();
+                    let mut cells = m.grid.touched().to_vec();
+                    cells.sort_unstable();
+                    for &cell in &cells {
+                        for object in 0..m.scratch.len() as u32 {
+                            if m.beyond_entries.len() < m.beyond_entries.capacity() {
+                                m.beyond_entries.push(beyond::BeyondEntry { cell, object, nearest: f32::INFINITY });
+                            }
+                        }
+                    }
+                };
+                // Every other hit cell is read by seen-over.
+                m.over_cells.clear();
+                let over: alloc::vec::Vec<u32> = m.grid.touched().iter().copied().step_by(2).collect();
+                m.over_cells.extend_from_slice(&over);
+                m.over_cells.sort_unstable();
+                // Two scans: seen-over's alone, then the candidates' own (as `gather_beyond_returns` makes it).
+                m.fold_over_returns(Cloud::from(cloud), false);
+                let over_alone: alloc::vec::Vec<[u32; 3]> =
+                    m.over_entries.iter().map(|v| v.map(f32::to_bits)).collect();
+                candidates(&mut m);
+                for e in &m.beyond_entries {
+                    m.beyond_map[super::super::clusters::edge_slot(e.cell)] = 1;
+                }
+                let (band, geometry) = (m.band(), m.grid.geometry);
+                let (scratch, entries) = (&m.scratch, &mut m.beyond_entries);
+                let mut last = (NO_CELL, 0usize, 0usize);
+                for_each_marked_return(&m.beyond_map, &m.point_cells, Cloud::from(cloud), band, geometry, |cell, p| {
+                    fold_beyond_return(entries, scratch, &mut last, cell, || t.transform(p));
+                });
+                m.beyond_map.fill(0);
+                let beyond_alone: alloc::vec::Vec<(u32, u32, u32)> =
+                    m.beyond_entries.iter().map(|e| (e.cell, e.object, e.nearest.to_bits())).collect();
+                assert!(m.beyond_entries.iter().any(|e| e.nearest.is_finite()), "case {case}: returns folded");
+                // One scan for both.
+                candidates(&mut m);
+                m.fold_over_returns(Cloud::from(cloud), true);
+                let over_both: alloc::vec::Vec<[u32; 3]> = m.over_entries.iter().map(|v| v.map(f32::to_bits)).collect();
+                let beyond_both: alloc::vec::Vec<(u32, u32, u32)> =
+                    m.beyond_entries.iter().map(|e| (e.cell, e.object, e.nearest.to_bits())).collect();
+                assert_eq!(over_both, over_alone, "case {case}, recorded {recorded}: seen-over's cells");
+                assert_eq!(beyond_both, beyond_alone, "case {case}, recorded {recorded}: the candidates");
+                assert!(m.over_map.iter().all(|&b| b == 0), "case {case}: the prefilter is empty again");
+                compared += beyond_both.len();
+            }
+        }
+        assert!(compared > 1000, "{compared} candidate entries compared");
     }
 }
