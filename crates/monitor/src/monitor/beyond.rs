@@ -10,7 +10,8 @@
 //!
 //! - a cell whose first return stands beyond is a candidate; the first time in a frame a box passes the other
 //!   tests, [`Monitor::gather_beyond_returns`] folds every return of the frame's candidate cells (one scan of the
-//!   cells the rasterizer recorded per point, as `over.rs` does) into the distance beyond the region of the cell's
+//!   cells the rasterizer recorded per point, as `over.rs` does; with `seen_over` on, the candidates of every box
+//!   are gathered before the verdicts and folded in seen-over's own scan) into the distance beyond the region of the cell's
 //!   nearest return. A cell that also holds a return within `delta_safe` of the region is not counted: the box's own edge
 //!   with something beside it (a mirror, a post, a bush) in the same cell;
 //! - a return inside another object's grown region, or near an object without evidence of its own and without a

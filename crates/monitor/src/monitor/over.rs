@@ -11,7 +11,9 @@
 //! folds the returns of the kept cells alone, found through the cells the rasterizer recorded per point and a
 //! byte-map prefilter (the scan of `roi_by_returns`). `min` and `max` do not depend on the order, so each kept
 //! entry has the bits of the grid's fold (tested: `over_returns_equal_the_grids_fold`; the verdicts: the same
-//! `attribution_diag` curves and `pmon check` lines as with the grid's fold).
+//! `attribution_diag` curves and `pmon check` lines as with the grid's fold). With `returns_beyond_cells` on as
+//! well, the same scan folds that rule's candidate cells (`beyond.rs`), gathered here for every box: one scan of
+//! the recorded cells instead of two (docs/performance.md, "One scan for two opt-in rules").
 
 use super::beyond::fold_beyond_return;
 use super::clusters::{edge_slot, for_each_marked_return};
