@@ -732,6 +732,14 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     html.heading("Example frames");
     render_examples(&out, &scenes, ids, &params, args.seed, &mut html)?;
     html.heading("Parameters");
+    html.paragraph(&match &args.params {
+        Some(p) => format!(
+            "The defaults with --params {} over them (every key below; a profile's file, crates/cli/profiles, lists \
+             what it buys and costs).",
+            p.display()
+        ),
+        None => "The defaults: the paper's Table I and the rules made the default since (every key below).".to_string(),
+    });
     html.preformatted(&toml::to_string_pretty(&params).unwrap_or_default());
 
     let elapsed = started.elapsed().as_secs_f64();

@@ -315,6 +315,12 @@ fn reproduce_writes_a_report_derived_from_the_runs() {
         }
         let html = std::fs::read_to_string(out.join("index.html")).unwrap();
         assert!(html.contains("Paper vs pmon"));
+        // The parameters say where they came from: the defaults, or the --params file over them.
+        let source = match params {
+            Some(_) => format!("The defaults with --params {} over them", p.display()),
+            None => "The defaults: the paper".to_string(),
+        };
+        assert!(html.contains(&source), "{source}");
         let results: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
         // Issue 15: the Markdown table (what the README's results table is pasted from) has every claim of
