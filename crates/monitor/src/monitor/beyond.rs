@@ -45,6 +45,16 @@ pub(super) struct BeyondEntry {
     pub(super) nearest: f32,
 }
 
+/// Sets the prefilter byte of every candidate cell in `entries` to `value` (1 before a scan, 0 after it, so that
+/// the prefilter is empty again for the next frame).
+pub(super) fn mark_beyond_cells(map: &mut [u8], entries: &[BeyondEntry], value: u8) {
+    for e in entries {
+        if let Some(b) = map.get_mut(edge_slot(e.cell)) {
+            *b = value;
+        }
+    }
+}
+
 /// Folds a return of `cell` (`point`: its ego-frame position, computed only when the cell has entries) into the
 /// nearest return of each candidate entry of that cell. `last` caches the cell's range of `entries` over a run of
 /// returns in one cell (a ring puts several in a row: one search per run).
@@ -111,14 +121,15 @@ impl Monitor {
             self.beyond_entries.clear();
             return;
         };
-        if !self.beyond_entries_from(from) {
-            return;
+        if self.beyond_entries_from(from) {
+            self.fold_beyond_returns(cloud);
         }
-        for e in &self.beyond_entries {
-            if let Some(b) = self.beyond_map.get_mut(edge_slot(e.cell)) {
-                *b = 1;
-            }
-        }
+    }
+
+    /// The returns of the candidate cells in `beyond_entries` folded into each entry's nearest return, by one scan
+    /// of the cells the rasterizer recorded per point through this rule's own prefilter (emptied again after).
+    pub(super) fn fold_beyond_returns(&mut self, cloud: Cloud<'_>) {
+        mark_beyond_cells(&mut self.beyond_map, &self.beyond_entries, 1);
         let t = cloud.ego_from_sensor;
         let (band, geometry) = (self.band(), self.grid.geometry);
         let (scratch, entries) = (&self.scratch, &mut self.beyond_entries);
@@ -126,12 +137,7 @@ impl Monitor {
         for_each_marked_return(&self.beyond_map, &self.point_cells, cloud, band, geometry, |cell, p| {
             fold_beyond_return(entries, scratch, &mut last, cell, || t.transform(p));
         });
-        // The prefilter is empty again for the next frame.
-        for e in &self.beyond_entries {
-            if let Some(b) = self.beyond_map.get_mut(edge_slot(e.cell)) {
-                *b = 0;
-            }
-        }
+        mark_beyond_cells(&mut self.beyond_map, &self.beyond_entries, 0);
     }
 
     /// The candidate cells of box `from` and of every later box confirmed by its own evidence, each with its

@@ -15,7 +15,7 @@
 //! well, the same scan folds that rule's candidate cells (`beyond.rs`), gathered here for every box: one scan of
 //! the recorded cells instead of two (docs/performance.md, "One scan for two opt-in rules").
 
-use super::beyond::fold_beyond_return;
+use super::beyond::{fold_beyond_return, mark_beyond_cells};
 use super::clusters::{edge_slot, for_each_marked_return};
 use super::*;
 
@@ -225,11 +225,7 @@ impl Monitor {
             }
         }
         if beyond {
-            for e in &self.beyond_entries {
-                if let Some(b) = self.over_map.get_mut(edge_slot(e.cell)) {
-                    *b = 1;
-                }
-            }
+            mark_beyond_cells(&mut self.over_map, &self.beyond_entries, 1);
         }
         let t = cloud.ego_from_sensor;
         let o = self.visibility.origin();
@@ -261,11 +257,7 @@ impl Monitor {
             }
         }
         if beyond {
-            for e in &self.beyond_entries {
-                if let Some(b) = self.over_map.get_mut(edge_slot(e.cell)) {
-                    *b = 0;
-                }
-            }
+            mark_beyond_cells(&mut self.over_map, &self.beyond_entries, 0);
         }
     }
 }
@@ -422,16 +414,8 @@ mod tests {
                 let over_alone: alloc::vec::Vec<[u32; 3]> =
                     m.over_entries.iter().map(|v| v.map(f32::to_bits)).collect();
                 candidates(&mut m);
-                for e in &m.beyond_entries {
-                    m.beyond_map[super::super::clusters::edge_slot(e.cell)] = 1;
-                }
-                let (band, geometry) = (m.band(), m.grid.geometry);
-                let (scratch, entries) = (&m.scratch, &mut m.beyond_entries);
-                let mut last = (NO_CELL, 0usize, 0usize);
-                for_each_marked_return(&m.beyond_map, &m.point_cells, Cloud::from(cloud), band, geometry, |cell, p| {
-                    fold_beyond_return(entries, scratch, &mut last, cell, || t.transform(p));
-                });
-                m.beyond_map.fill(0);
+                m.fold_beyond_returns(Cloud::from(cloud));
+                assert!(m.beyond_map.iter().all(|&b| b == 0), "case {case}: its own prefilter is empty again");
                 let beyond_alone: alloc::vec::Vec<(u32, u32, u32)> =
                     m.beyond_entries.iter().map(|e| (e.cell, e.object, e.nearest.to_bits())).collect();
                 assert!(m.beyond_entries.iter().any(|e| e.nearest.is_finite()), "case {case}: returns folded");
