@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Bindings: the C API's static library, the C++17 example built with the system compiler, and its output
-# compared with `pmon check --format jsonl` (parsed JSON, record by record) on a simulated recording and, when
+# compared with `pmon check --format jsonl` (parsed JSON, record by record) on a simulated recording (with the
+# defaults and with `profile:recall`) and, when
 # ../shared/data exists, on a converted KITTI extract. The header's freshness is checked by
 # `cargo test -p pmon-capi --test header` (part of `cargo test --workspace`).
 set -euo pipefail
@@ -26,6 +27,13 @@ compare() { # name recording
 }
 ./target/debug/pmon simulate --scenario pedestrians --seed 7 --duration-s 3 --out "$work/sim"
 compare simulated "$work/sim"
+# A parameter profile by name, through pmon_monitor_new_from_file (the simulated recording has no params.toml; it
+# is clean, so this checks the load by name: python/tests/test_same_as_cli.py compares the profile's verdicts on a
+# displaced recording).
+test ! -f "$work/sim/params.toml"
+./target/debug/pmon check "$work/sim" --format jsonl --params profile:recall >"$work/recall.rust.jsonl" || [ $? -eq 1 ]
+examples/cpp/pmon_replay "$work/sim" profile:recall >"$work/recall.cpp.jsonl" || [ $? -eq 1 ]
+python3 .ci/compare_jsonl.py "$work/recall.rust.jsonl" "$work/recall.cpp.jsonl"
 data="${PMON_DATA_DIR:-../shared/data}"
 if [ -d "$data/kitti/object/training" ]; then
     ./target/debug/pmon convert "kitti:$data/kitti/object/training" --out "$work/kitti"

@@ -2,7 +2,7 @@
 // missed object and per cluster the region of interest excused), with the fields of `pmon check --format jsonl`.
 // C++17, no dependencies beyond libpmon_capi.
 //
-//   pmon_replay RECORDING_DIR [PARAMS.toml]
+//   pmon_replay RECORDING_DIR [PARAMS.toml | profile:NAME]
 //
 // Exit codes as `pmon check`: 0 no alarm, 1 alarms, 2 bad input.
 #include <charconv>
@@ -45,10 +45,11 @@ std::string arr(const T (&a)[N]) {
 
 int main(int argc, char** argv) {
   if (argc < 2 || argc > 3) {
-    std::fprintf(stderr, "usage: %s RECORDING_DIR [PARAMS.toml]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s RECORDING_DIR [PARAMS.toml | profile:NAME]\n", argv[0]);
     return 2;
   }
   PmonMonitor* raw_monitor = nullptr;
+  // PARAMS: a TOML file, or profile:NAME for a profile pmon ships (as `pmon check --params`).
   int32_t rc = argc == 3 ? pmon_monitor_new_from_file(argv[2], &raw_monitor) : pmon_monitor_new(nullptr, &raw_monitor);
   if (rc != PMON_OK) {
     std::fprintf(stderr, "error: %s\n", last_error().c_str());

@@ -59,6 +59,26 @@ class Params:
         base_json = None if base is None else base.to_json()
         return cls._from_json(_pmon.params_json_from_toml_file(os.fspath(path), base_json))
 
+    @classmethod
+    def profile(cls, name: str, base: Optional["Params"] = None) -> "Params":
+        """A parameter profile pmon ships over ``base`` (the defaults when ``None``), as ``pmon check --params
+        profile:NAME``: ``Params.profile("recall")`` turns on the three opt-in rules that judge displacements below
+        ``dx_min`` by the returns (README, "The recall profile"). :meth:`profiles` lists the names and
+        :meth:`profile_text` gives a profile's file, with what it buys and costs. An unknown name raises
+        ``ValueError`` listing the profiles there are."""
+        base_json = None if base is None else base.to_json()
+        return cls._from_json(_pmon.profile_params_json(name, base_json))
+
+    @staticmethod
+    def profiles() -> list:
+        """The names of the parameter profiles pmon ships (for :meth:`profile`)."""
+        return list(_pmon.profile_names())
+
+    @staticmethod
+    def profile_text(name: str) -> str:
+        """The TOML file of a profile, with its comments: what it buys and what it costs, measured."""
+        return _pmon.profile_toml(name)
+
     def replace(self, **changes: Any) -> "Params":
         """A copy with ``changes`` applied (nested tables merge key by key), validated."""
         return Params.from_dict(changes, base=self)
@@ -74,7 +94,10 @@ class Params:
         raise AttributeError("Params is immutable: use params.replace(...)")
 
     def __dir__(self):
-        return list(self._values) + ["replace", "to_dict", "to_json", "to_toml", "from_dict", "from_toml", "fields"]
+        return list(self._values) + [
+            "replace", "to_dict", "to_json", "to_toml", "from_dict", "from_toml", "fields", "profile", "profiles",
+            "profile_text",
+        ]
 
     @staticmethod
     def fields() -> list:
@@ -111,7 +134,8 @@ ParamsLike = Union[None, Params, Mapping[str, Any], str, "os.PathLike[str]"]
 
 
 def as_params(params: ParamsLike) -> Params:
-    """``None`` (Table I), a :class:`Params`, a dict of overrides, or the path of a TOML file."""
+    """``None`` (Table I), a :class:`Params`, a dict of overrides, the path of a TOML file, or ``"profile:NAME"``
+    (a profile pmon ships, as ``--params profile:NAME``; a file of that name is ``"./profile:NAME"``)."""
     if params is None:
         return Params()
     if isinstance(params, Params):
@@ -121,5 +145,6 @@ def as_params(params: ParamsLike) -> Params:
     if isinstance(params, (str, os.PathLike)):
         return Params.from_toml(params)
     raise ValueError(
-        f"params must be None, a pmon.Params, a dict or the path of a TOML file, got {type(params).__name__}"
+        f"params must be None, a pmon.Params, a dict, the path of a TOML file or 'profile:NAME', "
+        f"got {type(params).__name__}"
     )

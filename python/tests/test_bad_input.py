@@ -217,6 +217,28 @@ def test_parameters_layer_like_the_cli(tmp_path):
     assert pickle.loads(pickle.dumps(p)) == p
 
 
+def test_profiles_load_by_name_like_the_cli(tmp_path, monkeypatch):
+    d = pmon.Params()
+    r = pmon.Params.profile("recall")
+    assert pmon.Params.profiles() == ["recall"]
+    assert r == d.replace(returns_beyond_cells=1, face_in_front=True, seen_over=True)
+    assert "returns_beyond_cells = 1" in pmon.Params.profile_text("recall")
+    # The same profile wherever a parameter file is accepted, and over a base as `--params` layers it.
+    assert pmon.Params.from_toml("profile:recall") == r
+    assert pmon._params.as_params("profile:recall") == r
+    base = d.replace(cell_size_m=0.2)
+    assert pmon.Params.profile("recall", base=base) == r.replace(cell_size_m=0.2)
+    assert pmon.Monitor("profile:recall").params == r
+    with pytest.raises(ValueError, match="unknown parameter profile `fast`.*profile:recall"):
+        pmon.Params.profile("fast")
+    with pytest.raises(ValueError, match="unknown parameter profile `fast`"):
+        pmon.Monitor("profile:fast")
+    # A file whose name begins with `profile:` is given as `./profile:...`.
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "profile:mine").write_text("tau_fn = 0.9\n")
+    assert pmon.Params.from_toml("./profile:mine") == d.replace(tau_fn=0.9)
+
+
 def test_recordings_bad_paths_and_no_overwrite(tmp_path):
     with pytest.raises(ValueError, match="missing"):
         pmon.read_recording(tmp_path / "missing")

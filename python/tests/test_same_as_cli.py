@@ -48,6 +48,28 @@ def test_kitti_gives_the_cli_verdicts(pmon_bin, data_dir):
     assert_same(py, cli)
 
 
+def test_the_recall_profile_gives_the_cli_verdicts(pmon_bin, sim_recording, tmp_path):
+    # Every object from the fifth frame on displaced 0.6 m along x (below dx_min, where the profile's rules find
+    # more), written from Python; then `--params profile:recall` in the CLI against Params.profile here.
+    def displaced(frames):
+        for f in frames:
+            if f.index >= 4:
+                f.objects = dict(f.objects, x=f.objects["x"] + np.float32(0.6))
+            yield f
+
+    out = tmp_path / "displaced"
+    pmon.write_recording(out, displaced(pmon.read_recording(sim_recording)), name="displaced")
+    rec = pmon.read_recording(out)
+    params = pmon.Params.profile("recall", base=rec.params)
+    assert params != rec.params
+    py = python_records(rec, params)
+    assert_same(py, cli_records(pmon_bin, out, "--params", "profile:recall"))
+    # The profile changes verdicts here, so the comparison above is not that of the defaults again.
+    defaults = cli_records(pmon_bin, out)
+    flagged = lambda records: sum(r.get("verdict") == "position_error" for r in records)
+    assert flagged(py) > flagged(defaults), (flagged(py), flagged(defaults))
+
+
 def test_a_recording_written_from_python_checks_the_same_in_the_cli(pmon_bin, sim_recording, tmp_path):
     out = tmp_path / "copy"
     n = pmon.write_recording(out, pmon.read_recording(sim_recording), name="copy")

@@ -346,11 +346,14 @@ const char *pmon_class_name(uint32_t class_);
 int32_t pmon_monitor_new(const char *params_toml,
                          struct PmonMonitor **out);
 
-// Creates a monitor with the parameters of a TOML file (as `pmon --params FILE`).
+// Creates a monitor with the parameters of a TOML file (as `pmon --params FILE`; keys left out keep Table I).
+// `profile:NAME` is one of the parameter profiles pmon ships, as `--params profile:NAME` (`profile:recall`:
+// README, "The recall profile"; a file of that name is `./profile:NAME`).
 //
 // # Safety
 // `path` NUL-terminated; `out` a valid pointer.
-int32_t pmon_monitor_new_from_file(const char *path, struct PmonMonitor **out);
+int32_t pmon_monitor_new_from_file(const char *path,
+                                   struct PmonMonitor **out);
 
 // Frees a monitor (null is allowed and does nothing).
 //

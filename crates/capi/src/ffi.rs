@@ -448,7 +448,9 @@ pub unsafe extern "C" fn pmon_monitor_new(params_toml: *const c_char, out: *mut 
     })
 }
 
-/// Creates a monitor with the parameters of a TOML file (as `pmon --params FILE`).
+/// Creates a monitor with the parameters of a TOML file (as `pmon --params FILE`; keys left out keep Table I).
+/// `profile:NAME` is one of the parameter profiles pmon ships, as `--params profile:NAME` (`profile:recall`:
+/// README, "The recall profile"; a file of that name is `./profile:NAME`).
 ///
 /// # Safety
 /// `path` NUL-terminated; `out` a valid pointer.

@@ -115,3 +115,24 @@ fn c_api_matches_the_core_on_a_simulated_recording() {
     assert!(excused > 0, "no cluster outside the region of interest: the reasons were not compared");
     assert!(causes > 0, "no position error: the causes were not compared");
 }
+
+#[test]
+fn a_parameter_profile_by_name_from_c() {
+    let mut mon = std::ptr::null_mut();
+    let recall = CString::new("profile:recall").unwrap();
+    unsafe {
+        assert_eq!(pmon_monitor_new_from_file(recall.as_ptr(), &mut mon), PMON_OK);
+        assert!(!mon.is_null());
+        pmon_monitor_free(mon);
+    }
+    let fast = CString::new("profile:fast").unwrap();
+    let mut mon = std::ptr::null_mut();
+    let mut buf = [0u8; 512];
+    unsafe {
+        assert_eq!(pmon_monitor_new_from_file(fast.as_ptr(), &mut mon), PMON_ERR_PARAMS);
+        assert!(mon.is_null());
+        pmon_last_error(buf.as_mut_ptr().cast(), buf.len());
+    }
+    let message = text(&buf);
+    assert!(message.contains("unknown parameter profile `fast`") && message.contains("profile:recall"), "{message}");
+}

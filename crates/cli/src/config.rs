@@ -16,26 +16,17 @@ pub fn load_params(path: Option<&Path>) -> Result<MonitorParams> {
     load_params_over(MonitorParams::default(), path)
 }
 
-/// The parameter profiles pmon ships (`--params profile:NAME`): partial TOML files over the defaults, each with
-/// what it buys and costs in its comments (README, "The recall profile").
-pub const PROFILES: &[(&str, &str)] = &[("recall", include_str!("../profiles/recall.toml"))];
-
-/// The profile a `--params` value names (`profile:NAME`), if it names one: its name and text, or an error that
-/// lists the profiles there are. `None` for a file path (a file whose name begins with `profile:` is given as
-/// `./profile:...`).
-fn profile_of(path: &Path) -> Option<Result<(&'static str, &'static str)>> {
-    let name = path.to_str()?.strip_prefix("profile:")?;
-    Some(PROFILES.iter().find(|(n, _)| *n == name).copied().ok_or_else(|| {
-        let names: Vec<String> = PROFILES.iter().map(|(n, _)| format!("profile:{n}")).collect();
-        anyhow::anyhow!(
-            "unknown parameter profile `{name}`: pmon ships {} (a file of that name: `--params ./profile:{name}`)",
-            names.join(", ")
-        )
-    }))
+/// The profile a `--params` value names (`profile:NAME`, one of the profiles pmon ships in
+/// `crates/session/profiles`, shared with the C API and the Python package; README, "The recall profile"), if it
+/// names one: its name and text, or an error that lists the profiles there are. `None` for a file path (a file
+/// whose name begins with `profile:` is given as `./profile:...`).
+fn profile_of(path: &Path) -> Option<Result<(&str, &'static str)>> {
+    let name = pmon_session::profiles::profile_name(path.to_str()?)?;
+    Some(pmon_session::profiles::profile_toml(name).map(|text| (name, text)).map_err(|e| anyhow::anyhow!("{e}")))
 }
 
 /// Loads a TOML file's values over `base` (keys left out keep `base`'s values, nested tables too), validated.
-/// `profile:NAME` loads one of the [`PROFILES`] the same way.
+/// `profile:NAME` loads one of the profiles pmon ships the same way.
 pub fn load_params_over(base: MonitorParams, path: Option<&Path>) -> Result<MonitorParams> {
     let Some(path) = path else {
         base.validate().map_err(|e| anyhow::anyhow!("parameters: {e}"))?;
@@ -114,7 +105,7 @@ pub fn print_params(path: Option<&Path>) -> Result<()> {
     let text = toml::to_string_pretty(&params).context("cannot serialise parameters")?;
     println!("# pmon monitor parameters (defaults: the paper's Table I). Units are in the names.");
     if let Some(Ok((name, _))) = path.and_then(profile_of) {
-        println!("# The profile `{name}` over them (crates/cli/profiles/{name}.toml: what it buys and costs).");
+        println!("# The profile `{name}` over them (crates/session/profiles/{name}.toml: what it buys and costs).");
     }
     println!("# Load with --params FILE; keys left out keep these values; unknown keys are rejected.");
     print!("{text}");
@@ -191,7 +182,7 @@ mod tests {
     #[test]
     fn profiles_load_over_the_defaults() {
         let d = MonitorParams::default();
-        for (name, _) in PROFILES {
+        for (name, _) in pmon_session::profiles::PROFILES {
             let p = load_params(Some(Path::new(&format!("profile:{name}")))).unwrap();
             assert_ne!(p, d, "profile {name} changes nothing");
         }

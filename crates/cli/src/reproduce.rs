@@ -734,7 +734,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     html.heading("Parameters");
     html.paragraph(&match &args.params {
         Some(p) => format!(
-            "The defaults with --params {} over them (every key below; a profile's file, crates/cli/profiles, lists \
+            "The defaults with --params {} over them (every key below; a profile's file, crates/session/profiles, lists \
              what it buys and costs).",
             p.display()
         ),

@@ -31,6 +31,9 @@ fn _pmon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(params::validate_params_json, m)?)?;
     m.add_function(wrap_pyfunction!(params::params_json_from_toml_file, m)?)?;
     m.add_function(wrap_pyfunction!(params::params_toml_from_json, m)?)?;
+    m.add_function(wrap_pyfunction!(params::profile_params_json, m)?)?;
+    m.add_function(wrap_pyfunction!(params::profile_names, m)?)?;
+    m.add_function(wrap_pyfunction!(params::profile_toml, m)?)?;
     m.add_function(wrap_pyfunction!(frames::class_names, m)?)?;
     m.add_function(wrap_pyfunction!(frames::dataset_schemes, m)?)?;
     m.add_function(wrap_pyfunction!(monitor::synthetic_frames, m)?)?;

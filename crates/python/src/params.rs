@@ -25,10 +25,14 @@ pub fn validate_params_json(over: &str, base: Option<&str>) -> PyResult<String> 
 }
 
 /// A TOML parameter file (as written by `pmon params`) over `base` (JSON, the defaults when `None`), validated;
-/// errors name the file, as `pmon check --params FILE` does.
+/// errors name the file, as `pmon check --params FILE` does. `profile:NAME` is one of the profiles pmon ships
+/// (`pmon_session::profiles`), as with `--params profile:NAME`.
 #[pyfunction]
 #[pyo3(signature = (path, base=None))]
 pub fn params_json_from_toml_file(path: std::path::PathBuf, base: Option<&str>) -> PyResult<String> {
+    if let Some(name) = path.to_str().and_then(pmon_session::profiles::profile_name) {
+        return profile_params_json(name, base);
+    }
     let text = std::fs::read_to_string(&path)
         .map_err(|e| PyValueError::new_err(format!("cannot read parameter file {}: {e}", path.display())))?;
     let table: toml::Table = toml::from_str(&text)
@@ -36,6 +40,30 @@ pub fn params_json_from_toml_file(path: std::path::PathBuf, base: Option<&str>) 
     let over = serde_json::to_value(table).map_err(|e| PyValueError::new_err(format!("{}: {e}", path.display())))?;
     let params = params_over(base, over).map_err(|e| PyValueError::new_err(format!("{}: {e}", path.display())))?;
     to_json(&params)
+}
+
+/// The profile `name` (one of [`profile_names`]) over `base` (JSON, the defaults when `None`), validated.
+#[pyfunction]
+#[pyo3(signature = (name, base=None))]
+pub fn profile_params_json(name: &str, base: Option<&str>) -> PyResult<String> {
+    let text = pmon_session::profiles::profile_toml(name).map_err(PyValueError::new_err)?;
+    let table: toml::Table = toml::from_str(text)
+        .map_err(|e| PyValueError::new_err(format!("profile:{name}: {}", e.to_string().trim_end())))?;
+    let over = serde_json::to_value(table).map_err(|e| PyValueError::new_err(format!("profile:{name}: {e}")))?;
+    let params = params_over(base, over).map_err(|e| PyValueError::new_err(format!("profile:{name}: {e}")))?;
+    to_json(&params)
+}
+
+/// The names of the parameter profiles pmon ships (`Params.profile(NAME)`).
+#[pyfunction]
+pub fn profile_names() -> Vec<&'static str> {
+    pmon_session::profiles::profile_names().collect()
+}
+
+/// The TOML text of the profile `name`, with its comments (what it buys and costs).
+#[pyfunction]
+pub fn profile_toml(name: &str) -> PyResult<&'static str> {
+    pmon_session::profiles::profile_toml(name).map_err(PyValueError::new_err)
 }
 
 /// A full set of parameters (JSON) as the TOML `pmon params` writes, for `Params.to_toml`.

@@ -9,6 +9,8 @@
 //! cloud is reinterpreted in place (no copy); a stride-4 cloud is copied into a buffer made on its first use;
 //! the list of polygon slices reuses one buffer that only grows when a frame has more polygons than any before.
 
+pub mod profiles;
+
 use pmon_monitor::{
     Frame, FrameError, FrameReport, Isometry3, Monitor, MonitorParams, ObjectState, ParamError, PointCloud, Pose2,
 };
@@ -186,11 +188,16 @@ pub fn params_from_toml(text: &str) -> Result<MonitorParams, String> {
     Ok(p)
 }
 
-/// Parameters from a TOML file (as `--params FILE` of the `pmon` command); errors name the file.
+/// Parameters from a TOML file (as `--params FILE` of the `pmon` command); errors name the file. `profile:NAME`
+/// loads one of the [`profiles::PROFILES`] over the defaults instead (a file of that name: `./profile:NAME`).
 ///
 /// # Errors
-/// An unreadable file, unknown keys, values out of range.
+/// An unreadable file, an unknown profile, unknown keys, values out of range.
 pub fn params_from_file(path: &std::path::Path) -> Result<MonitorParams, String> {
+    if let Some(name) = path.to_str().and_then(profiles::profile_name) {
+        let text = profiles::profile_toml(name)?;
+        return params_from_toml(text).map_err(|e| format!("profile:{name}: {e}"));
+    }
     let text =
         std::fs::read_to_string(path).map_err(|e| format!("cannot read parameter file {}: {e}", path.display()))?;
     params_from_toml(&text).map_err(|e| format!("{}: {e}", path.display()))
@@ -251,5 +258,17 @@ mod tests {
         assert!(e.contains("cell_size_m"), "{e}");
         let e = params_from_toml("tau_tp = 2.0").unwrap_err();
         assert!(e.contains("tau_tp"), "{e}");
+    }
+
+    #[test]
+    fn a_profile_loads_by_name_where_a_file_would() {
+        let p = params_from_file(std::path::Path::new("profile:recall")).unwrap();
+        let d = MonitorParams::default();
+        assert_ne!(p, d);
+        assert_eq!(p, MonitorParams { returns_beyond_cells: 1, face_in_front: true, seen_over: true, ..d });
+        let e = params_from_file(std::path::Path::new("profile:fast")).unwrap_err();
+        assert!(e.contains("unknown parameter profile `fast`"), "{e}");
+        let e = params_from_file(std::path::Path::new("./profile:recall")).unwrap_err();
+        assert!(e.contains("cannot read parameter file ./profile:recall"), "{e}");
     }
 }
