@@ -16,3 +16,24 @@ pub(crate) fn unit_draws(state: u64) -> impl FnMut() -> f32 {
     let mut next = xorshift_draws(state);
     move || (next() >> 40) as f32 / (1u64 << 24) as f32
 }
+
+/// A monitor with `params` that has checked one frame of `objects` and `points` (sensor frame, extrinsic `t`) at
+/// 0.1 s, without a region of interest: the set-up of the tests that then call one stage's scan by hand.
+pub(crate) fn monitor_after_one_check(
+    params: crate::MonitorParams,
+    t: crate::Isometry3,
+    points: &[[f32; 3]],
+    objects: &[crate::ObjectState],
+) -> crate::Monitor {
+    let mut m = crate::Monitor::new(params).unwrap();
+    let frame = crate::Frame {
+        timestamp_s: 0.1,
+        world_from_ego: crate::Pose2::default(),
+        objects,
+        cloud: Some(crate::PointCloud { points_in_sensor: points, ego_from_sensor: t }),
+        roi_in_ego: &[],
+        static_in_ego: &[],
+    };
+    m.check(&frame).unwrap();
+    m
+}

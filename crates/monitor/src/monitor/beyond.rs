@@ -244,7 +244,7 @@ impl Monitor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::{ObjectClass, Pose2};
+    use crate::frame::ObjectClass;
 
     use super::super::roi::tests::Rng;
 
@@ -289,17 +289,8 @@ mod tests {
                 ..MonitorParams::default()
             };
             let t = Isometry3::from_yaw_translation(if case % 3 == 0 { 0.3 } else { 0.0 }, [1.0, 0.5, 1.8]);
-            let mut m = Monitor::new(params).unwrap();
+            let mut m = crate::test_support::monitor_after_one_check(params, t, &points, &objects);
             let cloud = PointCloud { points_in_sensor: &points, ego_from_sensor: t };
-            let frame = Frame {
-                timestamp_s: 0.1,
-                world_from_ego: Pose2::default(),
-                objects: &objects,
-                cloud: Some(cloud),
-                roi_in_ego: &[],
-                static_in_ego: &[],
-            };
-            m.check(&frame).unwrap();
             assert_eq!(m.point_cells.len(), points.len(), "case {case}: the cells are recorded with the key");
             for recorded in [true, false] {
                 if !recorded {

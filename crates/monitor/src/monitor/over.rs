@@ -375,17 +375,8 @@ mod tests {
                 .collect();
             let params = MonitorParams { seen_over: true, returns_beyond_cells: 1, ..MonitorParams::default() };
             let t = Isometry3::from_yaw_translation(0.2, [0.5, -0.3, 1.8]);
-            let mut m = Monitor::new(params).unwrap();
+            let mut m = crate::test_support::monitor_after_one_check(params, t, &points, &objects);
             let cloud = PointCloud { points_in_sensor: &points, ego_from_sensor: t };
-            let frame = Frame {
-                timestamp_s: 0.1,
-                world_from_ego: Pose2::default(),
-                objects: &objects,
-                cloud: Some(cloud),
-                roi_in_ego: &[],
-                static_in_ego: &[],
-            };
-            m.check(&frame).unwrap();
             let boxes = (0..m.scratch.len()).filter(|&j| m.scratch[j].region.is_some()).count();
             assert!(boxes > 0, "case {case}: boxes with a region");
             for recorded in [true, false] {
