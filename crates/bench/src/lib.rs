@@ -140,8 +140,13 @@ pub struct BenchOptions {
     /// Hand every sweep to the monitor as three columns (`x`, `y`, `z` slices, [`Monitor::check_columns`]; the
     /// same verdicts) instead of `[x, y, z]` records. The columns are made once per sweep before the timing.
     pub columns: bool,
-    /// Rule keys switched on or off for the whole run (`pmon bench --seen-over`, ...; [`RuleSwitches`]).
+    /// Rule keys switched on or off for the whole run (`pmon bench --seen-over`, ...; [`RuleSwitches`]), over
+    /// [`Self::params`].
     pub rules: RuleSwitches,
+    /// The parameters every case starts from instead of Table I (`pmon bench --params FILE|profile:NAME`), with
+    /// what they are, for the report's notes; each case keeps its own `cell_size_m` and `grid_size_m`. `None`:
+    /// Table I.
+    pub params: Option<(MonitorParams, String)>,
     /// Check the KITTI sweeps over the whole grid instead of camera 2's field of view (the region KITTI labels and
     /// `pmon check kitti:`'s default region of interest; docs/datasets.md, "KITTI's labelled field of view").
     pub kitti_whole_grid: bool,
@@ -165,6 +170,7 @@ impl Default for BenchOptions {
             split: false,
             columns: false,
             rules: RuleSwitches::default(),
+            params: None,
             kitti_whole_grid: false,
             no_machine_reference: false,
         }
@@ -439,6 +445,15 @@ fn params(cell_size_m: f32, grid_size_m: f32) -> MonitorParams {
     MonitorParams { cell_size_m, grid_size_m, ..MonitorParams::PAPER }
 }
 
+/// A case's parameters: [`BenchOptions::params`] (Table I when `None`) with the case's cell and grid size and the
+/// rule switches over them.
+fn case_params(opts: &BenchOptions, cell_size_m: f32, grid_size_m: f32) -> MonitorParams {
+    let base = opts.params.as_ref().map_or(MonitorParams::PAPER, |(p, _)| *p);
+    let mut p = MonitorParams { cell_size_m, grid_size_m, ..base };
+    opts.rules.apply(&mut p);
+    p
+}
+
 /// Runs the benchmarks (see the crate documentation).
 ///
 /// # Errors
@@ -472,9 +487,13 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport, BenchError> {
         );
     }
 
+    if let Some((_, source)) = &opts.params {
+        notes.push(format!("parameters: {source}; each case keeps its own cell_size_m and grid_size_m"));
+    }
     let changed = changed_keys(opts);
     if !changed.is_empty() {
-        notes.push(format!("params keys changed from the defaults in every case: {}", changed.join(", ")));
+        let over = if opts.params.is_some() { "over those parameters" } else { "from the defaults" };
+        notes.push(format!("params keys changed {over} in every case: {}", changed.join(", ")));
     }
 
     // Real data first: a malformed file fails the run before anything slow happens.
@@ -754,12 +773,12 @@ fn median_u32(v: &mut [u32]) -> u32 {
     v.get(v.len() / 2).copied().unwrap_or(0)
 }
 
-/// The params keys the options change from the defaults, as `key = value` (empty when none does), so that a report
-/// says what it measured.
+/// The params keys the rule switches change from the parameters the cases start from (Table I, or
+/// [`BenchOptions::params`]), as `key = value` (empty when none does), so that a report says what it measured.
 fn changed_keys(opts: &BenchOptions) -> Vec<String> {
-    let d = MonitorParams::PAPER;
-    let mut p = d;
-    opts.rules.apply(&mut p);
+    let (cell, grid) = (MonitorParams::PAPER.cell_size_m, MonitorParams::PAPER.grid_size_m);
+    let d = case_params(&BenchOptions { rules: RuleSwitches::default(), ..opts.clone() }, cell, grid);
+    let p = case_params(opts, cell, grid);
     let mut out = Vec::new();
     for (key, default, value) in [
         ("seen_over", d.seen_over, p.seen_over),
@@ -795,8 +814,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
 }
 
 fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, BenchError> {
-    let mut p = params(def.cell_size_m, def.grid_size_m);
-    opts.rules.apply(&mut p);
+    let mut p = case_params(opts, def.cell_size_m, def.grid_size_m);
     if def.calibrated {
         p.plausibility_mode = pmon_monitor::PlausibilityMode::Calibrated;
     }

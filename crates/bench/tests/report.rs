@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use pmon_bench::{run_bench, BenchError, BenchOptions, BenchReport, RuleSwitches, Timing};
-use pmon_monitor::Stage;
+use pmon_monitor::{MonitorParams, Stage};
 
 fn quick() -> BenchOptions {
     BenchOptions {
@@ -270,4 +270,38 @@ fn each_frame_of_the_cycle_is_timed_alone_and_the_machine_beside_it() {
     assert_eq!(c.per_frame.len(), 6);
     let goal = report.goals.iter().find(|g| g.goal == "synthetic-32/0.5m: sensor checks p99 <= 1.5x median").unwrap();
     assert!(goal.measured.contains("heaviest frame") && !goal.measured.contains("on this machine"), "{goal:?}");
+}
+
+/// The parameters a run starts from (`pmon bench --params`) reach every case, and the rule switches are named in
+/// the notes as changes over them, not over the defaults.
+#[test]
+fn the_parameters_a_run_starts_from_reach_every_case() {
+    let only = vec!["objects-30/no-cloud".to_string()];
+    let over = |params: MonitorParams, rules: RuleSwitches| BenchOptions {
+        only: only.clone(),
+        params: Some((params, "a test's".to_string())),
+        rules,
+        ..quick()
+    };
+    // Room for 10 objects: the case's 30 are refused, so the case was checked with these parameters.
+    let small = MonitorParams { max_objects: 10, ..MonitorParams::PAPER };
+    let err = run_bench(&over(small, RuleSwitches::default())).unwrap_err();
+    assert!(matches!(err, BenchError::Frame { .. }), "{err}");
+    // A switch the parameters already hold changes nothing; another is named as a change over them.
+    let seen = MonitorParams { seen_over: true, ..MonitorParams::PAPER };
+    let report = run_bench(&over(seen, RuleSwitches { seen_over: true, ..RuleSwitches::default() })).unwrap();
+    assert!(report
+        .notes
+        .iter()
+        .any(|n| n == "parameters: a test's; each case keeps its own cell_size_m and grid_size_m"));
+    assert!(!report.notes.iter().any(|n| n.starts_with("params keys changed")), "{:?}", report.notes);
+    let report = run_bench(&over(seen, RuleSwitches { no_front_cluster: true, ..RuleSwitches::default() })).unwrap();
+    assert!(
+        report
+            .notes
+            .iter()
+            .any(|n| n == "params keys changed over those parameters in every case: front_cluster = false"),
+        "{:?}",
+        report.notes
+    );
 }

@@ -99,6 +99,25 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
     }
 }
 
+/// `pmon bench --params PATH`: the parameters (the file or profile over the defaults) and what they are, for the
+/// report's notes: the source and the keys it changes from the defaults (`cell_size_m` and `grid_size_m` left out:
+/// each case keeps its own).
+pub fn bench_params(path: &Path) -> Result<(MonitorParams, String)> {
+    let params = load_params(Some(path))?;
+    let to_map = |p: &MonitorParams| match serde_json::to_value(p) {
+        Ok(serde_json::Value::Object(m)) => Ok(m),
+        _ => Err(anyhow::anyhow!("cannot serialise parameters")),
+    };
+    let (d, p) = (to_map(&MonitorParams::default())?, to_map(&params)?);
+    let changed: Vec<String> = p
+        .iter()
+        .filter(|(k, v)| !matches!(k.as_str(), "cell_size_m" | "grid_size_m") && d.get(*k) != Some(*v))
+        .map(|(k, v)| format!("{k} = {v}"))
+        .collect();
+    let keys = if changed.is_empty() { "no key changed".to_string() } else { changed.join(", ") };
+    Ok((params, format!("the defaults with --params {} over them: {keys}", path.display())))
+}
+
 /// `pmon params`.
 pub fn print_params(path: Option<&Path>) -> Result<()> {
     let params = load_params(path)?;

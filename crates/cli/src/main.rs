@@ -100,6 +100,11 @@ enum Command {
         columns: bool,
         #[command(flatten)]
         rules: pmon_bench::RuleSwitches,
+        /// Parameters every case starts from instead of the defaults: a TOML file over them, or a profile pmon
+        /// ships (`profile:recall`; README, "The recall profile"), to measure what they cost. Each case keeps its
+        /// own cell and grid size; the rule switches above apply over these.
+        #[arg(long)]
+        params: Option<std::path::PathBuf>,
         /// Check the KITTI sweeps over the whole grid instead of camera 2's field of view (the labelled region,
         /// `pmon check kitti:`'s default; docs/datasets.md).
         #[arg(long)]
@@ -211,9 +216,17 @@ fn main() -> ExitCode {
             split,
             columns,
             rules,
+            params,
             kitti_whole_grid,
             no_machine_reference,
         } => {
+            let params = match params.as_deref().map(config::bench_params).transpose() {
+                Ok(p) => p,
+                Err(e) => {
+                    eprintln!("pmon: error: {}", error_chain(&e));
+                    return ExitCode::from(2);
+                }
+            };
             let opts = pmon_bench::BenchOptions {
                 iterations,
                 max_seconds_per_case,
@@ -229,6 +242,7 @@ fn main() -> ExitCode {
                 split,
                 columns,
                 rules,
+                params,
                 kitti_whole_grid,
                 no_machine_reference,
             };

@@ -108,6 +108,22 @@ fn the_recall_profile_loads_everywhere_params_do() {
     let o = pmon(&["check", walk.to_str().unwrap(), "--params", "profile:recall"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("position error"), "{}", text(&o));
+    // `pmon bench --params` measures what a profile costs, and says so in its notes.
+    let quick =
+        ["bench", "--only", "objects-30/no-cloud", "--no-real-data", "--iterations", "2", "--no-machine-reference"];
+    let o = pmon(&[&quick[..], &["--params", "profile:recall"]].concat());
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains(
+            "parameters: the defaults with --params profile:recall over them: face_in_front = true, \
+             returns_beyond_cells = 1, seen_over = true; each case keeps its own cell_size_m and grid_size_m"
+        ),
+        "{}",
+        text(&o)
+    );
+    let bad = pmon(&[&quick[..], &["--params", "profile:fastest"]].concat());
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(text(&bad).contains("unknown parameter profile `fastest`"), "{}", text(&bad));
 }
 
 #[test]
