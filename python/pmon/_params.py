@@ -65,7 +65,16 @@ class Params:
         profile:NAME``: ``Params.profile("recall")`` turns on the three opt-in rules that judge displacements below
         ``dx_min`` by the returns (README, "The recall profile"). :meth:`profiles` lists the names and
         :meth:`profile_text` gives a profile's file, with what it buys and costs. An unknown name raises
-        ``ValueError`` listing the profiles there are."""
+        ``ValueError`` listing the profiles there are.
+
+        >>> Params.profiles()
+        ['recall']
+        >>> r = Params.profile("recall")
+        >>> (r.returns_beyond_cells, r.face_in_front, r.seen_over)
+        (1, True, True)
+        >>> r == Params(returns_beyond_cells=1, face_in_front=True, seen_over=True)
+        True
+        """
         base_json = None if base is None else base.to_json()
         return cls._from_json(_pmon.profile_params_json(name, base_json))
 
