@@ -99,10 +99,13 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
     }
 }
 
-/// `pmon bench --params PATH`: the parameters (the file or profile over the defaults) and what they are, for the
-/// report's notes: the source and the keys it changes from the defaults (`cell_size_m` and `grid_size_m` left out:
-/// each case keeps its own).
-pub fn bench_params(path: &Path) -> Result<(MonitorParams, String)> {
+/// The parameters `--params PATH` gives (the file or profile over the defaults) and what they are, in words: the
+/// source and the keys it changes from the defaults (`cell_size_m` and `grid_size_m` left out), for `pmon bench`'s
+/// notes (each case keeps its own cell and grid size) and the `params` key of `pmon ros2`'s `/diagnostics`.
+pub fn described_params(path: Option<&Path>) -> Result<(MonitorParams, String)> {
+    let Some(path) = path else {
+        return Ok((load_params(None)?, "the defaults (Table I)".to_string()));
+    };
     let params = load_params(Some(path))?;
     let to_map = |p: &MonitorParams| match serde_json::to_value(p) {
         Ok(serde_json::Value::Object(m)) => Ok(m),

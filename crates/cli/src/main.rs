@@ -220,7 +220,7 @@ fn main() -> ExitCode {
             kitti_whole_grid,
             no_machine_reference,
         } => {
-            let params = match params.as_deref().map(config::bench_params).transpose() {
+            let params = match params.as_deref().map(|p| config::described_params(Some(p))).transpose() {
                 Ok(p) => p,
                 Err(e) => {
                     eprintln!("pmon: error: {}", error_chain(&e));

@@ -15,7 +15,7 @@ use pmon_ros2_node::{NodeConfig, ObjectsType, Reliability};
 use pmon_ros::bag::BagConfig;
 
 use crate::bag::write_summary;
-use crate::config::load_params;
+use crate::config::described_params;
 
 /// `--objects-type`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -174,6 +174,8 @@ impl Ros2Args {
             depth: self.depth,
             max_frames: self.max_frames,
             stale_after_s: self.stale_after_s,
+            // Set by `run` from `--params`, which it loads.
+            params: String::new(),
         })
     }
 }
@@ -181,8 +183,8 @@ impl Ros2Args {
 /// `pmon ros2`: runs until Ctrl-C (or SIGTERM, or `--max-frames`), then prints what it checked, dropped and
 /// how fast. Exit status 0 after a clean shutdown, 2 when the node could not start.
 pub fn run(args: &Ros2Args) -> Result<ExitCode> {
-    let params = load_params(args.params.as_deref())?;
-    let cfg = args.config()?;
+    let (params, described) = described_params(args.params.as_deref())?;
+    let cfg = NodeConfig { params: described, ..args.config()? };
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).context("cannot install the Ctrl-C handler")?;

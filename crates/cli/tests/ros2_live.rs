@@ -156,6 +156,8 @@ fn rosbags_scene_over_dds_gives_the_verdicts_and_diagnostics_of_pmon_check() {
     let levels = &s["levels_seen"];
     assert!(levels["pmon: object consistency"].as_array().unwrap().iter().any(|l| l == "ERROR"), "{s}");
     assert!(levels["pmon: sensor input"].as_array().unwrap().iter().any(|l| l == "WARN"), "{s}");
+    // The node status names the parameters it runs with, as the DDS peer read it.
+    assert_eq!(s["node_params"], serde_json::json!(["the defaults (Table I)"]), "{s}");
     // The same pairing report as pmon check: the list at 1.3 s without a cloud, the cloud at 1.6 s alone.
     let n = &live.node_stdout;
     assert!(n.contains("pmon ros2: 3 frames (object lists)"), "{n}");

@@ -51,6 +51,9 @@ pub struct NodeConfig {
     pub max_frames: Option<u64>,
     /// Publish a STALE `/diagnostics` when no object list was checked for this long, seconds.
     pub stale_after_s: f64,
+    /// The monitor's parameters in words (`the defaults (Table I)`, or the file or profile over them and the keys
+    /// it changes), the `params` key-value of the `pmon: node` status: which configuration is monitoring.
+    pub params: String,
 }
 
 impl Default for NodeConfig {
@@ -69,6 +72,7 @@ impl Default for NodeConfig {
             pairing: PairingConfig::default(),
             max_frames: None,
             stale_after_s: 1.0,
+            params: "the defaults (Table I)".into(),
         }
     }
 }

@@ -393,7 +393,7 @@ pub fn run(
             diag.status.extend(statuses);
             let latency_s = secs(started) - arrived_s;
             st.counters.record_latency(v.processing_time_s, latency_s);
-            diag.status.push(node_status(&mut st.counters, None));
+            diag.status.push(node_status(&mut st.counters, None, &cfg.params));
             if let Err(e) = verdicts_pub.publish(v) {
                 st.counters.publish_errors += 1;
                 st.problem(&cfg.verdicts_topic, format!("not published: {e}"), log);
@@ -407,7 +407,7 @@ pub fn run(
         let idle = now - last_frame_s;
         if idle >= cfg.stale_after_s && now - last_stale_s >= cfg.stale_after_s {
             last_stale_s = now;
-            let status = node_status(&mut st.counters, Some(idle));
+            let status = node_status(&mut st.counters, Some(idle), &cfg.params);
             let diag = DiagnosticArray {
                 header: pmon_ros::msg::Header { stamp: Time::from_nanos(now_ns()), frame_id: String::new() },
                 status: vec![status],

@@ -73,10 +73,11 @@ fn ms(v: Option<f64>) -> String {
 
 /// The node's status: STALE when no object list was checked for `idle_s` seconds, WARN when object lists
 /// or clouds were dropped or lost, or results not published, since the previous status, OK otherwise. The
-/// totals and the latencies (median, p99) are always given.
-pub fn node_status(c: &mut NodeCounters, idle_s: Option<f64>) -> DiagnosticStatus {
+/// parameters it runs with (`params`, in words), the totals and the latencies (median, p99) are always given.
+pub fn node_status(c: &mut NodeCounters, idle_s: Option<f64>, params: &str) -> DiagnosticStatus {
     let kv = |k: &str, v: String| KeyValue { key: k.into(), value: v };
     let values = vec![
+        kv("params", params.to_string()),
         kv("lists_dropped", c.lists_dropped.to_string()),
         kv("lists_lost_in_dds", c.lists_lost_in_dds.to_string()),
         kv("clouds_lost_in_dds", c.clouds_lost_in_dds.to_string()),
@@ -112,11 +113,24 @@ mod tests {
     #[test]
     fn warn_only_for_new_losses_and_stale_when_idle() {
         let mut c = NodeCounters::default();
-        assert_eq!(node_status(&mut c, None).level, level::OK);
+        assert_eq!(node_status(&mut c, None, "p").level, level::OK);
         c.lists_dropped = 2;
-        let s = node_status(&mut c, None);
+        let s = node_status(&mut c, None, "p");
         assert_eq!((s.level, s.message.as_str()), (level::WARN, "2 frames dropped or lost since the last status"));
-        assert_eq!(node_status(&mut c, None).level, level::OK, "already reported");
-        assert_eq!(node_status(&mut c, Some(3.0)).level, level::STALE);
+        assert_eq!(node_status(&mut c, None, "p").level, level::OK, "already reported");
+        assert_eq!(node_status(&mut c, Some(3.0), "p").level, level::STALE);
+    }
+
+    #[test]
+    fn the_parameters_are_named_in_every_status() {
+        let mut c = NodeCounters::default();
+        for idle in [None, Some(3.0)] {
+            let s = node_status(&mut c, idle, "the defaults with --params profile:recall over them: seen_over = true");
+            let first = s.values.first().map(|kv| (kv.key.as_str(), kv.value.as_str()));
+            assert_eq!(
+                first,
+                Some(("params", "the defaults with --params profile:recall over them: seen_over = true"))
+            );
+        }
     }
 }

@@ -106,6 +106,14 @@ for i, (d, b) in enumerate(zip(frame_diags, bag_diags)):
         errors.append(f"diagnostics {i}: no 'pmon: node' status")
 
 
+# Every `pmon: node` status names the parameters the node runs with (key `params`).
+node_statuses = [s for d in peer["diagnostics"] for s in d["status"] if s["name"] == "pmon: node"]
+node_params = sorted({kv["value"] for s in node_statuses for kv in s["values"] if kv["key"] == "params"})
+unnamed = sum(1 for s in node_statuses if not any(kv["key"] == "params" for kv in s["values"]))
+if unnamed:
+    errors.append(f"{unnamed} 'pmon: node' statuses without the key 'params'")
+
+
 def q(v, p):
     if not v:
         return None
@@ -122,6 +130,7 @@ summary = {
     "missed_objects": sum(len(v["missed"]) for v in live),
     "diagnostics_compared": min(len(frame_diags), len(bag_diags)),
     "levels_seen": {k: sorted(v) for k, v in levels_seen.items()},
+    "node_params": node_params,
     "peer_latency_ms_median": None if not peer["latency_s"] else 1e3 * q(peer["latency_s"], 0.5),
     "peer_latency_ms_p99": None if not peer["latency_s"] else 1e3 * q(peer["latency_s"], 0.99),
     "node_check_ms_median": 1e3 * q([v["processing_time_s"] for v in live], 0.5) if live else None,
