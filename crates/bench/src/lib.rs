@@ -445,11 +445,16 @@ fn params(cell_size_m: f32, grid_size_m: f32) -> MonitorParams {
     MonitorParams { cell_size_m, grid_size_m, ..MonitorParams::PAPER }
 }
 
-/// A case's parameters: [`BenchOptions::params`] (Table I when `None`) with the case's cell and grid size and the
-/// rule switches over them.
-fn case_params(opts: &BenchOptions, cell_size_m: f32, grid_size_m: f32) -> MonitorParams {
+/// The parameters a case starts from: [`BenchOptions::params`] (Table I when `None`) with the case's cell and grid
+/// size.
+fn start_params(opts: &BenchOptions, cell_size_m: f32, grid_size_m: f32) -> MonitorParams {
     let base = opts.params.as_ref().map_or(MonitorParams::PAPER, |(p, _)| *p);
-    let mut p = MonitorParams { cell_size_m, grid_size_m, ..base };
+    MonitorParams { cell_size_m, grid_size_m, ..base }
+}
+
+/// A case's parameters: [`start_params`] with the rule switches over them.
+fn case_params(opts: &BenchOptions, cell_size_m: f32, grid_size_m: f32) -> MonitorParams {
+    let mut p = start_params(opts, cell_size_m, grid_size_m);
     opts.rules.apply(&mut p);
     p
 }
@@ -777,7 +782,7 @@ fn median_u32(v: &mut [u32]) -> u32 {
 /// [`BenchOptions::params`]), as `key = value` (empty when none does), so that a report says what it measured.
 fn changed_keys(opts: &BenchOptions) -> Vec<String> {
     let (cell, grid) = (MonitorParams::PAPER.cell_size_m, MonitorParams::PAPER.grid_size_m);
-    let d = case_params(&BenchOptions { rules: RuleSwitches::default(), ..opts.clone() }, cell, grid);
+    let d = start_params(opts, cell, grid);
     let p = case_params(opts, cell, grid);
     let mut out = Vec::new();
     for (key, default, value) in [

@@ -122,7 +122,9 @@ pub struct Ros2Args {
 }
 
 impl Ros2Args {
-    fn config(&self) -> Result<NodeConfig> {
+    /// The node's configuration; `params` is the monitor's parameters in words (`config::described_params`), for
+    /// `/diagnostics`.
+    fn config(&self, params: String) -> Result<NodeConfig> {
         let finite_positive = |name: &str, v: f64| {
             anyhow::ensure!(v.is_finite() && v > 0.0, "--{name} must be a positive number of seconds, got {v}");
             Ok(())
@@ -174,8 +176,7 @@ impl Ros2Args {
             depth: self.depth,
             max_frames: self.max_frames,
             stale_after_s: self.stale_after_s,
-            // Set by `run` from `--params`, which it loads.
-            params: String::new(),
+            params,
         })
     }
 }
@@ -184,7 +185,7 @@ impl Ros2Args {
 /// how fast. Exit status 0 after a clean shutdown, 2 when the node could not start.
 pub fn run(args: &Ros2Args) -> Result<ExitCode> {
     let (params, described) = described_params(args.params.as_deref())?;
-    let cfg = NodeConfig { params: described, ..args.config()? };
+    let cfg = args.config(described)?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)).context("cannot install the Ctrl-C handler")?;

@@ -35,10 +35,16 @@ pub fn params_json_from_toml_file(path: std::path::PathBuf, base: Option<&str>) 
     }
     let text = std::fs::read_to_string(&path)
         .map_err(|e| PyValueError::new_err(format!("cannot read parameter file {}: {e}", path.display())))?;
-    let table: toml::Table = toml::from_str(&text)
-        .map_err(|e| PyValueError::new_err(format!("{}: {}", path.display(), e.to_string().trim_end())))?;
-    let over = serde_json::to_value(table).map_err(|e| PyValueError::new_err(format!("{}: {e}", path.display())))?;
-    let params = params_over(base, over).map_err(|e| PyValueError::new_err(format!("{}: {e}", path.display())))?;
+    toml_over_json(&text, base, &path.display().to_string())
+}
+
+/// TOML text (any subset of the keys) over `base` (JSON, the defaults when `None`), validated; the full set back as
+/// JSON. Errors begin with `what` (the file, or the profile).
+fn toml_over_json(text: &str, base: Option<&str>, what: &str) -> PyResult<String> {
+    let table: toml::Table =
+        toml::from_str(text).map_err(|e| PyValueError::new_err(format!("{what}: {}", e.to_string().trim_end())))?;
+    let over = serde_json::to_value(table).map_err(|e| PyValueError::new_err(format!("{what}: {e}")))?;
+    let params = params_over(base, over).map_err(|e| PyValueError::new_err(format!("{what}: {e}")))?;
     to_json(&params)
 }
 
@@ -47,11 +53,7 @@ pub fn params_json_from_toml_file(path: std::path::PathBuf, base: Option<&str>) 
 #[pyo3(signature = (name, base=None))]
 pub fn profile_params_json(name: &str, base: Option<&str>) -> PyResult<String> {
     let text = pmon_session::profiles::profile_toml(name).map_err(PyValueError::new_err)?;
-    let table: toml::Table = toml::from_str(text)
-        .map_err(|e| PyValueError::new_err(format!("profile:{name}: {}", e.to_string().trim_end())))?;
-    let over = serde_json::to_value(table).map_err(|e| PyValueError::new_err(format!("profile:{name}: {e}")))?;
-    let params = params_over(base, over).map_err(|e| PyValueError::new_err(format!("profile:{name}: {e}")))?;
-    to_json(&params)
+    toml_over_json(text, base, &format!("profile:{name}"))
 }
 
 /// The names of the parameter profiles pmon ships (`Params.profile(NAME)`).
