@@ -1,8 +1,8 @@
 //! Runs the latency benchmarks and prints the table (or JSON), like `pmon bench`:
 //! `cargo run --release -p pmon-bench --example bench -- [--json] [--iterations N] [--max-seconds-per-case S]
-//! [--only TEXT]... [--columns] [--kitti-whole-grid] [--no-machine-reference]` (`--only`: the cases whose name
+//! [--only TEXT]... [--columns] [--kitti-whole-grid] [--no-machine-reference] [--no-cpu-time]` (`--only`: the cases whose name
 //! contains one of the texts, as `pmon bench --only`; `--columns`: the sweeps handed over as columns, as `pmon bench
-//! --columns`; the last two as `pmon bench`'s flags of the same names).
+//! --columns`; the last three as `pmon bench`'s flags of the same names).
 
 use std::process::ExitCode;
 
@@ -18,6 +18,7 @@ fn main() -> ExitCode {
             "--columns" => opts.columns = true,
             "--kitti-whole-grid" => opts.kitti_whole_grid = true,
             "--no-machine-reference" => opts.no_machine_reference = true,
+            "--no-cpu-time" => opts.no_cpu_time = true,
             "--iterations" => match args.next().and_then(|v| v.parse().ok()) {
                 Some(n) => opts.iterations = n,
                 None => {

@@ -5,11 +5,22 @@
 //! times a loop whose work never changes (a chain of multiply-adds over a 1 MiB table, which a check's working set
 //! resembles more than a loop in registers) for as many samples as the case had, sized so that its median is the
 //! case's median, right after the case. Its p99 / median is what the machine alone gives a task of that length in
-//! that minute; a check's p99 / median above it is the monitor's (its frames' content, its caches).
+//! that minute; a check's p99 / median above it is the monitor's (its frames' content, its caches). The same runs
+//! are also read on this thread's CPU clock ([`crate::cpu`]), as the checks are: what the machine adds to a task of
+//! that length once lost time slices are left out.
 
 use std::time::Instant;
 
-use crate::Timing;
+use crate::{cpu, Timing};
+
+/// The fixed work's timings: wall clock, and this thread's CPU time when asked for and available.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reference {
+    /// Wall clock.
+    pub wall: Timing,
+    /// This thread's CPU time of the same runs (read outside the wall-clock marks).
+    pub cpu: Option<Timing>,
+}
 
 /// Table entries: 1 MiB of `u32`, about a 64-beam sweep's grid and buffers.
 const TABLE: usize = 1 << 18;
@@ -30,9 +41,10 @@ fn us_of(f: impl FnOnce() -> u64) -> f64 {
     t0.elapsed().as_secs_f64() * 1e6
 }
 
-/// `samples` timings of a fixed work whose median is about `target_us`, or `None` for no sample or no target.
+/// `samples` timings of a fixed work whose median is about `target_us` (with `cpu`, also on this thread's CPU
+/// clock), or `None` for no sample or no target.
 #[must_use]
-pub fn reference(target_us: f64, samples: usize) -> Option<Timing> {
+pub fn reference(target_us: f64, samples: usize, cpu: bool) -> Option<Reference> {
     if samples == 0 || !target_us.is_finite() || target_us <= 0.0 {
         return None;
     }
@@ -47,8 +59,17 @@ pub fn reference(target_us: f64, samples: usize) -> Option<Timing> {
     for _ in 0..3 {
         std::hint::black_box(work(&table, std::hint::black_box(steps)));
     }
-    let timed: Vec<f64> = (0..samples).map(|_| us_of(|| work(&table, std::hint::black_box(steps)))).collect();
-    Some(Timing::of(&timed))
+    let mut cpu_us = Vec::with_capacity(if cpu { samples } else { 0 });
+    let mut timed = Vec::with_capacity(samples);
+    for _ in 0..samples {
+        let before = if cpu { cpu::thread_cpu_ns() } else { None };
+        timed.push(us_of(|| work(&table, std::hint::black_box(steps))));
+        if let Some(c) = cpu::us_between(before, before.and_then(|_| cpu::thread_cpu_ns())) {
+            cpu_us.push(c);
+        }
+    }
+    let cpu = (cpu_us.len() == samples).then(|| Timing::of(&cpu_us));
+    Some(Reference { wall: Timing::of(&timed), cpu })
 }
 
 #[cfg(test)]
@@ -57,15 +78,24 @@ mod tests {
 
     #[test]
     fn no_reference_without_samples_or_target() {
-        assert_eq!(reference(100.0, 0), None);
-        assert_eq!(reference(0.0, 10), None);
-        assert_eq!(reference(f64::NAN, 10), None);
+        assert_eq!(reference(100.0, 0, true), None);
+        assert_eq!(reference(0.0, 10, true), None);
+        assert_eq!(reference(f64::NAN, 10, false), None);
     }
 
     #[test]
     fn the_reference_has_the_samples_asked_for_and_ordered_percentiles() {
-        let t = reference(50.0, 31).expect("a reference");
-        assert!(t.median_us > 0.0);
-        assert!(t.p10_us <= t.median_us && t.median_us <= t.p90_us && t.p90_us <= t.p99_us && t.p99_us <= t.max_us);
+        let r = reference(50.0, 31, true).expect("a reference");
+        let ordered = |t: Timing| {
+            t.median_us > 0.0
+                && t.p10_us <= t.median_us
+                && t.median_us <= t.p90_us
+                && t.p90_us <= t.p99_us
+                && t.p99_us <= t.max_us
+        };
+        assert!(ordered(r.wall), "{r:?}");
+        #[cfg(target_os = "linux")]
+        assert!(r.cpu.is_some_and(ordered), "{r:?}");
+        assert_eq!(reference(50.0, 31, false).map(|r| r.cpu), Some(None));
     }
 }

@@ -18,6 +18,7 @@
 //! judged on it, with the worst case printed beside it.
 
 pub mod av2;
+pub mod cpu;
 pub mod frames;
 pub mod jitter;
 mod machine;
@@ -153,6 +154,10 @@ pub struct BenchOptions {
     /// Skip the machine's own jitter reference ([`jitter::reference`], timed after each case with a cloud, about as
     /// long as the case itself): the `machine` column shows `-` and `jitter_reference` is `None`. Off: measured.
     pub no_machine_reference: bool,
+    /// Do not read this thread's CPU clock around each check ([`cpu`]; two system calls per check, outside the
+    /// wall-clock marks): `check_cpu` and `jitter_reference_cpu` are `None`. Off: read (except with
+    /// [`Self::split`], whose second thread this thread's clock does not see).
+    pub no_cpu_time: bool,
 }
 
 impl Default for BenchOptions {
@@ -173,6 +178,7 @@ impl Default for BenchOptions {
             params: None,
             kitti_whole_grid: false,
             no_machine_reference: false,
+            no_cpu_time: false,
         }
     }
 }
@@ -330,6 +336,15 @@ pub struct CaseReport {
     /// as many times right after the case; `None` without a cloud.
     #[serde(default)]
     pub jitter_reference: Option<Timing>,
+    /// The whole check (all five stages) in this thread's CPU time ([`cpu`]): only the time the thread ran, so
+    /// neither another task's time slice nor a hypervisor's steal time is in it; its p99 over its median is the
+    /// monitor's own worst case (content and caches). `None` with `--split`, `--no-cpu-time` or without the clock.
+    #[serde(default)]
+    pub check_cpu: Option<Timing>,
+    /// The machine's fixed work ([`Self::jitter_reference`]) in this thread's CPU time: what the machine still adds
+    /// to a task of that length when lost time slices are left out (caches, interrupts).
+    #[serde(default)]
+    pub jitter_reference_cpu: Option<Timing>,
 }
 
 /// The sensor checks of one frame of a case's cycle.
@@ -343,6 +358,9 @@ pub struct FrameTiming {
     pub samples: usize,
     /// Its sensor checks over those iterations.
     pub sensor_checks: Timing,
+    /// Its whole checks in this thread's CPU time ([`CaseReport::check_cpu`]).
+    #[serde(default)]
+    pub check_cpu: Option<Timing>,
 }
 
 /// A figure of the paper's runtime evaluation (Section IV-G): averages, Python plausibility checks.
@@ -859,6 +877,9 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let (mut points, mut in_band, mut cells_hit, mut clusters) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     // The frame of the cycle each timed iteration checked.
     let mut frame_of: Vec<usize> = Vec::with_capacity(opts.iterations);
+    // This thread's CPU time of each whole check, read outside the wall-clock marks (`cpu`).
+    let read_cpu = !opts.split && !opts.no_cpu_time;
+    let mut check_cpu_us: Vec<f64> = Vec::with_capacity(if read_cpu { opts.iterations } else { 0 });
     let started = Instant::now();
     let (mut motion_states, mut motion_alarms) = (0u64, 0u64);
     let mut objects_copy: Vec<pmon_monitor::ObjectState> = Vec::with_capacity(seq.max_objects());
@@ -872,11 +893,16 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         } else {
             frame
         };
+        let cpu_before = if read_cpu { cpu::thread_cpu_ns() } else { None };
         let timed = match column_cloud(i) {
             Some(cloud) => timed_check_columns(&mut monitor, &frame, &cloud, join),
             None => timed_check_with(&mut monitor, &frame, join),
         };
+        let cpu_after = cpu_before.and_then(|_| cpu::thread_cpu_ns());
         let (report, row) = timed.map_err(frame_err)?;
+        if let Some(c) = cpu::us_between(cpu_before, cpu_after) {
+            check_cpu_us.push(c);
+        }
         points.push(report.grid.points_total);
         in_band.push(report.grid.points_in_band);
         cells_hit.push(report.grid.cells_hit);
@@ -898,6 +924,8 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         }
     }
     let samples = stage_us.len();
+    // Every check or none: a clock that failed once leaves the figure out rather than a part of it.
+    let cpu_complete = samples > 0 && check_cpu_us.len() == samples;
 
     // The floors, cycling through the same sweeps in the same order (same cache behaviour), alternating.
     let (mut floor_us, mut native_us) = (Vec::new(), Vec::new());
@@ -935,6 +963,7 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
                     clusters: median_u32(&mut c),
                     samples: own.len(),
                     sensor_checks: Timing::of(&own),
+                    check_cpu: cpu_complete.then(|| Timing::of(&of_frame(&check_cpu_us, &frame_of, k))),
                 }
             })
             .filter(|f| f.samples > 0)
@@ -948,8 +977,8 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
     let sensor_over_native_floor =
         native_floor.filter(|f| f.median_us > 0.0).map(|f| sensor_checks.median_us / f.median_us);
     let geometry_cells = u64::from(p.grid_cells_per_side()) * u64::from(p.grid_cells_per_side());
-    let jitter_reference = if seq.max_points() > 0 && !opts.no_machine_reference {
-        jitter::reference(sensor_checks.median_us, samples)
+    let reference = if seq.max_points() > 0 && !opts.no_machine_reference {
+        jitter::reference(sensor_checks.median_us, samples, read_cpu)
     } else {
         None
     };
@@ -977,7 +1006,9 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         native_floor,
         sensor_over_native_floor,
         per_frame,
-        jitter_reference,
+        jitter_reference: reference.map(|r| r.wall),
+        check_cpu: cpu_complete.then(|| Timing::of(&check_cpu_us)),
+        jitter_reference_cpu: reference.and_then(|r| r.cpu),
     })
 }
 
@@ -1119,6 +1150,27 @@ fn goals(cases: &[CaseReport]) -> Vec<GoalResult> {
             ),
             met: t.p99_us <= 1.5 * t.median_us,
         });
+        // The same worst case in this thread's CPU time: time slices the thread lost to other tasks and guests are
+        // not in it, so this line is the monitor's part of the one above.
+        if let Some(cpu) = c.check_cpu {
+            let machine = c.jitter_reference_cpu.map_or(String::new(), |j| {
+                format!("; the fixed work of the machine line in CPU time: p99 {:.2}x", j.p99_over_median())
+            });
+            out.push(GoalResult {
+                goal: format!(
+                    "{}: whole check p99 <= 1.5x median in thread CPU time (lost time slices left out)",
+                    c.name
+                ),
+                measured: format!(
+                    "median {:.1} us, p99 {:.1} us ({:.2}x), max {:.1} us{machine}",
+                    cpu.median_us,
+                    cpu.p99_us,
+                    cpu.p99_over_median(),
+                    cpu.max_us
+                ),
+                met: cpu.p99_us <= 1.5 * cpu.median_us,
+            });
+        }
     }
     if let (Some(a), Some(b)) = (find(cases, "synthetic-64/0.2m"), find(cases, "synthetic-64/0.2m/200m")) {
         let (ma, mb) = (a.sensor_checks.median_us, b.sensor_checks.median_us);
@@ -1230,26 +1282,40 @@ impl BenchReport {
 
         let _ = writeln!(
             s,
-            "\nSpread p10-p90, worst case p99 and max (us); machine = p99/median of a fixed work of the same median, timed as often right after (the machine's own jitter)"
+            "\nSpread p10-p90, worst case p99 and max (us); machine = p99/median of a fixed work of the same median, timed as often right after (the machine's own jitter); cpu = p99/median of the whole check in this thread's CPU time (lost time slices left out), beside the fixed work's"
         );
         let _ = writeln!(
             s,
-            "{:<w$} {:>19} {:>9} {:>9} {:>9} {:>8} {:>8} {:>19} {:>19} {:>7}",
-            "case", "sensor", "median", "p99", "max", "p99/med", "machine", "plausibility", "total", "samples"
+            "{:<w$} {:>19} {:>9} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>19} {:>19} {:>7}",
+            "case",
+            "sensor",
+            "median",
+            "p99",
+            "max",
+            "p99/med",
+            "machine",
+            "cpu",
+            "mach cpu",
+            "plausibility",
+            "total",
+            "samples"
         );
         let span = |t: &Timing| format!("{:.2}-{:.2}", t.p10_us, t.p90_us);
+        let tail = |t: Option<Timing>| t.map_or("-".to_string(), |j| format!("{:.2}x", j.p99_over_median()));
         for c in &self.cases {
             let t = &c.sensor_checks;
             let _ = writeln!(
                 s,
-                "{:<w$} {:>19} {:>9.2} {:>9.2} {:>9.2} {:>7.2}x {:>8} {:>19} {:>19} {:>7}",
+                "{:<w$} {:>19} {:>9.2} {:>9.2} {:>9.2} {:>7.2}x {:>8} {:>8} {:>8} {:>19} {:>19} {:>7}",
                 c.name,
                 span(t),
                 t.median_us,
                 t.p99_us,
                 t.max_us,
                 t.p99_over_median(),
-                c.jitter_reference.map_or("-".to_string(), |j| format!("{:.2}x", j.p99_over_median())),
+                tail(c.jitter_reference),
+                tail(c.check_cpu),
+                tail(c.jitter_reference_cpu),
                 span(&c.plausibility),
                 span(&c.total),
                 c.samples
@@ -1265,15 +1331,15 @@ impl BenchReport {
             );
             let _ = writeln!(
                 s,
-                "{:<w$} {:>5} {:>8} {:>9} {:>9} {:>9} {:>9} {:>7}",
-                "case", "frame", "clusters", "median", "p99", "max", "p99/med", "samples"
+                "{:<w$} {:>5} {:>8} {:>9} {:>9} {:>9} {:>9} {:>8} {:>7}",
+                "case", "frame", "clusters", "median", "p99", "max", "p99/med", "cpu", "samples"
             );
             for c in framed {
                 for f in &c.per_frame {
                     let t = &f.sensor_checks;
                     let _ = writeln!(
                         s,
-                        "{:<w$} {:>5} {:>8} {:>9.2} {:>9.2} {:>9.2} {:>8.2}x {:>7}",
+                        "{:<w$} {:>5} {:>8} {:>9.2} {:>9.2} {:>9.2} {:>8.2}x {:>8} {:>7}",
                         c.name,
                         f.frame,
                         f.clusters,
@@ -1281,6 +1347,7 @@ impl BenchReport {
                         t.p99_us,
                         t.max_us,
                         t.p99_over_median(),
+                        tail(f.check_cpu),
                         f.samples
                     );
                 }

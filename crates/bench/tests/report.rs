@@ -51,8 +51,10 @@ fn report_has_every_case_stage_and_goal_and_round_trips_through_json() {
     assert_eq!((c64.points, c64.objects, c64.grid_cells), (120_000, 100, 40_000));
     assert_eq!(report.cases[2].grid_cells, 1_000_000);
     assert_eq!(report.cases[4].points, 34_720);
-    // 7, and per 0.5 m case with a cloud (synthetic 64- and 32-beam) the native-floor and p99 goals.
-    assert_eq!(report.goals.len(), 11, "{:?}", report.goals);
+    // 7, and per 0.5 m case with a cloud (synthetic 64- and 32-beam) the native-floor and p99 goals, and on Linux
+    // the p99 in the thread's CPU time.
+    let cpu_lines = if cfg!(target_os = "linux") { 2 } else { 0 };
+    assert_eq!(report.goals.len(), 11 + cpu_lines, "{:?}", report.goals);
     assert!(report.goals.iter().any(|g| g.goal == "synthetic-64/0.5m: sensor checks <= 10x the native floor"));
     assert!(report.paper.iter().any(|p| p.paper_us == 12_000.0 && p.case == "synthetic-64/0.5m"));
 
@@ -304,4 +306,49 @@ fn the_parameters_a_run_starts_from_reach_every_case() {
         "{:?}",
         report.notes
     );
+}
+
+/// Each whole check is also read on the thread's CPU clock (the worst case without the time slices the thread
+/// lost): in the case, per frame, for the machine's fixed work, in the table and as a goal line; a check never runs
+/// longer on its thread than it lasts on the wall clock (up to the clock reads around it). None of it with
+/// `--no-cpu-time`, nor with `--split`, whose second thread this thread's clock does not see.
+#[test]
+#[cfg(target_os = "linux")]
+fn the_checks_are_read_on_the_threads_cpu_clock_too() {
+    let run = |no_cpu_time: bool, split: bool| {
+        let only = vec!["synthetic-32".to_string(), "objects-30/no-cloud".to_string()];
+        let opts = BenchOptions { iterations: 12, max_seconds_per_case: 100.0, only, no_cpu_time, split, ..quick() };
+        run_bench(&opts).unwrap()
+    };
+    let goal_of = |r: &BenchReport| {
+        r.goals
+            .iter()
+            .find(|g| g.goal.starts_with("synthetic-32/0.5m: whole check p99 <= 1.5x median in thread CPU"))
+            .cloned()
+    };
+    let report = run(false, false);
+    let c = report.cases.iter().find(|c| c.name == "synthetic-32/0.5m").unwrap();
+    let cpu = c.check_cpu.expect("Linux has a thread CPU clock");
+    assert!(cpu.median_us > 0.0 && cpu.p10_us <= cpu.median_us && cpu.p99_us <= cpu.max_us, "{cpu:?}");
+    // The CPU time of a check is within its elapsed time: the wall clock's whole check plus the reads' cost.
+    assert!(cpu.median_us <= c.total.median_us + 20.0, "cpu {cpu:?} against wall {:?}", c.total);
+    assert!(c.per_frame.iter().all(|f| f.check_cpu.is_some()), "{:?}", c.per_frame);
+    assert!(c.jitter_reference_cpu.is_some());
+    // The object lists without a cloud are read too (the whole check is their plausibility checks).
+    assert!(report.cases.iter().all(|c| c.check_cpu.is_some()));
+    let goal = goal_of(&report).expect("a CPU-time worst-case line per sweep case");
+    assert!(goal.measured.contains("in CPU time: p99"), "{goal:?}");
+    let table = report.to_table();
+    assert!(table.contains("mach cpu") && table.contains("thread's CPU time"), "{table}");
+    let back: BenchReport = serde_json::from_str(&serde_json::to_string(&report).unwrap()).unwrap();
+    assert_eq!(back.cases[0].check_cpu, report.cases[0].check_cpu);
+    // Not read: nothing in the case, per frame, for the machine, or among the goals.
+    for (no_cpu_time, split) in [(true, false), (false, true)] {
+        let report = run(no_cpu_time, split);
+        let c = report.cases.iter().find(|c| c.name == "synthetic-32/0.5m").unwrap();
+        assert_eq!((c.check_cpu, c.jitter_reference_cpu), (None, None), "no_cpu_time {no_cpu_time}, split {split}");
+        assert!(c.per_frame.iter().all(|f| f.check_cpu.is_none()));
+        assert!(c.jitter_reference.is_some(), "the wall-clock reference stays");
+        assert_eq!(goal_of(&report), None);
+    }
 }

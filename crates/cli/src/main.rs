@@ -113,6 +113,11 @@ enum Command {
         /// cloud, about as long as the case): the run takes about half the time; the `machine` column shows `-`.
         #[arg(long)]
         no_machine_reference: bool,
+        /// Do not read the thread's CPU clock around each check (two system calls per check, outside the timed
+        /// region): the `cpu` columns show `-` and the CPU-time worst-case lines are left out (docs/performance.md,
+        /// "Worst case in CPU time").
+        #[arg(long)]
+        no_cpu_time: bool,
     },
     /// Convert a dataset (`kitti:DIR`, `nuscenes:DIR`, `av2:LOG_DIR`, `commonroad:FILE.xml`, ...) into a pmon
     /// recording.
@@ -219,6 +224,7 @@ fn main() -> ExitCode {
             params,
             kitti_whole_grid,
             no_machine_reference,
+            no_cpu_time,
         } => {
             let params = match params.as_deref().map(|p| config::described_params(Some(p))).transpose() {
                 Ok(p) => p,
@@ -245,6 +251,7 @@ fn main() -> ExitCode {
                 params,
                 kitti_whole_grid,
                 no_machine_reference,
+                no_cpu_time,
             };
             if let Some(dir) = export_peers {
                 return match pmon_bench::peers::export_peers(&dir, &opts) {
