@@ -1,7 +1,7 @@
 //! The machine's own jitter: a fixed amount of work, timed the way the checks are, at about a case's median.
 //!
 //! Issue #16 asks for the p99 of the sensor checks within 1.5x of their median. On a shared machine (a virtual one
-//! here) part of any p99 is the machine: preemption, interrupts, another tenant's cache traffic. [`reference`]
+//! here) part of any p99 is the machine: preemption, interrupts, another tenant's cache traffic. [`reference()`]
 //! times a loop whose work never changes (a chain of multiply-adds over a 1 MiB table, which a check's working set
 //! resembles more than a loop in registers) for as many samples as the case had, sized so that its median is the
 //! case's median, right after the case. Its p99 / median is what the machine alone gives a task of that length in

@@ -10,7 +10,7 @@
 /// Floats per step: 64 independent accumulators (8 AVX2 or 16 SSE2 registers).
 const LANES: usize = 64;
 
-/// The sum of every coordinate of every point, in [`LANES`] independent lanes, with the widest vector unit the
+/// The sum of every coordinate of every point, in `LANES` independent lanes, with the widest vector unit the
 /// processor offers ([`native_instruction_set`]).
 #[must_use]
 pub fn native_sum(points: &[[f32; 3]]) -> f32 {
