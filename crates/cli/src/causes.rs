@@ -111,7 +111,7 @@ pub fn write(dir: &Path, fig: &Figure) -> Result<bool> {
     Ok(true)
 }
 
-/// Adds a figure's alarms by cause to the report (the chart [`write`] drew, a paragraph and the [`table`]), when
+/// Adds a figure's alarms by cause to the report (the chart [`write()`] drew, a paragraph and the [`table`]), when
 /// it has causes.
 pub fn add_to_report(html: &mut pmon_report::HtmlReport, fig: &Figure) {
     let Some((headers, rows)) = table(fig) else { return };

@@ -121,8 +121,8 @@ const FAST_BINS: usize = 1 << 10;
 
 /// Nearest-obstacle and farthest-return ranges per azimuth bin.
 ///
-/// The bins are two arrays, the nearest obstacle's [`key`]s and the farthest returns. A map of at most
-/// [`FAST_BINS`] bins holds [`FAST_BINS`] entries in each (12 KiB; the first `len` are the map, the rest is never
+/// The bins are two arrays, the nearest obstacle's `key`s and the farthest returns. A map of at most
+/// `FAST_BINS` bins holds `FAST_BINS` entries in each (12 KiB; the first `len` are the map, the rest is never
 /// read or written), which the rasterize loop indexes by the bin masked, with no bounds test and with the
 /// addressing mode's scale of 8 and 4 (one array of 16-byte records needed a shift and a bounds test per update:
 /// docs/performance.md, "Round perf17"). A map of more bins holds `len` entries in each (12 bytes per bin) and

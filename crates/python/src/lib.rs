@@ -7,11 +7,11 @@
 //! with readable messages and builds the user-facing objects; this module checks again, so a call that slips
 //! past the Python layer still gives a `ValueError`, never a crash.
 //!
-//! - [`monitor`]: `Monitor` (create, check a frame, the core's own time for the overhead measurement).
-//! - [`frames`]: dataset readers, recording reader and writer, frames as dicts of numpy arrays.
-//! - [`campaign`]: one campaign task (simulate, inject, check, score) as JSON in, counts out, for
+//! - `monitor`: `Monitor` (create, check a frame, the core's own time for the overhead measurement).
+//! - `frames`: dataset readers, recording reader and writer, frames as dicts of numpy arrays.
+//! - `campaign`: one campaign task (simulate, inject, check, score) as JSON in, counts out, for
 //!   `pmon.campaign`; one task of `pmon evaluate` and of `pmon reproduce --scheduler ...`.
-//! - [`params`]: parameters as JSON text (the Python `Params` dataclass is built from it), TOML files.
+//! - `params`: parameters as JSON text (the Python `Params` dataclass is built from it), TOML files.
 
 mod campaign;
 mod frames;

@@ -148,7 +148,7 @@ pub struct Gates {
     /// clean steps and the robust order statistic of every step), each at `p / 2`, so that together they keep the
     /// `p` of the one test they replace.
     pub t_speed: [f64; HISTORY],
-    /// `robust[m]`: the robust own-scatter test's quantile ([`order_statistic_quantile`]) at `p / 2` for `m` kept
+    /// `robust[m]`: the robust own-scatter test's quantile (`order_statistic_quantile`) at `p / 2` for `m` kept
     /// speed steps and the rank [`robust_rank`]`(m)`.
     pub robust: [f64; SPEED_STEPS + 1],
     /// `robust_floor[m]`: the smallest order statistic used, [`OWN_SCATTER_FLOOR`] times the half-normal's
