@@ -37,6 +37,7 @@ class Params:
     memory_hold_s: float
     shadow_gate: bool
     follow_owner_fit: bool
+    release_flagged_claims: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

@@ -14,6 +14,7 @@ CAUSES = {
     "seen_through",
     "face_in_front",
     "returns_beyond",
+    "evidence_released",
     "position_error (no cause)",
 }
 

@@ -591,6 +591,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("follow_gate", d.follow_gate, p.follow_gate),
         ("shadow_gate", d.shadow_gate, p.shadow_gate),
         ("follow_owner_fit", d.follow_owner_fit, p.follow_owner_fit),
+        ("release_flagged_claims", d.release_flagged_claims, p.release_flagged_claims),
         ("front_cluster", d.front_cluster, p.front_cluster),
         ("spill_in_front", d.spill_in_front, p.spill_in_front),
         ("spill_near_side", d.spill_near_side, p.spill_near_side),

@@ -62,6 +62,11 @@ pub struct RuleSwitches {
     /// neighbour whose margin holds them (docs/attribution.md, "Step 8 judged by the evidence it follows").
     #[cfg_attr(feature = "clap", arg(long))]
     pub follow_owner_fit: bool,
+    /// Check with the params key `release_flagged_claims` on: a hidden box takes the cells in front of it that a
+    /// neighbour with its own evidence elsewhere held only by its reported region (docs/attribution.md, "Claims a
+    /// flagged neighbour releases").
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub release_flagged_claims: bool,
     /// Check with the params key `front_cluster` on: a free cluster in front of a confirmed box, fitting it and
     /// outweighing its own cells, goes to it when the evidence confirming the box runs on beyond it
     /// (docs/attribution.md, "One box displaced 2 m in a single sweep"). The default since issue #10's round
@@ -122,6 +127,7 @@ impl RuleSwitches {
         p.follow_gate |= self.follow_gate;
         p.shadow_gate |= self.shadow_gate;
         p.follow_owner_fit |= self.follow_owner_fit;
+        p.release_flagged_claims |= self.release_flagged_claims;
         p.front_cluster |= self.front_cluster;
         if self.no_front_cluster {
             p.front_cluster = false;
@@ -175,6 +181,7 @@ mod tests {
         assert_eq!(on(|s| s.returns_beyond_cells = Some(2)).returns_beyond_cells, 2);
         assert!(on(|s| s.shadow_gate = true).shadow_gate);
         assert!(on(|s| s.follow_owner_fit = true).follow_owner_fit);
+        assert!(on(|s| s.release_flagged_claims = true).release_flagged_claims);
         assert!(on(|s| s.memory_gate = true).memory_gate);
         let first = on(|s| s.jump_first_return = true);
         assert!(first.jump_from_returns && first.jump_first_return);

@@ -296,6 +296,9 @@ pub struct CauseCounts {
     pub face_in_front: u64,
     /// `PositionCause::ReturnsBeyond`.
     pub returns_beyond: u64,
+    /// `PositionCause::EvidenceReleased` (absent from results written before it: 0).
+    #[serde(default)]
+    pub evidence_released: u64,
     /// Position errors without a cause (index `CAUSES - 1`).
     pub no_cause: u64,
 }
@@ -311,7 +314,8 @@ impl CauseCounts {
             4 => &mut self.seen_through,
             5 => &mut self.face_in_front,
             6 => &mut self.returns_beyond,
-            7 => &mut self.no_cause,
+            7 => &mut self.evidence_released,
+            8 => &mut self.no_cause,
             _ => return None,
         })
     }

@@ -77,6 +77,9 @@
 // Its own returns stand beyond its grown region (params key `returns_beyond_cells`).
 #define PMON_POSITION_CAUSE_RETURNS_BEYOND 6
 
+// Hidden, it stands behind evidence a neighbour held only by its wrong place (params key `release_flagged_claims`).
+#define PMON_POSITION_CAUSE_EVIDENCE_RELEASED 7
+
 // A cause the core added after this header: its name is in `position_cause_name`.
 #define PMON_POSITION_CAUSE_OTHER 255
 

@@ -67,6 +67,8 @@ pub const PMON_POSITION_CAUSE_SEEN_THROUGH: u32 = 4;
 pub const PMON_POSITION_CAUSE_FACE_IN_FRONT: u32 = 5;
 /// Its own returns stand beyond its grown region (params key `returns_beyond_cells`).
 pub const PMON_POSITION_CAUSE_RETURNS_BEYOND: u32 = 6;
+/// Hidden, it stands behind evidence a neighbour held only by its wrong place (params key `release_flagged_claims`).
+pub const PMON_POSITION_CAUSE_EVIDENCE_RELEASED: u32 = 7;
 /// A cause the core added after this header: its name is in `position_cause_name`.
 pub const PMON_POSITION_CAUSE_OTHER: u32 = 255;
 
@@ -533,6 +535,7 @@ fn position_cause_code(c: PositionCause) -> u32 {
         "seen_through" => PMON_POSITION_CAUSE_SEEN_THROUGH,
         "face_in_front" => PMON_POSITION_CAUSE_FACE_IN_FRONT,
         "returns_beyond" => PMON_POSITION_CAUSE_RETURNS_BEYOND,
+        "evidence_released" => PMON_POSITION_CAUSE_EVIDENCE_RELEASED,
         _ => PMON_POSITION_CAUSE_OTHER,
     }
 }

@@ -33,6 +33,7 @@ mod fit;
 mod graze;
 mod memory_steps;
 mod over;
+mod released;
 mod roi;
 mod sight;
 mod verdicts;

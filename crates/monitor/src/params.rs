@@ -437,6 +437,14 @@ pub struct MonitorParams {
     /// displaced pedestrian's own returns often stand within a neighbour's extent, so off by default. Costs one
     /// walk over the neighbour's grown region, only when step 8 finds cells.
     pub follow_owner_fit: bool,
+    /// Off by default (issue #10; docs/attribution.md, "Claims a flagged neighbour releases"). A neighbour that
+    /// holds a conflict cluster of its own (its evidence lies there) releases the occupied cells it owns only by its
+    /// reported region when that cluster does not continue them: a hidden box without evidence of its own takes
+    /// such cells when they stand in front of it on its line of sight, within `conflict_association_m` of its grown
+    /// region and outside it, in no other object's region, fitting its box: a `position_error` with the cause
+    /// `evidence_released`. Measured (full plans of seeds 7, 11, 23): docs/attribution.md. Costs one walk over the
+    /// cells within the gate of a hidden box, only for hidden boxes without evidence.
+    pub release_flagged_claims: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -540,6 +548,7 @@ impl MonitorParams {
         memory_hold_s: 1.0,
         shadow_gate: false,
         follow_owner_fit: false,
+        release_flagged_claims: false,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {
@@ -892,6 +901,7 @@ mod tests {
         assert!(MonitorParams { spill_in_front: false, ..d }.validate().is_ok());
         assert!(d.spill_near_side && MonitorParams { spill_near_side: false, ..d }.validate().is_ok());
         assert!(!d.seen_over && !d.face_in_front && !d.memory_gate && !d.shadow_gate && !d.follow_owner_fit);
+        assert!(!d.release_flagged_claims);
         assert_eq!(d.returns_beyond_cells, 0);
         assert!(d.seen_body && d.follow_gate, "on by default since issue #10's round of rays on the body");
         for ok in [0.0, 0.5, 10.0] {

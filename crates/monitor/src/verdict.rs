@@ -89,17 +89,21 @@ pub enum PositionCause {
     FaceInFront,
     /// Its own returns stand beyond its grown region (params key `returns_beyond_cells`).
     ReturnsBeyond,
+    /// Hidden, it stands behind evidence that a neighbour held only by its reported region while that neighbour's
+    /// own evidence lies elsewhere (params key `release_flagged_claims`).
+    EvidenceReleased,
 }
 
 impl PositionCause {
     /// Every cause, in the order of their codes (`pmon.h`'s `PMON_POSITION_CAUSE_*` are 1 + the index).
-    pub const ALL: [Self; 6] = [
+    pub const ALL: [Self; 7] = [
         Self::DisplacedEvidence,
         Self::EvidenceFollowed,
         Self::JumpedFromEvidence,
         Self::SeenThrough,
         Self::FaceInFront,
         Self::ReturnsBeyond,
+        Self::EvidenceReleased,
     ];
 
     /// Short snake_case name, as in JSON output.
@@ -112,6 +116,7 @@ impl PositionCause {
             Self::SeenThrough => "seen_through",
             Self::FaceInFront => "face_in_front",
             Self::ReturnsBeyond => "returns_beyond",
+            Self::EvidenceReleased => "evidence_released",
         }
     }
 
@@ -125,6 +130,7 @@ impl PositionCause {
             Self::SeenThrough => "the rays pass through the box to its evidence behind it",
             Self::FaceInFront => "its evidence's face stands in front of the box along the rays",
             Self::ReturnsBeyond => "its own returns stand beyond its region",
+            Self::EvidenceReleased => "it stands behind evidence a neighbour held only by its wrong place",
         }
     }
 }

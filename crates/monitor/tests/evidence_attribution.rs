@@ -66,7 +66,7 @@ fn displaced_pedestrian_takes_its_evidence_and_its_neighbour_is_not_blamed() {
 /// evidence stands 1.5 m nearer: the borrowed evidence does not confirm it.
 #[test]
 fn object_on_a_neighbours_evidence_is_not_confirmed_by_it() {
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut m = Monitor::new(MonitorParams { release_flagged_claims: true, ..MonitorParams::default() }).unwrap();
     let neighbour = object(1, 16.0, 0.4, 0.0, 0.6, 0.6);
     let truth = object(2, 14.5, -0.3, 0.0, 0.6, 0.6);
     let mut pts = visible_face_points(&neighbour, 0.05);
@@ -86,7 +86,7 @@ fn object_on_a_neighbours_evidence_is_not_confirmed_by_it() {
 /// either box's, so it becomes a missed object and neither box is blamed for it.
 #[test]
 fn a_wall_is_too_large_to_be_a_pedestrians_evidence() {
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut m = Monitor::new(MonitorParams { release_flagged_claims: true, ..MonitorParams::default() }).unwrap();
     let car = object(1, 15.0, 3.0, 0.0, 4.5, 1.9);
     let ghost = object(2, 20.0, -3.0, 0.0, 0.6, 0.6);
     let mut pts = visible_face_points(&car, 0.1);
@@ -173,7 +173,7 @@ fn a_hidden_object_is_no_ghost_while_its_uncertainty_allows_the_shadow() {
     let car = object(1, 10.0, 0.0, 0.0, 4.5, 1.9);
     let mut pts = visible_face_points(&car, 0.05);
     pts.extend(ground_points(45.0));
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut m = Monitor::new(MonitorParams { release_flagged_claims: true, ..MonitorParams::default() }).unwrap();
     // The car's shadow at 14 m reaches about 0.95 * 14 / 7.75 = 1.7 m to each side: the box (y from 1.65 to
     // 2.25 m) is mostly out of it. Stated exact, its margin is `delta_safe` (0.1 m): moved by it, the box stays
     // mostly in sight. With a 0.3 m sigma (margin 1 m), its place may be in the shadow.
@@ -198,7 +198,7 @@ fn a_hidden_object_is_no_ghost_while_its_uncertainty_allows_the_shadow() {
         r[1].sensor
     );
     assert_eq!(r[2].sensor.verdict, SensorVerdict::Ghost, "nothing in open space: {:?}", r[2].sensor);
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut m = Monitor::new(MonitorParams { release_flagged_claims: true, ..MonitorParams::default() }).unwrap();
     let r = run(&mut m, &[car, exact], &pts);
     assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "stated exact, mostly seen empty: {:?}", r[1].sensor);
 }
@@ -233,7 +233,7 @@ fn a_hidden_object_is_no_ghost_when_its_place_lies_between_the_extremes_of_its_m
     pts.extend(ground_points(45.0).into_iter().filter(|p| !(p[0] > 9.8 && (p[1] / p[0]).abs() < 0.17 / 9.84)));
     let truth = object(2, 22.0, 0.0, 0.0, 0.5, 0.5);
     let reported = pmon_monitor::ObjectState { y_m: 0.8, uncertainty: Some(sigma(0.5)), ..truth };
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut m = Monitor::new(MonitorParams { release_flagged_claims: true, ..MonitorParams::default() }).unwrap();
     let region = m.region_of(&reported).unwrap();
     assert!((region.margin_width_m - 1.6).abs() < 1e-4, "{region:?}");
     let r = run(&mut m, &[post, reported], &pts);
@@ -246,7 +246,7 @@ fn a_hidden_object_is_no_ghost_when_its_place_lies_between_the_extremes_of_its_m
     );
     // In open space, the same box far from any shadow is still a ghost.
     let open = pmon_monitor::ObjectState { id: 3, y_m: -8.0, ..reported };
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut m = Monitor::new(MonitorParams { release_flagged_claims: true, ..MonitorParams::default() }).unwrap();
     let r = run(&mut m, &[post, open], &pts);
     assert_eq!(r[1].sensor.verdict, SensorVerdict::Ghost, "nothing in open space: {:?}", r[1].sensor);
 }
@@ -266,7 +266,7 @@ fn displaced_evidence_in_a_neighbours_margin_still_follows_its_track() {
     first.extend(ground_points(45.0));
     let mut second = first.clone();
     second.extend(visible_face_points(&neighbour, 0.05));
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut m = Monitor::new(MonitorParams { release_flagged_claims: true, ..MonitorParams::default() }).unwrap();
     let r = check_at(&mut m, 0.0, &[reported], &first, Pose2::default());
     assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "first frame: {:?}", r[0].sensor);
     let r = check_at(&mut m, 0.1, &[neighbour, reported], &second, Pose2::default());
@@ -1300,7 +1300,7 @@ fn evidence_beyond_the_gate_does_not_flag_a_hidden_box() {
 fn follow_gate_stops_step_8_beyond_the_gate_and_leaves_step_6_alone() {
     let PostScene { hidden, displaced, beside_post, beside_truth, first, second } = post_scene();
     let occluded = SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded);
-    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let mut m = Monitor::new(MonitorParams { release_flagged_claims: true, ..MonitorParams::default() }).unwrap();
     assert!(m.params().follow_gate, "the default since the round of rays on the body");
     let r = check_at(&mut m, 0.0, &[hidden, displaced], &first, Pose2::default());
     let (h, d) = (&r[0].sensor, &r[1].sensor);
@@ -1552,6 +1552,62 @@ fn a_face_behind_a_box_displaced_away_does_not_keep_its_own_face_from_it() {
             let mut m = Monitor::new(params).unwrap();
             let r = run(&mut m, &[truth], &sparse);
             assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{at}, sparse returns: {:?}", r[0].sensor);
+        }
+    }
+}
+
+/// Claims a flagged neighbour releases (params key `release_flagged_claims`): pedestrian B stands 20 m ahead and is
+/// reported 1.4 m further away in two frames; in the second, pedestrian A stands just behind where B is reported and
+/// is reported 1.4 m further away still. B, flagged in the first frame, is offered its own returns again at its
+/// remembered offset (step 4) and keeps them: a `position_error`. B's displaced region covers A's returns, so B owns
+/// them (step 1); A's box stands in the shadow of its own returns with no evidence of its own: without the key it is
+/// `not_monitored(occluded)`. With the key, the cells B held only by its wrong place (B's cluster does not continue
+/// them) are released, and A, behind them, takes them: a `position_error` with the cause `evidence_released` and an
+/// offset back to its returns. Reported where it stands, A is `consistent` either way.
+#[test]
+fn a_hidden_box_takes_the_returns_a_displaced_neighbour_held_only_by_its_wrong_place() {
+    let b_truth = object(1, 20.0, 0.0, 0.0, 0.6, 0.6);
+    let a_truth = object(2, 21.6, 0.25, 0.0, 0.6, 0.4);
+    let mut first = visible_face_points(&b_truth, 0.05);
+    first.extend(ground_points(45.0));
+    let mut second = first.clone();
+    second.extend(visible_face_points(&a_truth, 0.05));
+    let (mut b, mut a) = (b_truth, a_truth);
+    b.x_m += 1.4;
+    a.x_m += 1.4;
+    let check = |m: &mut Monitor, t_s: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
+        let pts = to_sensor(points);
+        let frame = Frame { timestamp_s: t_s, ..frame_at_origin(objects, &pts, &[], &[]) };
+        m.check(&frame).unwrap().objects.to_vec()
+    };
+    for (key, a_verdict, a_cause) in [
+        (false, SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded), None),
+        (true, SensorVerdict::PositionError, Some(PositionCause::EvidenceReleased)),
+    ] {
+        for (a_reported, clean) in [(a, false), (a_truth, true)] {
+            let mut m =
+                Monitor::new(MonitorParams { release_flagged_claims: key, ..MonitorParams::default() }).unwrap();
+            let r = check(&mut m, 0.0, &[b], &first);
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}: B alone {:?}", r[0].sensor);
+            let r = check(&mut m, 0.1, &[b, a_reported], &second);
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}: B {:?}", r[0].sensor);
+            assert_eq!(
+                r[0].sensor.position_cause,
+                Some(PositionCause::DisplacedEvidence),
+                "key {key}: B {:?}",
+                r[0].sensor
+            );
+            if clean {
+                // A reported where it stands: its returns are its own.
+                assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "key {key}: clean A {:?}", r[1].sensor);
+                continue;
+            }
+            assert_eq!(r[1].sensor.verdict, a_verdict, "key {key}: A {:?}", r[1].sensor);
+            assert_eq!(r[1].sensor.position_cause, a_cause, "key {key}: A {:?}", r[1].sensor);
+            if key {
+                // From its returns (21.3-21.9 m) back to the box's near face (22.7 m): about +1 m along x.
+                assert!(r[1].sensor.offset_m[0] > 0.5 && r[1].sensor.offset_m[0] < 1.7, "{:?}", r[1].sensor.offset_m);
+            }
         }
     }
 }

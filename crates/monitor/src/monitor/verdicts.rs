@@ -27,6 +27,7 @@ impl Monitor {
                 let mut occluded = false;
                 let mut shared = false;
                 let mut followed: Option<[f32; 2]> = None;
+                let mut released: Option<[f32; 2]> = None;
                 let mut sight = sight;
                 if cluster.is_none() && eta_own < tau_tp {
                     // Seen again now that the displaced evidence has its objects, if unexplained evidence shadowed
@@ -46,6 +47,13 @@ impl Monitor {
                         // follows it (the neighbour's margin hid it from the clusters).
                         if let Some(at) = self.followed_evidence(j, &region) {
                             followed = Some(at);
+                            occluded = false;
+                        } else if let Some(at) =
+                            self.params.release_flagged_claims.then(|| self.released_evidence(j, &region)).flatten()
+                        {
+                            // With `release_flagged_claims`: a neighbour with its own evidence elsewhere held the
+                            // cells in front of this box only by its reported region; they are this box's.
+                            released = Some(at);
                             occluded = false;
                         } else if let Some(k) = self.near_cluster_for_far_shadow(&sight, &region) {
                             // With `shadow_gate`: hidden only because the evidence that shadows it stands beyond
@@ -102,6 +110,7 @@ impl Monitor {
                 // evidence, moved by the object's stated motion, predicts it, and the box jumped away from it.
                 let moved = if cluster.is_none()
                     && followed.is_none()
+                    && released.is_none()
                     && !seen_through
                     && face.is_none()
                     && beyond.is_none()
@@ -113,6 +122,7 @@ impl Monitor {
                 };
                 // A ghost only when no place within its region hides it.
                 let hidden = cluster.is_none()
+                    && released.is_none()
                     && eta_own < tau_tp
                     && !occluded
                     && !shared
@@ -136,6 +146,11 @@ impl Monitor {
                     let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
                     s.offset_m = [nx - c[0], ny - c[1]];
                     s.position_cause = Some(PositionCause::EvidenceFollowed);
+                    SensorVerdict::PositionError
+                } else if let Some(c) = released {
+                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
+                    s.offset_m = [nx - c[0], ny - c[1]];
+                    s.position_cause = Some(PositionCause::EvidenceReleased);
                     SensorVerdict::PositionError
                 } else if let Some((_, at)) = moved {
                     // From where the evidence puts the box (its remembered offset back from the evidence) to the box.
@@ -178,6 +193,7 @@ impl Monitor {
                     SensorVerdict::PositionError => match s.cluster.and_then(|k| self.clusters.get(usize::from(k))) {
                         Some(c) => Some((EvidenceKind::Displaced, c.centroid_m)),
                         None if followed.is_some() => followed.map(|at| (EvidenceKind::Displaced, at)),
+                        None if released.is_some() => released.map(|at| (EvidenceKind::Displaced, at)),
                         None if moved.is_some() => moved.map(|(c, _)| (EvidenceKind::Displaced, c)),
                         // Seen through: its own evidence, behind it, is where it stands apart.
                         None if own_sum[2] >= 1.0 => {
