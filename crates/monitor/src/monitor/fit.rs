@@ -55,17 +55,22 @@ impl Monitor {
 
     /// True when a cell of cluster `k` is 8-adjacent to a hit cell that an object other than `j` owns.
     fn cluster_touches_others(&self, j: usize, k: usize) -> bool {
+        self.cluster_touches_owned_by(k, |o| o != j)
+    }
+
+    /// True when a cell of cluster `k` is 8-adjacent to a hit cell owned (step 1) by an object `owner` accepts.
+    pub(super) fn cluster_touches_owned_by(&self, k: usize, owner: impl Fn(usize) -> bool) -> bool {
         let grid = &self.grid;
-        self.cluster_cells(k).iter().any(|&c| {
-            grid.geometry.block3x3(c).any(|idx| grid.hits(idx) > 0 && self.owner_of(idx).is_some_and(|o| o != j))
-        })
+        self.cluster_cells(k)
+            .iter()
+            .any(|&c| grid.geometry.block3x3(c).any(|idx| grid.hits(idx) > 0 && self.owner_of(idx).is_some_and(&owner)))
     }
 
     /// The slack of the fit tests ([`Monitor::fits_with_own`], [`Monitor::spill_fits_with`]) beyond a box's length and
     /// width: one cell diagonal (a cell centre is within half a diagonal of every point of its cell) and twice the
     /// safety margin (LiDAR noise).
     #[inline]
-    fn fit_slack(&self) -> f32 {
+    pub(super) fn fit_slack(&self) -> f32 {
         core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 2.0 * self.params.safety_margin_m
     }
 

@@ -6,6 +6,7 @@
 //! own that stands behind such cells takes them: displaced away from the sensor, behind its own returns, which a
 //! displaced neighbour's region covered. Part of [`Monitor`]; the verdict is in `verdicts.rs`.
 
+use super::fit::{grown, span_fits, NO_SPAN};
 use super::*;
 
 impl Monitor {
@@ -37,7 +38,7 @@ impl Monitor {
         let (ix0, iy0, ix1, iy1) = geometry.cell_range_clipped(clip)?;
         let (tau, n) = (self.params.tau_fn, geometry.cells_per_side);
         let mut sum = [0.0f32; 3];
-        let mut span = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+        let mut span = NO_SPAN;
         // The last owner asked whether its cluster continues its cells, and the answer (cells of one owner come
         // together).
         let mut continues: Option<(usize, bool)> = None;
@@ -63,7 +64,7 @@ impl Monitor {
                 }
                 let touches = match continues {
                     Some((o, t)) if o == owner => t,
-                    _ => self.cluster_touches_own(owner, usize::from(k)),
+                    _ => self.cluster_touches_owned_by(usize::from(k), |o| o == owner),
                 };
                 continues = Some((owner, touches));
                 if touches {
@@ -78,25 +79,12 @@ impl Monitor {
                     continue;
                 }
                 sum = [sum[0] + x, sum[1] + y, sum[2] + 1.0];
-                let (u, v) = region.footprint.local(x, y);
-                span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+                span = grown(span, region.footprint.local(x, y));
             }
         }
         if sum[2] < 1.0 {
             return None;
         }
-        let slack = core::f32::consts::SQRT_2 * geometry.cell_size_m + 2.0 * self.params.safety_margin_m;
-        let fits = span[1] - span[0] <= 2.0 * region.footprint.half_length + slack
-            && span[3] - span[2] <= 2.0 * region.footprint.half_width + slack;
-        fits.then(|| [sum[0] / sum[2], sum[1] / sum[2]])
-    }
-
-    /// True when a cell of cluster `k` is 8-adjacent to a hit cell object `j` owns: the cluster continues `j`'s own
-    /// cells (spill-over's first path).
-    fn cluster_touches_own(&self, j: usize, k: usize) -> bool {
-        let grid = &self.grid;
-        self.cluster_cells(k)
-            .iter()
-            .any(|&c| grid.geometry.block3x3(c).any(|idx| grid.hits(idx) > 0 && self.owner_of(idx) == Some(j)))
+        span_fits(span, &region.footprint, self.fit_slack()).then(|| [sum[0] / sum[2], sum[1] / sum[2]])
     }
 }
