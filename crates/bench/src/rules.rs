@@ -64,9 +64,13 @@ pub struct RuleSwitches {
     pub follow_owner_fit: bool,
     /// Check with the params key `release_flagged_claims` on: a hidden box takes the cells in front of it that a
     /// neighbour with its own evidence elsewhere held only by its reported region (docs/attribution.md, "Claims a
-    /// flagged neighbour releases").
+    /// flagged neighbour releases"). The default since issue #10's round of that name; kept for older commands.
     #[cfg_attr(feature = "clap", arg(long))]
     pub release_flagged_claims: bool,
+    /// Check with `release_flagged_claims` off (the default before issue #10's round "Claims a flagged neighbour
+    /// releases").
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with = "release_flagged_claims"))]
+    pub no_release_flagged_claims: bool,
     /// Check with the params key `front_cluster` on: a free cluster in front of a confirmed box, fitting it and
     /// outweighing its own cells, goes to it when the evidence confirming the box runs on beyond it
     /// (docs/attribution.md, "One box displaced 2 m in a single sweep"). The default since issue #10's round
@@ -128,6 +132,9 @@ impl RuleSwitches {
         p.shadow_gate |= self.shadow_gate;
         p.follow_owner_fit |= self.follow_owner_fit;
         p.release_flagged_claims |= self.release_flagged_claims;
+        if self.no_release_flagged_claims {
+            p.release_flagged_claims = false;
+        }
         p.front_cluster |= self.front_cluster;
         if self.no_front_cluster {
             p.front_cluster = false;
@@ -182,6 +189,7 @@ mod tests {
         assert!(on(|s| s.shadow_gate = true).shadow_gate);
         assert!(on(|s| s.follow_owner_fit = true).follow_owner_fit);
         assert!(on(|s| s.release_flagged_claims = true).release_flagged_claims);
+        assert!(!on(|s| s.no_release_flagged_claims = true).release_flagged_claims);
         assert!(on(|s| s.memory_gate = true).memory_gate);
         let first = on(|s| s.jump_first_return = true);
         assert!(first.jump_from_returns && first.jump_first_return);

@@ -65,8 +65,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         face_in_front: std::env::var_os("FACE").is_some(),
         // `SEEN_OVER=1`: the params key `seen_over` (off by default; with `BEYOND=1 FACE=1`, `profile:recall`).
         seen_over: std::env::var_os("SEEN_OVER").is_some(),
-        // `RELEASE=1`: the params key `release_flagged_claims` (off by default).
-        release_flagged_claims: std::env::var_os("RELEASE").is_some(),
+        // `NORELEASE=1`: the params key `release_flagged_claims` off (the default since issue #10's round "Claims a
+        // flagged neighbour releases").
+        release_flagged_claims: base.release_flagged_claims && std::env::var_os("NORELEASE").is_none(),
         // `BEYOND=N`: the params key `returns_beyond_cells = N` (off by default).
         returns_beyond_cells: std::env::var("BEYOND").ok().and_then(|v| v.parse().ok()).unwrap_or(0),
         // The jump keys are the default since issue #10: `NOJUMP=1` turns both off, `NOFIRST=1` the first return.

@@ -437,7 +437,8 @@ pub struct MonitorParams {
     /// displaced pedestrian's own returns often stand within a neighbour's extent, so off by default. Costs one
     /// walk over the neighbour's grown region, only when step 8 finds cells.
     pub follow_owner_fit: bool,
-    /// Off by default (issue #10; docs/attribution.md, "Claims a flagged neighbour releases"). A neighbour that
+    /// On by default since issue #10's round "Claims a flagged neighbour releases" (docs/attribution.md, under that
+    /// name; `false` gives the verdicts before it). A neighbour that
     /// holds a conflict cluster of its own (its evidence lies there) releases the occupied cells it owns only by its
     /// reported region when that cluster does not continue them: a hidden box without evidence of its own takes
     /// such cells when they stand in front of it on its line of sight, within `conflict_association_m` of its grown
@@ -548,7 +549,7 @@ impl MonitorParams {
         memory_hold_s: 1.0,
         shadow_gate: false,
         follow_owner_fit: false,
-        release_flagged_claims: false,
+        release_flagged_claims: true,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {
@@ -901,7 +902,8 @@ mod tests {
         assert!(MonitorParams { spill_in_front: false, ..d }.validate().is_ok());
         assert!(d.spill_near_side && MonitorParams { spill_near_side: false, ..d }.validate().is_ok());
         assert!(!d.seen_over && !d.face_in_front && !d.memory_gate && !d.shadow_gate && !d.follow_owner_fit);
-        assert!(!d.release_flagged_claims);
+        assert!(d.release_flagged_claims, "on by default since issue #10's round of released claims");
+        assert!(MonitorParams { release_flagged_claims: false, ..d }.validate().is_ok());
         assert_eq!(d.returns_beyond_cells, 0);
         assert!(d.seen_body && d.follow_gate, "on by default since issue #10's round of rays on the body");
         for ok in [0.0, 0.5, 10.0] {

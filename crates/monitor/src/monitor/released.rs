@@ -1,4 +1,4 @@
-//! Claims a flagged neighbour releases (params key `release_flagged_claims`, off by default; docs/attribution.md,
+//! Claims a flagged neighbour releases (params key `release_flagged_claims`, on by default; docs/attribution.md,
 //! "Claims a flagged neighbour releases"). Ownership (step 1) gives an occupied cell to the object in whose grown
 //! region it lies deepest, wherever that object really stands. A neighbour that holds a conflict cluster of its own
 //! has its evidence there: the cells it owns only by its reported region are not its evidence unless the cluster
