@@ -103,6 +103,7 @@ fuzz_target!(|data: &[u8]| {
         follow_owner_fit: jump_first_return,
         // The released claims walk the owners' clusters: on with the body rules.
         release_flagged_claims: seen_body,
+        release_to_confirmed: seen_body,
         memory_hold_s: if memory_gate { 1.0 } else { 0.0 },
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,

@@ -38,6 +38,7 @@ class Params:
     shadow_gate: bool
     follow_owner_fit: bool
     release_flagged_claims: bool
+    release_to_confirmed: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

@@ -67,6 +67,10 @@ pub struct RuleSwitches {
     /// flagged neighbour releases"). The default since issue #10's round of that name; kept for older commands.
     #[cfg_attr(feature = "clap", arg(long))]
     pub release_flagged_claims: bool,
+    /// Check with the params key `release_to_confirmed` on: a box confirmed by evidence of its own takes the
+    /// released cells in front of it too (docs/attribution.md, "Released claims for a confirmed box").
+    #[cfg_attr(feature = "clap", arg(long, conflicts_with = "no_release_flagged_claims"))]
+    pub release_to_confirmed: bool,
     /// Check with `release_flagged_claims` off (the default before issue #10's round "Claims a flagged neighbour
     /// releases").
     #[cfg_attr(feature = "clap", arg(long, conflicts_with = "release_flagged_claims"))]
@@ -132,6 +136,7 @@ impl RuleSwitches {
         p.shadow_gate |= self.shadow_gate;
         p.follow_owner_fit |= self.follow_owner_fit;
         p.release_flagged_claims |= self.release_flagged_claims;
+        p.release_to_confirmed |= self.release_to_confirmed;
         if self.no_release_flagged_claims {
             p.release_flagged_claims = false;
         }
@@ -190,6 +195,7 @@ mod tests {
         assert!(on(|s| s.follow_owner_fit = true).follow_owner_fit);
         assert!(on(|s| s.release_flagged_claims = true).release_flagged_claims);
         assert!(!on(|s| s.no_release_flagged_claims = true).release_flagged_claims);
+        assert!(on(|s| s.release_to_confirmed = true).release_to_confirmed);
         assert!(on(|s| s.memory_gate = true).memory_gate);
         let first = on(|s| s.jump_first_return = true);
         assert!(first.jump_from_returns && first.jump_first_return);

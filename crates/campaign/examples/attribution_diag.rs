@@ -9,7 +9,7 @@
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
 //! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `NONEARSIDE=1` `spill_near_side`; `FIRST=1`: `jump_first_return`; `BEYOND=N`: `returns_beyond_cells = N`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
-//! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`; `OWNERFIT=1`: `follow_owner_fit`; `NORELEASE=1` turns `release_flagged_claims` off, the default since issue #10's round "Claims a flagged neighbour releases"). With `FULL=1` the runs are those of the full plan
+//! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`; `OWNERFIT=1`: `follow_owner_fit`; `NORELEASE=1` turns `release_flagged_claims` off, the default since issue #10's round "Claims a flagged neighbour releases"; `RELCONF=1`: `release_to_confirmed`). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
@@ -1303,7 +1303,9 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                             .iter()
                             .max_by_key(|(m, n)| (**n, std::cmp::Reverse(**m)))
                             .and_then(|(m, _)| objects_out.get(*m as usize))
-                            .map_or(String::new(), |or| format!(" owner {:?}", or.sensor.verdict))
+                            .map_or(String::new(), |or| {
+                                format!(" owner {:?} {:?}", or.sensor.verdict, or.sensor.position_cause)
+                            })
                     } else {
                         String::new()
                     };
@@ -1522,6 +1524,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.jump_jumped_boxes &= std::env::var_os("NOJUMPED").is_none();
             r.spec.params.follow_owner_fit |= std::env::var_os("OWNERFIT").is_some();
             r.spec.params.release_flagged_claims &= std::env::var_os("NORELEASE").is_none();
+            // `RELCONF=1`: the params key `release_to_confirmed`.
+            r.spec.params.release_to_confirmed |= std::env::var_os("RELCONF").is_some();
             r
         })
         .collect();

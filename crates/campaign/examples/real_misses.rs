@@ -68,6 +68,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // `NORELEASE=1`: the params key `release_flagged_claims` off (the default since issue #10's round "Claims a
         // flagged neighbour releases").
         release_flagged_claims: base.release_flagged_claims && std::env::var_os("NORELEASE").is_none(),
+        // `RELCONF=1`: the params key `release_to_confirmed` (off by default).
+        release_to_confirmed: std::env::var_os("RELCONF").is_some(),
         // `BEYOND=N`: the params key `returns_beyond_cells = N` (off by default).
         returns_beyond_cells: std::env::var("BEYOND").ok().and_then(|v| v.parse().ok()).unwrap_or(0),
         // The jump keys are the default since issue #10: `NOJUMP=1` turns both off, `NOFIRST=1` the first return.

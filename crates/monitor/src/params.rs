@@ -446,6 +446,10 @@ pub struct MonitorParams {
     /// `evidence_released`. Measured (full plans of seeds 7, 11, 23): docs/attribution.md. Costs one walk over the
     /// cells within the gate of a hidden box, only for hidden boxes without evidence.
     pub release_flagged_claims: bool,
+    /// Off by default (issue #10; docs/attribution.md, "Released claims for a confirmed box"). With
+    /// `release_flagged_claims`: a box confirmed by evidence of its own takes the released cells in front of it too,
+    /// when they are at least as many as the occupied cells it owns on its near side and fit its box with them.
+    pub release_to_confirmed: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -550,6 +554,7 @@ impl MonitorParams {
         shadow_gate: false,
         follow_owner_fit: false,
         release_flagged_claims: true,
+        release_to_confirmed: false,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {
@@ -904,6 +909,7 @@ mod tests {
         assert!(!d.seen_over && !d.face_in_front && !d.memory_gate && !d.shadow_gate && !d.follow_owner_fit);
         assert!(d.release_flagged_claims, "on by default since issue #10's round of released claims");
         assert!(MonitorParams { release_flagged_claims: false, ..d }.validate().is_ok());
+        assert!(!d.release_to_confirmed);
         assert_eq!(d.returns_beyond_cells, 0);
         assert!(d.seen_body && d.follow_gate, "on by default since issue #10's round of rays on the body");
         for ok in [0.0, 0.5, 10.0] {

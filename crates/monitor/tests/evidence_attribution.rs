@@ -1611,3 +1611,52 @@ fn a_hidden_box_takes_the_returns_a_displaced_neighbour_held_only_by_its_wrong_p
         }
     }
 }
+
+/// Released claims for a confirmed box (params key `release_to_confirmed`, with `release_flagged_claims`): as above,
+/// pedestrian B stands 20 m ahead, reported 1.4 m further away and flagged in the first frame. In the second, cyclist
+/// A (1.8 m long) stands just behind B, its near face and the side the sensor sees reaching from 20.7 to 22.5 m, and
+/// is reported 1.4 m further away. A's grown region keeps the far end of that side, so A is confirmed by evidence of
+/// its own; the rest, in front of it, lies in B's displaced region. Without `release_to_confirmed` A is `consistent`;
+/// with it, the cells B held only by its wrong place are A's: a `position_error` with the cause `evidence_released`.
+/// Reported where it stands, A is `consistent` either way.
+#[test]
+fn a_confirmed_box_takes_the_rest_of_its_body_a_displaced_neighbour_held_only_by_its_wrong_place() {
+    let b_truth = object(1, 20.0, 0.0, 0.0, 0.6, 0.6);
+    let a_truth = object(2, 21.6, 0.4, 0.0, 1.8, 0.6);
+    let mut first = visible_face_points(&b_truth, 0.05);
+    first.extend(ground_points(45.0));
+    let mut second = first.clone();
+    second.extend(visible_face_points(&a_truth, 0.05));
+    let (mut b, mut a) = (b_truth, a_truth);
+    b.x_m += 1.4;
+    a.x_m += 1.4;
+    let check = |m: &mut Monitor, t_s: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
+        let pts = to_sensor(points);
+        let frame = Frame { timestamp_s: t_s, ..frame_at_origin(objects, &pts, &[], &[]) };
+        m.check(&frame).unwrap().objects.to_vec()
+    };
+    for (key, a_verdict, a_cause) in [
+        (false, SensorVerdict::Consistent, None),
+        (true, SensorVerdict::PositionError, Some(PositionCause::EvidenceReleased)),
+    ] {
+        for (a_reported, clean) in [(a, false), (a_truth, true)] {
+            let params = MonitorParams { release_to_confirmed: key, ..MonitorParams::default() };
+            let mut m = Monitor::new(params).unwrap();
+            let r = check(&mut m, 0.0, &[b], &first);
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}: B alone {:?}", r[0].sensor);
+            let r = check(&mut m, 0.1, &[b, a_reported], &second);
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}: B {:?}", r[0].sensor);
+            if clean {
+                assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "key {key}: clean A {:?}", r[1].sensor);
+                continue;
+            }
+            assert!(r[1].sensor.eta_own >= params.tau_tp, "key {key}: A is confirmed by its own: {:?}", r[1].sensor);
+            assert_eq!(r[1].sensor.verdict, a_verdict, "key {key}: A {:?}", r[1].sensor);
+            assert_eq!(r[1].sensor.position_cause, a_cause, "key {key}: A {:?}", r[1].sensor);
+            if key {
+                // From the released cells (about 20.7-21.7 m) back to the box's near face (22.1 m): along +x.
+                assert!(r[1].sensor.offset_m[0] > 0.3 && r[1].sensor.offset_m[1].abs() < 0.5, "{:?}", r[1].sensor);
+            }
+        }
+    }
+}

@@ -106,6 +106,20 @@ impl Monitor {
                 } else {
                     None
                 };
+                // Confirmed by evidence of its own, but more of its shape stands in front of it in cells a flagged
+                // neighbour holds only by its reported region (`release_to_confirmed`, off by default).
+                if self.params.release_flagged_claims
+                    && self.params.release_to_confirmed
+                    && cluster.is_none()
+                    && released.is_none()
+                    && !seen_through
+                    && face.is_none()
+                    && beyond.is_none()
+                    && eta_own >= tau_tp
+                    && own_sum[2] >= 1.0
+                {
+                    released = self.released_to_confirmed(j, &region);
+                }
                 // Confirmed (or hidden) where it is reported, but its evidence stayed where the previous frame's
                 // evidence, moved by the object's stated motion, predicts it, and the box jumped away from it.
                 let moved = if cluster.is_none()
