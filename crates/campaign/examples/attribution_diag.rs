@@ -1254,6 +1254,8 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                 if std::env::var_os("OWNERS").is_some() {
                     let geo = monitor.grid().geometry;
                     let (mut me, mut clean_o, mut disp_o, mut free) = (0u32, 0u32, 0u32, 0u32);
+                    // Of the displaced owners' cells, those held by a grown region (step 1) rather than a cluster taken.
+                    let mut disp_region = 0u32;
                     // Per displaced owner, its cells (the largest one's verdict is printed).
                     let mut disp_by: BTreeMap<u32, u32> = BTreeMap::new();
                     if let Some(tg) = truth_region {
@@ -1268,6 +1270,9 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                                     Some(m) if m as usize == i => me += 1,
                                     Some(m) if injections.iter().any(|x| x.index == m) => {
                                         disp_o += 1;
+                                        if monitor.grid().flags(idx) & pmon_monitor::grid::FLAG_EXPLAINED != 0 {
+                                            disp_region += 1;
+                                        }
                                         *disp_by.entry(m).or_default() += 1;
                                     }
                                     Some(_) => clean_o += 1,
@@ -1304,7 +1309,14 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                             .max_by_key(|(m, n)| (**n, std::cmp::Reverse(**m)))
                             .and_then(|(m, _)| objects_out.get(*m as usize))
                             .map_or(String::new(), |or| {
-                                format!(" owner {:?} {:?}", or.sensor.verdict, or.sensor.position_cause)
+                                // `region` / `cluster` / `both`: the displaced owners held these cells by their grown
+                                // regions, by clusters they took, or some of each.
+                                let how = match disp_region {
+                                    0 => "cluster",
+                                    r if r == disp_o => "region",
+                                    _ => "both",
+                                };
+                                format!(" owner {:?} {:?} by {how}", or.sensor.verdict, or.sensor.position_cause)
                             })
                     } else {
                         String::new()
