@@ -1316,7 +1316,45 @@ fn causes(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, Stri
                                     r if r == disp_o => "region",
                                     _ => "both",
                                 };
-                                format!(" owner {:?} {:?} by {how}", or.sensor.verdict, or.sensor.position_cause)
+                                // The cluster the owner took: does it touch (8-adjacent) the cells this box owns, and
+                                // does it fit this box together with them (spill-over's tests)?
+                                let taken = or.sensor.cluster.map(|k| monitor.last_cluster_cells(usize::from(k)));
+                                let rel = match (taken, region) {
+                                    (Some(cells), Some(g)) if !cells.is_empty() => {
+                                        let owned = |c: u32| monitor.cell_attributed_to(c) == Some(i as u32);
+                                        let touches =
+                                            cells.iter().any(|&c| geo.block3x3(c).any(|n| n != c && owned(n)));
+                                        let fp = &g.footprint;
+                                        let mut span =
+                                            [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+                                        let mut add = |x: f32, y: f32| {
+                                            let (u, v) = fp.local(x, y);
+                                            span = [span[0].min(u), span[1].max(u), span[2].min(v), span[3].max(v)];
+                                        };
+                                        for &c in cells {
+                                            let (x, y) = geo.cell_center(c);
+                                            add(x, y);
+                                        }
+                                        if let Some(range) = geo.cell_range(g.grown.aabb()) {
+                                            geo.for_each_cell_overlapping(&g.grown, range, |idx, x, y| {
+                                                if monitor.grid().probability(idx) > spec.params.tau_fn && owned(idx) {
+                                                    add(x, y);
+                                                }
+                                            });
+                                        }
+                                        let slack = std::f32::consts::SQRT_2 * geo.cell_size_m
+                                            + 2.0 * spec.params.safety_margin_m;
+                                        let fits = span[1] - span[0] <= 2.0 * fp.half_length + slack
+                                            && span[3] - span[2] <= 2.0 * fp.half_width + slack;
+                                        format!(
+                                            " cluster {} {}",
+                                            if touches { "touches-it" } else { "apart" },
+                                            if fits { "fits-with-own" } else { "too-big" }
+                                        )
+                                    }
+                                    _ => String::new(),
+                                };
+                                format!(" owner {:?} {:?} by {how}{rel}", or.sensor.verdict, or.sensor.position_cause)
                             })
                     } else {
                         String::new()
