@@ -1556,6 +1556,35 @@ fn a_face_behind_a_box_displaced_away_does_not_keep_its_own_face_from_it() {
     }
 }
 
+/// The scene of the released-claims tests: pedestrian B stands 20 m ahead and `a_truth` behind it; both are reported
+/// 1.4 m further away. B and A as reported, the first frame's points (B's visible faces and the ground) and the
+/// second's (A's visible faces too).
+fn released_claims_scene(
+    a_truth: pmon_monitor::ObjectState,
+) -> (pmon_monitor::ObjectState, pmon_monitor::ObjectState, Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let b_truth = object(1, 20.0, 0.0, 0.0, 0.6, 0.6);
+    let mut first = visible_face_points(&b_truth, 0.05);
+    first.extend(ground_points(45.0));
+    let mut second = first.clone();
+    second.extend(visible_face_points(&a_truth, 0.05));
+    let (mut b, mut a) = (b_truth, a_truth);
+    b.x_m += 1.4;
+    a.x_m += 1.4;
+    (b, a, first, second)
+}
+
+/// One frame at time `t_s` with the sensor at the origin: the object reports.
+fn checked_at(
+    m: &mut Monitor,
+    t_s: f64,
+    objects: &[pmon_monitor::ObjectState],
+    points: &[[f32; 3]],
+) -> Vec<pmon_monitor::ObjectReport> {
+    let pts = to_sensor(points);
+    let frame = Frame { timestamp_s: t_s, ..frame_at_origin(objects, &pts, &[], &[]) };
+    m.check(&frame).unwrap().objects.to_vec()
+}
+
 /// Claims a flagged neighbour releases (params key `release_flagged_claims`): pedestrian B stands 20 m ahead and is
 /// reported 1.4 m further away in two frames; in the second, pedestrian A stands just behind where B is reported and
 /// is reported 1.4 m further away still. B, flagged in the first frame, is offered its own returns again at its
@@ -1566,20 +1595,8 @@ fn a_face_behind_a_box_displaced_away_does_not_keep_its_own_face_from_it() {
 /// offset back to its returns. Reported where it stands, A is `consistent` either way.
 #[test]
 fn a_hidden_box_takes_the_returns_a_displaced_neighbour_held_only_by_its_wrong_place() {
-    let b_truth = object(1, 20.0, 0.0, 0.0, 0.6, 0.6);
     let a_truth = object(2, 21.6, 0.25, 0.0, 0.6, 0.4);
-    let mut first = visible_face_points(&b_truth, 0.05);
-    first.extend(ground_points(45.0));
-    let mut second = first.clone();
-    second.extend(visible_face_points(&a_truth, 0.05));
-    let (mut b, mut a) = (b_truth, a_truth);
-    b.x_m += 1.4;
-    a.x_m += 1.4;
-    let check = |m: &mut Monitor, t_s: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
-        let pts = to_sensor(points);
-        let frame = Frame { timestamp_s: t_s, ..frame_at_origin(objects, &pts, &[], &[]) };
-        m.check(&frame).unwrap().objects.to_vec()
-    };
+    let (b, a, first, second) = released_claims_scene(a_truth);
     for (key, a_verdict, a_cause) in [
         (false, SensorVerdict::NotMonitored(pmon_monitor::NotMonitoredReason::Occluded), None),
         (true, SensorVerdict::PositionError, Some(PositionCause::EvidenceReleased)),
@@ -1587,9 +1604,9 @@ fn a_hidden_box_takes_the_returns_a_displaced_neighbour_held_only_by_its_wrong_p
         for (a_reported, clean) in [(a, false), (a_truth, true)] {
             let mut m =
                 Monitor::new(MonitorParams { release_flagged_claims: key, ..MonitorParams::default() }).unwrap();
-            let r = check(&mut m, 0.0, &[b], &first);
+            let r = checked_at(&mut m, 0.0, &[b], &first);
             assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}: B alone {:?}", r[0].sensor);
-            let r = check(&mut m, 0.1, &[b, a_reported], &second);
+            let r = checked_at(&mut m, 0.1, &[b, a_reported], &second);
             assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}: B {:?}", r[0].sensor);
             assert_eq!(
                 r[0].sensor.position_cause,
@@ -1621,20 +1638,8 @@ fn a_hidden_box_takes_the_returns_a_displaced_neighbour_held_only_by_its_wrong_p
 /// Reported where it stands, A is `consistent` either way.
 #[test]
 fn a_confirmed_box_takes_the_rest_of_its_body_a_displaced_neighbour_held_only_by_its_wrong_place() {
-    let b_truth = object(1, 20.0, 0.0, 0.0, 0.6, 0.6);
     let a_truth = object(2, 21.6, 0.4, 0.0, 1.8, 0.6);
-    let mut first = visible_face_points(&b_truth, 0.05);
-    first.extend(ground_points(45.0));
-    let mut second = first.clone();
-    second.extend(visible_face_points(&a_truth, 0.05));
-    let (mut b, mut a) = (b_truth, a_truth);
-    b.x_m += 1.4;
-    a.x_m += 1.4;
-    let check = |m: &mut Monitor, t_s: f64, objects: &[pmon_monitor::ObjectState], points: &[[f32; 3]]| {
-        let pts = to_sensor(points);
-        let frame = Frame { timestamp_s: t_s, ..frame_at_origin(objects, &pts, &[], &[]) };
-        m.check(&frame).unwrap().objects.to_vec()
-    };
+    let (b, a, first, second) = released_claims_scene(a_truth);
     for (key, a_verdict, a_cause) in [
         (false, SensorVerdict::Consistent, None),
         (true, SensorVerdict::PositionError, Some(PositionCause::EvidenceReleased)),
@@ -1642,9 +1647,9 @@ fn a_confirmed_box_takes_the_rest_of_its_body_a_displaced_neighbour_held_only_by
         for (a_reported, clean) in [(a, false), (a_truth, true)] {
             let params = MonitorParams { release_to_confirmed: key, ..MonitorParams::default() };
             let mut m = Monitor::new(params).unwrap();
-            let r = check(&mut m, 0.0, &[b], &first);
+            let r = checked_at(&mut m, 0.0, &[b], &first);
             assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}: B alone {:?}", r[0].sensor);
-            let r = check(&mut m, 0.1, &[b, a_reported], &second);
+            let r = checked_at(&mut m, 0.1, &[b, a_reported], &second);
             assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "key {key}: B {:?}", r[0].sensor);
             if clean {
                 assert_eq!(r[1].sensor.verdict, SensorVerdict::Consistent, "key {key}: clean A {:?}", r[1].sensor);

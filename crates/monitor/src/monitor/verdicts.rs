@@ -79,16 +79,12 @@ impl Monitor {
                         }
                     }
                 }
-                let seen_through =
-                    cluster.is_none() && eta_own >= tau_tp && own_sum[2] >= 1.0 && self.seen_through(j, &region);
+                // Confirmed by evidence of its own (occupied cells it owns): what the rules below judge.
+                let confirmed_own = eta_own >= tau_tp && own_sum[2] >= 1.0;
+                let seen_through = cluster.is_none() && confirmed_own && self.seen_through(j, &region);
                 // Confirmed by its own evidence, but that evidence's face stands in front of the box along the
                 // rays through it, beyond the margin: displaced away from the sensor by less than the cells show.
-                let face = if self.params.face_in_front
-                    && cluster.is_none()
-                    && !seen_through
-                    && eta_own >= tau_tp
-                    && own_sum[2] >= 1.0
-                {
+                let face = if self.params.face_in_front && cluster.is_none() && !seen_through && confirmed_own {
                     self.face_in_front(j, &region)
                 } else {
                     None
@@ -99,24 +95,22 @@ impl Monitor {
                     && cluster.is_none()
                     && !seen_through
                     && face.is_none()
-                    && eta_own >= tau_tp
-                    && own_sum[2] >= 1.0
+                    && confirmed_own
                 {
                     self.returns_beyond(j, &region, cloud)
                 } else {
                     None
                 };
                 // Confirmed by evidence of its own, but more of its shape stands in front of it in cells a flagged
-                // neighbour holds only by its reported region (`release_to_confirmed`, off by default).
+                // neighbour holds only by its reported region (`release_to_confirmed`, off by default). Hidden boxes
+                // took released cells above; a confirmed one cannot have.
                 if self.params.release_flagged_claims
                     && self.params.release_to_confirmed
                     && cluster.is_none()
-                    && released.is_none()
                     && !seen_through
                     && face.is_none()
                     && beyond.is_none()
-                    && eta_own >= tau_tp
-                    && own_sum[2] >= 1.0
+                    && confirmed_own
                 {
                     released = self.released_to_confirmed(j, &region);
                 }
