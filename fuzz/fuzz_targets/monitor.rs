@@ -104,6 +104,9 @@ fuzz_target!(|data: &[u8]| {
         // The released claims walk the owners' clusters: on with the body rules.
         release_flagged_claims: seen_body,
         release_to_confirmed: seen_body,
+        // The margin walk of `evidence_runs_on`: on with `front_cluster`, the other rule that reads owned cells'
+        // neighbours beyond a region.
+        evidence_runs_on: front_cluster,
         memory_hold_s: if memory_gate { 1.0 } else { 0.0 },
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,

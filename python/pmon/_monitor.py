@@ -35,7 +35,8 @@ class CheckResult:
       ``implausible_motion``, ``not_monitored``, ``motion_only_consistent``), ``reason`` (why not monitored,
       else None), ``conditions`` (implausible motion's conditions), ``position_cause`` (which test found a
       position error: ``displaced_evidence``, ``evidence_followed``, ``jumped_from_evidence``, ``seen_through``,
-      ``face_in_front``, ``returns_beyond``, ``evidence_released``; else None), ``sensor`` and ``motion`` (each check's
+      ``face_in_front``, ``returns_beyond``, ``evidence_released``,
+      ``evidence_runs_on``; else None), ``sensor`` and ``motion`` (each check's
       own verdict text), ``kind`` / ``error_size`` / ``error_unit`` / ``severity`` (implausible motion: what
       is wrong and how much; None / NaN otherwise), ``is_alarm`` (bool);
     - the sensor checks: ``eta`` (consistency, eq. 5), ``margin_length_m``, ``margin_width_m``,

@@ -39,6 +39,7 @@ class Params:
     follow_owner_fit: bool
     release_flagged_claims: bool
     release_to_confirmed: bool
+    evidence_runs_on: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

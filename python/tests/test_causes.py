@@ -15,6 +15,7 @@ CAUSES = {
     "face_in_front",
     "returns_beyond",
     "evidence_released",
+    "evidence_runs_on",
     "position_error (no cause)",
 }
 

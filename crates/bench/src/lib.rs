@@ -593,6 +593,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("follow_owner_fit", d.follow_owner_fit, p.follow_owner_fit),
         ("release_flagged_claims", d.release_flagged_claims, p.release_flagged_claims),
         ("release_to_confirmed", d.release_to_confirmed, p.release_to_confirmed),
+        ("evidence_runs_on", d.evidence_runs_on, p.evidence_runs_on),
         ("front_cluster", d.front_cluster, p.front_cluster),
         ("spill_in_front", d.spill_in_front, p.spill_in_front),
         ("spill_near_side", d.spill_near_side, p.spill_near_side),

@@ -71,6 +71,11 @@ pub struct RuleSwitches {
     /// released cells in front of it too (docs/attribution.md, "Released claims for a confirmed box").
     #[cfg_attr(feature = "clap", arg(long, conflicts_with = "no_release_flagged_claims"))]
     pub release_to_confirmed: bool,
+    /// Check with the params key `evidence_runs_on` off (the default before issue #10's round "Evidence in the
+    /// margin that runs on": a box confirmed only by evidence in its margin that runs on into a cluster another box
+    /// took is displaced).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub no_evidence_runs_on: bool,
     /// Check with `release_flagged_claims` off (the default before issue #10's round "Claims a flagged neighbour
     /// releases").
     #[cfg_attr(feature = "clap", arg(long, conflicts_with = "release_flagged_claims"))]
@@ -137,6 +142,9 @@ impl RuleSwitches {
         p.follow_owner_fit |= self.follow_owner_fit;
         p.release_flagged_claims |= self.release_flagged_claims;
         p.release_to_confirmed |= self.release_to_confirmed;
+        if self.no_evidence_runs_on {
+            p.evidence_runs_on = false;
+        }
         if self.no_release_flagged_claims {
             p.release_flagged_claims = false;
         }
@@ -196,6 +204,7 @@ mod tests {
         assert!(on(|s| s.release_flagged_claims = true).release_flagged_claims);
         assert!(!on(|s| s.no_release_flagged_claims = true).release_flagged_claims);
         assert!(on(|s| s.release_to_confirmed = true).release_to_confirmed);
+        assert!(!on(|s| s.no_evidence_runs_on = true).evidence_runs_on);
         assert!(on(|s| s.memory_gate = true).memory_gate);
         let first = on(|s| s.jump_first_return = true);
         assert!(first.jump_from_returns && first.jump_first_return);

@@ -70,6 +70,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         release_flagged_claims: base.release_flagged_claims && std::env::var_os("NORELEASE").is_none(),
         // `RELCONF=1`: the params key `release_to_confirmed` (off by default).
         release_to_confirmed: std::env::var_os("RELCONF").is_some(),
+        // `NORUNSON=1` turns the params key `evidence_runs_on` off (on by default).
+        evidence_runs_on: base.evidence_runs_on && std::env::var_os("NORUNSON").is_none(),
         // `BEYOND=N`: the params key `returns_beyond_cells = N` (off by default).
         returns_beyond_cells: std::env::var("BEYOND").ok().and_then(|v| v.parse().ok()).unwrap_or(0),
         // The jump keys are the default since issue #10: `NOJUMP=1` turns both off, `NOFIRST=1` the first return.

@@ -299,6 +299,9 @@ pub struct CauseCounts {
     /// `PositionCause::EvidenceReleased` (absent from results written before it: 0).
     #[serde(default)]
     pub evidence_released: u64,
+    /// `PositionCause::EvidenceRunsOn` (absent from results written before it: 0).
+    #[serde(default)]
+    pub evidence_runs_on: u64,
     /// Position errors without a cause (index `CAUSES - 1`).
     pub no_cause: u64,
 }
@@ -315,7 +318,8 @@ impl CauseCounts {
             5 => &mut self.face_in_front,
             6 => &mut self.returns_beyond,
             7 => &mut self.evidence_released,
-            8 => &mut self.no_cause,
+            8 => &mut self.evidence_runs_on,
+            9 => &mut self.no_cause,
             _ => return None,
         })
     }

@@ -80,6 +80,9 @@
 // Hidden, it stands behind evidence a neighbour held only by its wrong place (params key `release_flagged_claims`).
 #define PMON_POSITION_CAUSE_EVIDENCE_RELEASED 7
 
+// Confirmed only by evidence in its margin that runs on beyond its region (params key `evidence_runs_on`).
+#define PMON_POSITION_CAUSE_EVIDENCE_RUNS_ON 8
+
 // A cause the core added after this header: its name is in `position_cause_name`.
 #define PMON_POSITION_CAUSE_OTHER 255
 

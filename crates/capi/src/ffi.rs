@@ -69,6 +69,8 @@ pub const PMON_POSITION_CAUSE_FACE_IN_FRONT: u32 = 5;
 pub const PMON_POSITION_CAUSE_RETURNS_BEYOND: u32 = 6;
 /// Hidden, it stands behind evidence a neighbour held only by its wrong place (params key `release_flagged_claims`).
 pub const PMON_POSITION_CAUSE_EVIDENCE_RELEASED: u32 = 7;
+/// Confirmed only by evidence in its margin that runs on beyond its region (params key `evidence_runs_on`).
+pub const PMON_POSITION_CAUSE_EVIDENCE_RUNS_ON: u32 = 8;
 /// A cause the core added after this header: its name is in `position_cause_name`.
 pub const PMON_POSITION_CAUSE_OTHER: u32 = 255;
 
@@ -536,6 +538,7 @@ fn position_cause_code(c: PositionCause) -> u32 {
         "face_in_front" => PMON_POSITION_CAUSE_FACE_IN_FRONT,
         "returns_beyond" => PMON_POSITION_CAUSE_RETURNS_BEYOND,
         "evidence_released" => PMON_POSITION_CAUSE_EVIDENCE_RELEASED,
+        "evidence_runs_on" => PMON_POSITION_CAUSE_EVIDENCE_RUNS_ON,
         _ => PMON_POSITION_CAUSE_OTHER,
     }
 }

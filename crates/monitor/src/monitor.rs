@@ -31,6 +31,7 @@ mod distance;
 mod face;
 mod fit;
 mod graze;
+mod margin;
 mod memory_steps;
 mod over;
 mod released;
@@ -140,6 +141,8 @@ struct ObjectScratch {
     hold: Option<Hold>,
     /// Sum of the centres of the occupied cells the object owns, and their number.
     own_sum: [f32; 3],
+    /// With `evidence_runs_on`: one of those cells overlaps the object's footprint (not only its margin).
+    own_on_footprint: bool,
     /// With `jump_from_returns`: the sum of the returns in those cells, and their number.
     own_returns: [f32; 3],
     /// The last cluster found where the track's remembered offset puts its evidence (`u32::MAX`: none yet).
@@ -610,6 +613,7 @@ impl Monitor {
                 recalled,
                 hold,
                 own_sum: [0.0; 3],
+                own_on_footprint: false,
                 own_returns: [0.0; 3],
                 followed: u32::MAX,
                 predicted: self.memory.predicted_centre(

@@ -450,6 +450,14 @@ pub struct MonitorParams {
     /// `release_flagged_claims`: a box confirmed by evidence of its own takes the released cells in front of it too,
     /// when they are at least as many as the occupied cells it owns on its near side and fit its box with them.
     pub release_to_confirmed: bool,
+    /// On by default since issue #10's round "Evidence in the margin that runs on" (docs/attribution.md, under that
+    /// name; `false` gives the verdicts before it). A box confirmed by evidence of its own, none of which overlaps
+    /// its footprint (only cells in its margin), one of them 8-adjacent to an occupied cell beyond its grown region
+    /// in a conflict cluster another box took as its displaced evidence, is displaced: a `position_error` with the
+    /// cause `evidence_runs_on`. The evidence memory keeps that evidence as the track's own (no displaced offset is
+    /// held for step 8). Costs a walk over the footprint's cells for each box confirmed by its own evidence that no
+    /// other test flagged, and over its grown region for one that owns none of them.
+    pub evidence_runs_on: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -555,6 +563,7 @@ impl MonitorParams {
         follow_owner_fit: false,
         release_flagged_claims: true,
         release_to_confirmed: false,
+        evidence_runs_on: true,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {
@@ -910,6 +919,8 @@ mod tests {
         assert!(d.release_flagged_claims, "on by default since issue #10's round of released claims");
         assert!(MonitorParams { release_flagged_claims: false, ..d }.validate().is_ok());
         assert!(!d.release_to_confirmed);
+        assert!(d.evidence_runs_on, "on by default since issue #10's round of evidence that runs on");
+        assert!(MonitorParams { evidence_runs_on: false, ..d }.validate().is_ok());
         assert_eq!(d.returns_beyond_cells, 0);
         assert!(d.seen_body && d.follow_gate, "on by default since issue #10's round of rays on the body");
         for ok in [0.0, 0.5, 10.0] {

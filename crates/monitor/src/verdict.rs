@@ -92,11 +92,14 @@ pub enum PositionCause {
     /// Hidden, it stands behind evidence that a neighbour held only by its reported region while that neighbour's
     /// own evidence lies elsewhere (params key `release_flagged_claims`).
     EvidenceReleased,
+    /// Confirmed only by evidence in its margin that runs on beyond its grown region (params key
+    /// `evidence_runs_on`).
+    EvidenceRunsOn,
 }
 
 impl PositionCause {
     /// Every cause, in the order of their codes (`pmon.h`'s `PMON_POSITION_CAUSE_*` are 1 + the index).
-    pub const ALL: [Self; 7] = [
+    pub const ALL: [Self; 8] = [
         Self::DisplacedEvidence,
         Self::EvidenceFollowed,
         Self::JumpedFromEvidence,
@@ -104,6 +107,7 @@ impl PositionCause {
         Self::FaceInFront,
         Self::ReturnsBeyond,
         Self::EvidenceReleased,
+        Self::EvidenceRunsOn,
     ];
 
     /// Short snake_case name, as in JSON output.
@@ -117,6 +121,7 @@ impl PositionCause {
             Self::FaceInFront => "face_in_front",
             Self::ReturnsBeyond => "returns_beyond",
             Self::EvidenceReleased => "evidence_released",
+            Self::EvidenceRunsOn => "evidence_runs_on",
         }
     }
 
@@ -131,6 +136,7 @@ impl PositionCause {
             Self::FaceInFront => "its evidence's face stands in front of the box along the rays",
             Self::ReturnsBeyond => "its own returns stand beyond its region",
             Self::EvidenceReleased => "it stands behind evidence a neighbour held only by its wrong place",
+            Self::EvidenceRunsOn => "its evidence lies only in its margin and runs on beyond its region",
         }
     }
 }

@@ -1665,3 +1665,49 @@ fn a_confirmed_box_takes_the_rest_of_its_body_a_displaced_neighbour_held_only_by
         }
     }
 }
+
+/// Evidence in the margin that runs on (params key `evidence_runs_on`): a hedge 1 m high runs from 13 m to 18.45 m
+/// ahead, 0.9-1.3 m aside. A pedestrian box A reported behind its end, at 19.1 m (footprint from 18.8 m, grown
+/// region from 18.4 m), stands in the hedge's shadow and owns only the hedge's far end, in its margin: no occupied
+/// cell it owns overlaps its footprint. A trailer box B (5.5 m long) is reported 2.1 m to the right of the hedge,
+/// where the sensor sees the ground: B takes the rest of the hedge as its displaced evidence (steps 3-4), so A's
+/// cells continue into evidence attributed to another box. Without the key A is `consistent`, confirmed by the
+/// hedge; with it, a `position_error` with the cause `evidence_runs_on` and an offset from the evidence to the box
+/// (away from the sensor). Without B the rest of the hedge is nobody's (a missed object, as scenery is): A stays
+/// `consistent` with the key. A pedestrian who stands at A, seen over the hedge (its returns inside the footprint),
+/// is `consistent` with the key.
+#[test]
+fn a_box_confirmed_only_by_evidence_in_its_margin_that_runs_on_is_displaced() {
+    let hedge = [13.0, 0.9, 18.45, 1.3, 1.0];
+    let a = object(1, 19.1, 1.1, 0.0, 0.6, 0.6);
+    let b = object(2, 15.7, -1.0, 0.0, 5.5, 0.5);
+    for (key, with_b, body, want, cause) in [
+        (false, true, false, SensorVerdict::Consistent, None),
+        (true, true, false, SensorVerdict::PositionError, Some(PositionCause::EvidenceRunsOn)),
+        (true, false, false, SensorVerdict::Consistent, None),
+        (true, true, true, SensorVerdict::Consistent, None),
+    ] {
+        let boxes: Vec<[f32; 5]> = if body { vec![hedge, [18.85, 0.85, 19.35, 1.35, 1.7]] } else { vec![hedge] };
+        let pts = ray_cast(&boxes);
+        let objects: Vec<_> = if with_b { vec![a, b] } else { vec![a] };
+        let mut m = Monitor::new(MonitorParams { evidence_runs_on: key, ..MonitorParams::default() }).unwrap();
+        let (r, missed) = run_frame(&mut m, &objects, &pts);
+        let s = &r[0].sensor;
+        let case = format!("key {key}, B {with_b}, body {body}");
+        assert!(s.eta_own >= 0.8, "{case}: A is confirmed by evidence it owns: {s:?}");
+        assert_eq!((s.verdict, s.position_cause), (want, cause), "{case}: A {s:?}");
+        if with_b {
+            let sb = &r[1].sensor;
+            assert_eq!(
+                (sb.verdict, sb.position_cause),
+                (SensorVerdict::PositionError, Some(PositionCause::DisplacedEvidence)),
+                "{case}: B {sb:?}"
+            );
+        } else {
+            assert!(missed >= 1, "{case}: the rest of the hedge is nobody's");
+        }
+        if cause.is_some() {
+            assert!(s.offset_m[0] > 0.1 && s.offset_m[0] < 1.0, "from the hedge's end to the box: {s:?}");
+        }
+    }
+}

@@ -18,6 +18,8 @@ impl Monitor {
             s.eta_own = floor;
         }
         let tau = self.params.tau_fn;
+        let half = 0.5 * self.grid.geometry.cell_size_m;
+        let on_footprint = self.params.evidence_runs_on;
         for &idx in self.grid.touched() {
             if self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC) != FLAG_EXPLAINED {
                 continue;
@@ -29,6 +31,10 @@ impl Monitor {
                 if p > tau {
                     let (x, y) = self.grid.geometry.cell_center(idx);
                     s.own_sum = [s.own_sum[0] + x, s.own_sum[1] + y, s.own_sum[2] + 1.0];
+                    // With `evidence_runs_on`: whether any of them overlaps the footprint (`margin.rs`).
+                    if on_footprint && !s.own_on_footprint {
+                        s.own_on_footprint = s.region.is_some_and(|r| r.footprint.overlaps_square(x, y, half));
+                    }
                 }
             }
         }

@@ -114,11 +114,22 @@ impl Monitor {
                 {
                     released = self.released_to_confirmed(j, &region);
                 }
+                // Confirmed only by evidence in its margin, which runs on beyond its grown region into a cluster another
+                // box took (`evidence_runs_on`, on by default): displaced from the body whose rest went elsewhere.
+                let runs_on = self.params.evidence_runs_on
+                    && cluster.is_none()
+                    && released.is_none()
+                    && !seen_through
+                    && face.is_none()
+                    && beyond.is_none()
+                    && confirmed_own
+                    && self.evidence_runs_on(j, &region);
                 // Confirmed (or hidden) where it is reported, but its evidence stayed where the previous frame's
                 // evidence, moved by the object's stated motion, predicts it, and the box jumped away from it.
                 let moved = if cluster.is_none()
                     && followed.is_none()
                     && released.is_none()
+                    && !runs_on
                     && !seen_through
                     && face.is_none()
                     && beyond.is_none()
@@ -159,6 +170,13 @@ impl Monitor {
                     let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
                     s.offset_m = [nx - c[0], ny - c[1]];
                     s.position_cause = Some(PositionCause::EvidenceReleased);
+                    SensorVerdict::PositionError
+                } else if runs_on {
+                    // From its own evidence (in the margin) to the box.
+                    let c = [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
+                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
+                    s.offset_m = [nx - c[0], ny - c[1]];
+                    s.position_cause = Some(PositionCause::EvidenceRunsOn);
                     SensorVerdict::PositionError
                 } else if let Some((_, at)) = moved {
                     // From where the evidence puts the box (its remembered offset back from the evidence) to the box.
@@ -203,6 +221,11 @@ impl Monitor {
                         None if followed.is_some() => followed.map(|at| (EvidenceKind::Displaced, at)),
                         None if released.is_some() => released.map(|at| (EvidenceKind::Displaced, at)),
                         None if moved.is_some() => moved.map(|(c, _)| (EvidenceKind::Displaced, c)),
+                        // Evidence that runs on: kept as its own (no displaced offset held for step 8; holding one
+                        // let the alarm follow neighbours' evidence in the frames after: docs/attribution.md).
+                        None if runs_on => {
+                            Some((EvidenceKind::Own, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
+                        }
                         // Seen through: its own evidence, behind it, is where it stands apart.
                         None if own_sum[2] >= 1.0 => {
                             Some((EvidenceKind::Displaced, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
