@@ -27,29 +27,20 @@ impl Monitor {
         if self.scratch.get(j).is_none_or(|s| s.own_on_footprint) {
             return false;
         }
-        let owned_inside = |idx: u32, x: f32, y: f32| {
-            grid.probability(idx) > tau && self.owns(j, idx) && region.footprint.overlaps_square(x, y, half)
-        };
-        let mut inside = false;
+        // Every occupied cell it owns lies in its margin: does one of them touch a taken cell beyond the region?
         let Some(range) = geometry.cell_range(region.grown.aabb()) else { return false };
         let mut runs_on = false;
-        geometry.for_each_cell_overlapping(&region.grown, range, |idx, x, y| {
-            if inside || grid.probability(idx) <= tau || !self.owns(j, idx) {
+        geometry.for_each_cell_overlapping(&region.grown, range, |idx, _, _| {
+            if runs_on || grid.probability(idx) <= tau || !self.owns(j, idx) {
                 return;
             }
-            if owned_inside(idx, x, y) {
-                inside = true;
-                return;
-            }
-            if !runs_on {
-                runs_on = geometry.block3x3(idx).any(|c| {
-                    let (cx, cy) = geometry.cell_center(c);
-                    grid.probability(c) > tau
-                        && grid.flags(c) & (FLAG_EXPLAINED | FLAG_ATTRIBUTED) == FLAG_ATTRIBUTED
-                        && !region.grown.overlaps_square(cx, cy, half)
-                });
-            }
+            runs_on = geometry.block3x3(idx).any(|c| {
+                let (cx, cy) = geometry.cell_center(c);
+                grid.probability(c) > tau
+                    && grid.flags(c) & (FLAG_EXPLAINED | FLAG_ATTRIBUTED) == FLAG_ATTRIBUTED
+                    && !region.grown.overlaps_square(cx, cy, half)
+            });
         });
-        !inside && runs_on
+        runs_on
     }
 }

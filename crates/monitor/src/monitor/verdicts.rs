@@ -146,6 +146,13 @@ impl Monitor {
                     && !occluded
                     && !shared
                     && self.hidden_within_margin(j, &region);
+                // The offset of a position error: from the evidence at `c` back to the nearest point of the box.
+                let back_to_box = |c: [f32; 2]| {
+                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
+                    [nx - c[0], ny - c[1]]
+                };
+                // The centre of the occupied cells it owns (asked only of a box that owns one).
+                let own_centre = || [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
                 let Some(report) = self.reports.get_mut(j) else { continue };
                 let s = &mut report.sensor;
                 s.eta_own = eta_own;
@@ -156,26 +163,21 @@ impl Monitor {
                 s.verdict = if let Some(k) = cluster {
                     s.cluster = u16::try_from(k).ok();
                     if let Some(c) = self.clusters.get(k) {
-                        let (nx, ny) = region.footprint.nearest_point(c.centroid_m[0], c.centroid_m[1]);
-                        s.offset_m = [nx - c.centroid_m[0], ny - c.centroid_m[1]];
+                        s.offset_m = back_to_box(c.centroid_m);
                     }
                     s.position_cause = Some(PositionCause::DisplacedEvidence);
                     SensorVerdict::PositionError
                 } else if let Some(c) = followed {
-                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
-                    s.offset_m = [nx - c[0], ny - c[1]];
+                    s.offset_m = back_to_box(c);
                     s.position_cause = Some(PositionCause::EvidenceFollowed);
                     SensorVerdict::PositionError
                 } else if let Some(c) = released {
-                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
-                    s.offset_m = [nx - c[0], ny - c[1]];
+                    s.offset_m = back_to_box(c);
                     s.position_cause = Some(PositionCause::EvidenceReleased);
                     SensorVerdict::PositionError
                 } else if runs_on {
                     // From its own evidence (in the margin) to the box.
-                    let c = [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
-                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
-                    s.offset_m = [nx - c[0], ny - c[1]];
+                    s.offset_m = back_to_box(own_centre());
                     s.position_cause = Some(PositionCause::EvidenceRunsOn);
                     SensorVerdict::PositionError
                 } else if let Some((_, at)) = moved {
@@ -187,9 +189,7 @@ impl Monitor {
                     // Confirmed by evidence in its margin, but the rays prove its footprint empty: the object
                     // stands in front of its evidence, displaced towards the sensor (beyond the paper, whose
                     // checks cannot see this direction).
-                    let c = [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
-                    let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
-                    s.offset_m = [nx - c[0], ny - c[1]];
+                    s.offset_m = back_to_box(own_centre());
                     s.position_cause = Some(PositionCause::SeenThrough);
                     SensorVerdict::PositionError
                 } else if let Some(depth) = face {
@@ -202,8 +202,7 @@ impl Monitor {
                     SensorVerdict::PositionError
                 } else if let Some(at) = beyond {
                     // From its own returns beyond the region back to the box.
-                    let (nx, ny) = region.footprint.nearest_point(at[0], at[1]);
-                    s.offset_m = [nx - at[0], ny - at[1]];
+                    s.offset_m = back_to_box(at);
                     s.position_cause = Some(PositionCause::ReturnsBeyond);
                     SensorVerdict::PositionError
                 } else if eta_own >= tau_tp || shared {
@@ -223,18 +222,12 @@ impl Monitor {
                         None if moved.is_some() => moved.map(|(c, _)| (EvidenceKind::Displaced, c)),
                         // Evidence that runs on: kept as its own (no displaced offset held for step 8; holding one
                         // let the alarm follow neighbours' evidence in the frames after: docs/attribution.md).
-                        None if runs_on => {
-                            Some((EvidenceKind::Own, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
-                        }
+                        None if runs_on => Some((EvidenceKind::Own, own_centre())),
                         // Seen through: its own evidence, behind it, is where it stands apart.
-                        None if own_sum[2] >= 1.0 => {
-                            Some((EvidenceKind::Displaced, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
-                        }
+                        None if own_sum[2] >= 1.0 => Some((EvidenceKind::Displaced, own_centre())),
                         None => None,
                     },
-                    SensorVerdict::Consistent if own_sum[2] >= 1.0 => {
-                        Some((EvidenceKind::Own, [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]]))
-                    }
+                    SensorVerdict::Consistent if own_sum[2] >= 1.0 => Some((EvidenceKind::Own, own_centre())),
                     _ => None,
                 };
                 // The displaced offset kept for step 8 (`memory_hold_s`): the one this frame's alarm found (its run
