@@ -192,6 +192,14 @@ pub struct Monitor {
     valid: Vec<bool>,
     motion: Vec<MotionOutcome>,
     reports: Vec<ObjectReport>,
+    /// The frame's objects in the order they are judged in, when the list came in another order (`check_inner`):
+    /// by id, duplicate ids in input order. Empty otherwise.
+    ordered: Vec<ObjectState>,
+    /// With `ordered`: `order[r]` is the input index of the object judged `r`-th; empty when the list came in that
+    /// order. The reports and the clusters' objects are given back in input order.
+    order: Vec<u32>,
+    /// With `ordered`: a copy of the reports in the order judged, to put them back in input order.
+    ordered_reports: Vec<ObjectReport>,
     clusters: Vec<ClusterReport>,
     cluster_spans: Vec<(u32, u32)>,
     queue: Vec<u32>,
@@ -321,6 +329,9 @@ impl Monitor {
             widest_m: 0.0,
             motion: Vec::with_capacity(max_objects),
             reports: Vec::with_capacity(max_objects),
+            ordered: Vec::with_capacity(max_objects),
+            order: Vec::with_capacity(max_objects),
+            ordered_reports: Vec::with_capacity(max_objects),
             clusters: Vec::with_capacity(max_clusters),
             cluster_spans: Vec::with_capacity(max_clusters),
             queue: Vec::with_capacity(max_points.min(cells)),
@@ -390,7 +401,7 @@ impl Monitor {
             return None;
         }
         if flags & FLAG_EXPLAINED != 0 {
-            return self.owner.get(cell as usize).copied();
+            return self.owner.get(cell as usize).map(|&r| self.input_index(r));
         }
         Self::cluster_of(&self.cluster_spans, &self.queue, cell).and_then(|k| self.clusters.get(k)?.object)
     }
@@ -413,7 +424,9 @@ impl Monitor {
 
     /// Runs the sensor and plausibility checks on one frame.
     ///
-    /// Every object of `frame.objects` gets exactly one [`ObjectReport`], in input order. Allocates nothing;
+    /// Every object of `frame.objects` gets exactly one [`ObjectReport`], in input order. The verdicts do not
+    /// depend on that order: the objects are judged in the order of their ids (duplicate ids in input order), and
+    /// [`ClusterReport::object`] indexes the list as given. Allocates nothing;
     /// never panics; loops are bounded by the capacities in [`MonitorParams`] and by the grid size.
     ///
     /// # Errors
@@ -543,6 +556,65 @@ impl Monitor {
         if n > self.params.max_objects as usize {
             return Err(FrameError::TooManyObjects { got: n, max: self.params.max_objects });
         }
+        // The verdicts must not depend on the order of the list (a tracker may list the same objects in any order,
+        // and in another order every frame): the objects are judged in the order of their ids, duplicate ids in
+        // input order, and the reports given back in input order. A list already in that order, as trackers and the
+        // simulator usually give, is judged as it is (docs/attribution.md, "The order of the object list").
+        self.order.clear();
+        if frame.objects.iter().zip(frame.objects.iter().skip(1)).all(|(a, b)| a.id <= b.id) {
+            self.check_in_order(frame, cloud, on_stage, join);
+        } else {
+            let objects = frame.objects;
+            self.order.extend((0..n).filter_map(|i| u32::try_from(i).ok()));
+            self.order.sort_unstable_by_key(|&i| (objects.get(i as usize).map_or(u64::MAX, |o| o.id), i));
+            // Taken out of the monitor for the check (no allocation: an empty `Vec` takes its place).
+            let mut ordered = core::mem::take(&mut self.ordered);
+            ordered.clear();
+            ordered.extend(self.order.iter().filter_map(|&i| objects.get(i as usize).copied()));
+            self.check_in_order(&Frame { objects: &ordered, ..*frame }, cloud, on_stage, join);
+            self.ordered = ordered;
+            self.restore_input_order();
+        }
+        Ok(FrameReport {
+            objects: &self.reports,
+            clusters: &self.clusters,
+            grid: self.stats,
+            sensor_status: self.sensor_status,
+        })
+    }
+
+    /// Puts the reports of a frame judged in id order back in input order, and names the objects the clusters went
+    /// to by their input index.
+    fn restore_input_order(&mut self) {
+        self.ordered_reports.clear();
+        self.ordered_reports.extend_from_slice(&self.reports);
+        for (r, &i) in self.order.iter().enumerate() {
+            if let (Some(to), Some(from)) = (self.reports.get_mut(i as usize), self.ordered_reports.get(r)) {
+                *to = *from;
+            }
+        }
+        for c in &mut self.clusters {
+            c.object = c.object.and_then(|r| self.order.get(r as usize).copied());
+        }
+    }
+
+    /// The input index of the object judged `r`-th this frame.
+    fn input_index(&self, r: u32) -> u32 {
+        if self.order.is_empty() {
+            r
+        } else {
+            self.order.get(r as usize).copied().unwrap_or(r)
+        }
+    }
+
+    /// [`Monitor::check_inner`] for an object list in the order it is judged in.
+    fn check_in_order(
+        &mut self,
+        frame: &Frame<'_>,
+        cloud: Option<Cloud<'_>>,
+        on_stage: &mut dyn FnMut(Stage),
+        join: Option<&dyn crate::split::Join>,
+    ) {
         self.begin_frame(frame, cloud);
         self.rasterize(frame, cloud, join);
         self.mark_scenery(frame);
@@ -574,12 +646,6 @@ impl Monitor {
         let status = self.sensor_status;
         self.finish_reports(frame, cloud.filter(|_| status.is_none()));
         on_stage(Stage::Verdicts);
-        Ok(FrameReport {
-            objects: &self.reports,
-            clusters: &self.clusters,
-            grid: self.stats,
-            sensor_status: self.sensor_status,
-        })
     }
 
     fn begin_frame(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
