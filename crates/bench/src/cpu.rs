@@ -34,6 +34,16 @@ pub fn us_between(before: Option<u64>, after: Option<u64>) -> Option<f64> {
     Some(after?.saturating_sub(before?) as f64 / 1e3)
 }
 
+/// Runs `f` between two readings of this thread's CPU clock when `read` is true: its result, and the microseconds
+/// of CPU time it took (`None` when not read or on a platform without the clock). The readings stand outside
+/// whatever `f` times on the wall clock.
+pub fn around<T>(read: bool, f: impl FnOnce() -> T) -> (T, Option<f64>) {
+    let before = if read { thread_cpu_ns() } else { None };
+    let out = f();
+    let after = before.and_then(|_| thread_cpu_ns());
+    (out, us_between(before, after))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -62,9 +62,9 @@ pub fn reference(target_us: f64, samples: usize, cpu: bool) -> Option<Reference>
     let mut cpu_us = Vec::with_capacity(if cpu { samples } else { 0 });
     let mut timed = Vec::with_capacity(samples);
     for _ in 0..samples {
-        let before = if cpu { cpu::thread_cpu_ns() } else { None };
-        timed.push(us_of(|| work(&table, std::hint::black_box(steps))));
-        if let Some(c) = cpu::us_between(before, before.and_then(|_| cpu::thread_cpu_ns())) {
+        let (t, c) = cpu::around(cpu, || us_of(|| work(&table, std::hint::black_box(steps))));
+        timed.push(t);
+        if let Some(c) = c {
             cpu_us.push(c);
         }
     }

@@ -674,14 +674,12 @@ fn measure_case(def: &CaseDef<'_>, opts: &BenchOptions) -> Result<CaseReport, Be
         } else {
             frame
         };
-        let cpu_before = if read_cpu { cpu::thread_cpu_ns() } else { None };
-        let timed = match column_cloud(i) {
+        let (timed, cpu_us) = cpu::around(read_cpu, || match column_cloud(i) {
             Some(cloud) => timed_check_columns(&mut monitor, &frame, &cloud, join),
             None => timed_check_with(&mut monitor, &frame, join),
-        };
-        let cpu_after = cpu_before.and_then(|_| cpu::thread_cpu_ns());
+        });
         let (report, row) = timed.map_err(frame_err)?;
-        if let Some(c) = cpu::us_between(cpu_before, cpu_after) {
+        if let Some(c) = cpu_us {
             check_cpu_us.push(c);
         }
         points.push(report.grid.points_total);

@@ -30,6 +30,18 @@ impl Timing {
         self.p99_us / self.median_us.max(1e-9)
     }
 
+    /// The worst-case goal's figures: "median M us, p99 P us (Rx), max X us".
+    #[must_use]
+    pub fn median_p99_max(&self) -> String {
+        format!(
+            "median {:.1} us, p99 {:.1} us ({:.2}x), max {:.1} us",
+            self.median_us,
+            self.p99_us,
+            self.p99_over_median(),
+            self.max_us
+        )
+    }
+
     /// Median and nearest-rank percentiles of samples in microseconds, rounded to nanoseconds (all zero for no
     /// sample).
     #[must_use]

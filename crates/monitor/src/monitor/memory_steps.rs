@@ -10,6 +10,16 @@ use super::fit::{grown, span_fits, NO_SPAN};
 use super::*;
 
 impl Monitor {
+    /// An occupied cell (hit, probability above `tau`) that some object's region explains, that is not known
+    /// scenery and that no cluster taken as displaced evidence holds: evidence a region holds and nothing else
+    /// claims, which step 8 follows and a flagged neighbour releases (`released.rs`).
+    #[inline]
+    pub(super) fn explained_evidence(&self, idx: u32, tau: f32) -> bool {
+        self.grid.hits(idx) > 0
+            && self.grid.probability(idx) > tau
+            && self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC | FLAG_ATTRIBUTED) == FLAG_EXPLAINED
+    }
+
     /// For a track whose evidence stood apart from it last frame (remembered as displaced), or that keeps an offset
     /// alarms found over a gap (`memory_hold_s`; only where it puts the evidence in front of the box): the centre of
     /// the occupied cells outside its region, within `conflict_association_m / 2` of where its offset puts that
@@ -52,10 +62,7 @@ impl Monitor {
         for iy in iy0..=iy1 {
             for ix in ix0..=ix1 {
                 let idx = iy * n + ix;
-                if self.grid.hits(idx) == 0
-                    || self.grid.probability(idx) <= tau
-                    || self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC | FLAG_ATTRIBUTED) != FLAG_EXPLAINED
-                {
+                if !self.explained_evidence(idx, tau) {
                     continue;
                 }
                 let (x, y) = geometry.cell_center(idx);

@@ -73,10 +73,7 @@ impl Monitor {
         for iy in iy0..=iy1 {
             for ix in ix0..=ix1 {
                 let idx = iy * n + ix;
-                if self.grid.hits(idx) == 0
-                    || self.grid.probability(idx) <= tau
-                    || self.grid.flags(idx) & (FLAG_EXPLAINED | FLAG_STATIC | FLAG_ATTRIBUTED) != FLAG_EXPLAINED
-                {
+                if !self.explained_evidence(idx, tau) {
                     continue;
                 }
                 let Some(owner) = self.owner.get(idx as usize).map(|&o| o as usize).filter(|&o| o != j) else {
