@@ -575,6 +575,8 @@ impl Monitor {
             self.ordered = ordered;
             self.restore_input_order();
         }
+        // The verdicts stage ends once the reports stand in input order (the stage marks time the whole check).
+        on_stage(Stage::Verdicts);
         Ok(FrameReport {
             objects: &self.reports,
             clusters: &self.clusters,
@@ -607,7 +609,8 @@ impl Monitor {
         }
     }
 
-    /// [`Monitor::check_inner`] for an object list in the order it is judged in.
+    /// [`Monitor::check_inner`] for an object list in the order it is judged in: every stage, and every stage's
+    /// mark but the verdicts', which `check_inner` gives once the reports stand in input order.
     fn check_in_order(
         &mut self,
         frame: &Frame<'_>,
@@ -645,7 +648,6 @@ impl Monitor {
         }
         let status = self.sensor_status;
         self.finish_reports(frame, cloud.filter(|_| status.is_none()));
-        on_stage(Stage::Verdicts);
     }
 
     fn begin_frame(&mut self, frame: &Frame<'_>, cloud: Option<Cloud<'_>>) {
