@@ -40,6 +40,7 @@ class Params:
     release_flagged_claims: bool
     release_to_confirmed: bool
     evidence_runs_on: bool
+    seen_through_near_side: bool
     roi_graze_fraction: float
     roi_graze_height_m: float
     motion_limits: Dict[str, Any]

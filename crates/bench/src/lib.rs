@@ -594,6 +594,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("release_flagged_claims", d.release_flagged_claims, p.release_flagged_claims),
         ("release_to_confirmed", d.release_to_confirmed, p.release_to_confirmed),
         ("evidence_runs_on", d.evidence_runs_on, p.evidence_runs_on),
+        ("seen_through_near_side", d.seen_through_near_side, p.seen_through_near_side),
         ("front_cluster", d.front_cluster, p.front_cluster),
         ("spill_in_front", d.spill_in_front, p.spill_in_front),
         ("spill_near_side", d.spill_near_side, p.spill_near_side),

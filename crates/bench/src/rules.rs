@@ -76,6 +76,10 @@ pub struct RuleSwitches {
     /// took is displaced).
     #[cfg_attr(feature = "clap", arg(long))]
     pub no_evidence_runs_on: bool,
+    /// Check with the params key `seen_through_near_side` off (the default before issue #10's round "The near side
+    /// seen through": the free-space test towards the sensor needs a majority of the box's sample points seen empty).
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub no_seen_through_near_side: bool,
     /// Check with `release_flagged_claims` off (the default before issue #10's round "Claims a flagged neighbour
     /// releases").
     #[cfg_attr(feature = "clap", arg(long, conflicts_with = "release_flagged_claims"))]
@@ -145,6 +149,9 @@ impl RuleSwitches {
         if self.no_evidence_runs_on {
             p.evidence_runs_on = false;
         }
+        if self.no_seen_through_near_side {
+            p.seen_through_near_side = false;
+        }
         if self.no_release_flagged_claims {
             p.release_flagged_claims = false;
         }
@@ -205,6 +212,7 @@ mod tests {
         assert!(!on(|s| s.no_release_flagged_claims = true).release_flagged_claims);
         assert!(on(|s| s.release_to_confirmed = true).release_to_confirmed);
         assert!(!on(|s| s.no_evidence_runs_on = true).evidence_runs_on);
+        assert!(!on(|s| s.no_seen_through_near_side = true).seen_through_near_side);
         assert!(on(|s| s.memory_gate = true).memory_gate);
         let first = on(|s| s.jump_first_return = true);
         assert!(first.jump_from_returns && first.jump_first_return);

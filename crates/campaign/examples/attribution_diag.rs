@@ -9,7 +9,7 @@
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
 //! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `NONEARSIDE=1` `spill_near_side`; `FIRST=1`: `jump_first_return`; `BEYOND=N`: `returns_beyond_cells = N`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
-//! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`; `OWNERFIT=1`: `follow_owner_fit`; `NORELEASE=1` turns `release_flagged_claims` off, the default since issue #10's round "Claims a flagged neighbour releases"; `RELCONF=1`: `release_to_confirmed`; `NORUNSON=1` turns `evidence_runs_on` off, the default since issue #10's round "Evidence in the margin that runs on"). With `FULL=1` the runs are those of the full plan
+//! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`; `OWNERFIT=1`: `follow_owner_fit`; `NORELEASE=1` turns `release_flagged_claims` off, the default since issue #10's round "Claims a flagged neighbour releases"; `RELCONF=1`: `release_to_confirmed`; `NORUNSON=1` turns `evidence_runs_on` off, the default since issue #10's round "Evidence in the margin that runs on"; `NOSIDE=1` turns `seen_through_near_side` off, the default since the round "The near side seen through"). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
@@ -1577,6 +1577,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // `RELCONF=1`: the params key `release_to_confirmed`.
             r.spec.params.release_to_confirmed |= std::env::var_os("RELCONF").is_some();
             // `NORUNSON=1` turns the params key `evidence_runs_on` off.
+            // `NOSIDE=1` turns the params key `seen_through_near_side` off.
+            if std::env::var_os("NOSIDE").is_some() {
+                r.spec.params.seen_through_near_side = false;
+            }
             if std::env::var_os("NORUNSON").is_some() {
                 r.spec.params.evidence_runs_on = false;
             }

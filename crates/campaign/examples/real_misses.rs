@@ -72,6 +72,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         release_to_confirmed: std::env::var_os("RELCONF").is_some(),
         // `NORUNSON=1` turns the params key `evidence_runs_on` off (on by default).
         evidence_runs_on: base.evidence_runs_on && std::env::var_os("NORUNSON").is_none(),
+        // `NOSIDE=1` turns the params key `seen_through_near_side` off (on by default).
+        seen_through_near_side: base.seen_through_near_side && std::env::var_os("NOSIDE").is_none(),
         // `BEYOND=N`: the params key `returns_beyond_cells = N` (off by default).
         returns_beyond_cells: std::env::var("BEYOND").ok().and_then(|v| v.parse().ok()).unwrap_or(0),
         // The jump keys are the default since issue #10: `NOJUMP=1` turns both off, `NOFIRST=1` the first return.

@@ -248,7 +248,7 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 23] = [
+const LATE_PARAMS_KEYS: [&str; 24] = [
     "spill_over_fit",
     "seen_over",
     "face_in_front",
@@ -272,6 +272,7 @@ const LATE_PARAMS_KEYS: [&str; 23] = [
     "release_flagged_claims",
     "release_to_confirmed",
     "evidence_runs_on",
+    "seen_through_near_side",
 ];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].

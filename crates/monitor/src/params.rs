@@ -458,6 +458,16 @@ pub struct MonitorParams {
     /// held for step 8). Costs a walk over the footprint's cells for each box confirmed by its own evidence that no
     /// other test flagged, and over its grown region for one that owns none of them.
     pub evidence_runs_on: bool,
+    /// On by default since issue #10's round "The near side seen through" (docs/attribution.md, under that name;
+    /// `false` gives the verdicts before it). The free-space test towards the sensor (`seen_through`) also flags a box
+    /// confirmed by its own evidence when the whole side of it that faces the sensor is seen empty: the three sample
+    /// points of that side each lie in front of the object's own evidence by more than the box may move along the
+    /// line of sight within its margins (`margin_length |cos a| + margin_width |sin a|`, `a` the angle between the
+    /// box and the ray). A car displaced along the line of sight towards the sensor by less than its length keeps its
+    /// face inside the box, so most of its sample points lie behind that face and the majority of
+    /// `ghost_visible_fraction` is never reached; a box that stands where its object is has no such side. The
+    /// cause is `seen_through`. Costs a few operations per box the free-space test looks at.
+    pub seen_through_near_side: bool,
     /// 0.5 by default (0 turns the rule off). Kerb-side scenery that only grazes the region of interest
     /// (docs/datasets.md, "The grazing rule"): a conflict cluster with obstacle-band returns inside the ROI, but fewer than this fraction of
     /// all its band returns, and a return over its cells higher than `roi_graze_height_m` over the ground, is
@@ -564,6 +574,7 @@ impl MonitorParams {
         release_flagged_claims: true,
         release_to_confirmed: false,
         evidence_runs_on: true,
+        seen_through_near_side: true,
         roi_graze_fraction: 0.5,
         roi_graze_height_m: 4.5,
         motion_limits: MotionLimits {
@@ -921,6 +932,8 @@ mod tests {
         assert!(!d.release_to_confirmed);
         assert!(d.evidence_runs_on, "on by default since issue #10's round of evidence that runs on");
         assert!(MonitorParams { evidence_runs_on: false, ..d }.validate().is_ok());
+        assert!(d.seen_through_near_side, "on by default since issue #10's round of the near side seen through");
+        assert!(MonitorParams { seen_through_near_side: false, ..d }.validate().is_ok());
         assert_eq!(d.returns_beyond_cells, 0);
         assert!(d.seen_body && d.follow_gate, "on by default since issue #10's round of rays on the body");
         for ok in [0.0, 0.5, 10.0] {

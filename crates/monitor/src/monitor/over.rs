@@ -25,13 +25,16 @@ const NO_RETURNS: [f32; 3] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY];
 /// Cells `seen_over` may read per sample point: the first cell with returns behind it and its occluder.
 pub(super) const OVER_CELLS_PER_POINT: usize = 2;
 
+/// Where the outer sample points of the free-space test stand, as a fraction of the half length and half width.
+pub(super) const SAMPLE_AT: f32 = 0.6;
+
 /// The 3 x 3 sample points of the free-space test over a footprint (at -0.6, 0 and 0.6 of its half length and
 /// half width), in the order `seen_through` visits them.
 pub(super) fn sample_points(fp: &crate::geometry::OrientedRect) -> [[f32; 2]; 9] {
     let mut out = [[0.0; 2]; 9];
     let mut k = 0;
-    for u in [-0.6f32, 0.0, 0.6] {
-        for v in [-0.6f32, 0.0, 0.6] {
+    for u in [-SAMPLE_AT, 0.0, SAMPLE_AT] {
+        for v in [-SAMPLE_AT, 0.0, SAMPLE_AT] {
             let (lu, lv) = (u * fp.half_length, v * fp.half_width);
             if let Some(p) = out.get_mut(k) {
                 *p = [fp.cx + lu * fp.cos - lv * fp.sin, fp.cy + lu * fp.sin + lv * fp.cos];

@@ -9,6 +9,10 @@
 
 use super::*;
 
+/// The four sides of the 3 x 3 sample points of [`super::over::sample_points`], as masks of their indices
+/// (`k = 3 iu + iv`): `u` at -0.6 and 0.6 of the half length, `v` at -0.6 and 0.6 of the half width.
+const SIDE_ROWS: [u32; 4] = [0b000_000_111, 0b111_000_000, 0b001_001_001, 0b100_100_100];
+
 /// How far below the top of an object's own evidence the lowest ray that reached it must have crossed a sample
 /// point of the box for [`Monitor::seen_over`] to count the point as seen (metres): rays that only graze the top of
 /// the evidence may have passed over a shorter body standing at the box (a neighbour's head seen over a parked car,
@@ -53,6 +57,40 @@ impl FootprintSight {
     pub(super) fn contradicted(&self) -> f32 {
         self.fraction(self.visible + self.unexplained_shadow + self.foreign)
     }
+}
+
+/// How [`Monitor::seen_through`] found a box's footprint seen empty, in front of its own evidence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Through {
+    /// Most of its sample points (`ghost_visible_fraction` of them).
+    Majority,
+    /// The side that faces the sensor (`seen_through_near_side`): the box stands about `depth_m` in front of its
+    /// evidence along the line of sight (the least clearance of the side's points, plus the side's inset from the
+    /// box's edge).
+    NearSide { depth_m: f32 },
+}
+
+/// The side of a box that faces the sensor at `o`, as a mask of [`SIDE_ROWS`] (the side whose outward normal points
+/// most towards the sensor, weighed by its length: the side the sensor sees widest), how far the box may move along
+/// the line of sight within its region's margins (`margin_length |cos a| + margin_width |sin a|`, `a` the angle
+/// between the box's length and the line of sight), and how far the side's sample points lie inside the box's edge
+/// (0.4 of the half length or half width).
+fn near_side(region: &Region, o: [f32; 2]) -> (u32, f32, f32) {
+    let fp = &region.footprint;
+    let (dx, dy) = (o[0] - fp.cx, o[1] - fp.cy);
+    let (du, dv) = (dx * fp.cos + dy * fp.sin, dy * fp.cos - dx * fp.sin);
+    let [back, front, right, left] = SIDE_ROWS;
+    let (side, half) = if (du * fp.half_width).abs() >= (dv * fp.half_length).abs() {
+        (if du < 0.0 { back } else { front }, fp.half_length)
+    } else {
+        (if dv < 0.0 { right } else { left }, fp.half_width)
+    };
+    let d = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
+    (
+        side,
+        (region.margin_length_m * du.abs() + region.margin_width_m * dv.abs()) / d,
+        (1.0 - super::over::SAMPLE_AT) * half,
+    )
 }
 
 impl Monitor {
@@ -398,7 +436,13 @@ impl Monitor {
     /// grown region also owns returns behind the body (a neighbour's edge, a post); a box moved sideways within its
     /// stated uncertainty lets the rays pass beside the body and end there (docs/attribution.md, "Rays that end
     /// on the body"). Looked at only for a box the test would flag: one walk over the region's bins.
-    pub(super) fn seen_through(&self, j: usize, region: &Region) -> bool {
+    ///
+    /// With the params key `seen_through_near_side` (the default), the side of the box that faces the sensor
+    /// (its three sample points) seen empty suffices, when each of its points lies in front of the object's own
+    /// evidence by more than the box may move along the line of sight within its margins, and (with `seen_body`)
+    /// each of their rays ends on the object's body (docs/attribution.md, "The near side seen through"): a box that
+    /// stands where its object is has no such side, whatever the majority says.
+    pub(super) fn seen_through(&self, j: usize, region: &Region) -> Option<Through> {
         let fp = &region.footprint;
         let margin = region.margin_length_m.max(region.margin_width_m);
         let tau = self.params.tau_fn;
@@ -407,6 +451,7 @@ impl Monitor {
         let near_own = |c: u32| own(c) || self.grid.geometry.neighbours4(c).any(own);
         let o = self.visibility.origin();
         let mut free = 0u32;
+        let mut clear = [f32::NEG_INFINITY; 9];
         // With `seen_body`: for each free point whose ray ends on the own evidence, the range where it ends less
         // the box's depth along the ray (points freed by `seen_over` are not kept: `NEG_INFINITY`).
         let mut ends = [f32::NEG_INFINITY; 9];
@@ -420,6 +465,9 @@ impl Monitor {
                 continue;
             };
             if clearance > margin && near_own(cell) {
+                if let Some(c) = clear.get_mut(k) {
+                    *c = clearance;
+                }
                 if self.params.seen_body {
                     let (dx, dy) = (x - o[0], y - o[1]);
                     let r = libm::sqrtf(dx * dx + dy * dy);
@@ -430,16 +478,25 @@ impl Monitor {
                         (1.0, 1.0)
                     };
                     let depth = 2.0 * (fp.half_length * along.abs() + fp.half_width * across.abs());
-                    if let Some(end) = ends.get_mut(free as usize) {
+                    if let Some(end) = ends.get_mut(k) {
                         *end = r + clearance - depth;
                     }
                 }
                 free += 1;
             }
         }
+        // With `seen_through_near_side`: the side facing the sensor, if each of its points is free by more than the
+        // box may move along the line of sight.
+        let on_side = |side: u32| clear.iter().enumerate().filter(move |&(k, _)| side & (1 << k) != 0);
+        let side = (self.params.seen_through_near_side && free >= 3)
+            .then(|| near_side(region, o))
+            .filter(|&(side, allowance, _)| on_side(side).all(|(_, &c)| c > allowance))
+            .map(|(side, _, inset)| (side, on_side(side).fold(f32::INFINITY, |m, (_, &c)| m.min(c)) + inset));
         let needed = self.params.ghost_visible_fraction * 9.0;
-        if (free as f32) < needed || !self.params.seen_body {
-            return free as f32 >= needed;
+        let majority = free as f32 >= needed;
+        let by_side = side.map(|(_, depth_m)| Through::NearSide { depth_m });
+        if !self.params.seen_body || !(majority || side.is_some()) {
+            return if majority { Some(Through::Majority) } else { by_side };
         }
         // `seen_body`: a ray counts only when it ends on the object's body, within the box's depth (and the
         // safety margin) of the nearest return of the object's own evidence in the directions the grown region
@@ -451,12 +508,16 @@ impl Monitor {
                 front = r;
             }
         }) {
-            return true;
+            return if majority { Some(Through::Majority) } else { by_side };
         }
         let reach = front + self.params.safety_margin_m;
-        let on_body = ends.iter().filter(|&&end| end != f32::NEG_INFINITY && end <= reach).count();
+        let on_body = |end: f32| end != f32::NEG_INFINITY && end <= reach;
         let freed_over = free as usize - ends.iter().filter(|&&end| end != f32::NEG_INFINITY).count();
-        (on_body + freed_over) as f32 >= needed
+        if majority && (ends.iter().filter(|&&end| on_body(end)).count() + freed_over) as f32 >= needed {
+            return Some(Through::Majority);
+        }
+        side.filter(|&(side, _)| ends.iter().enumerate().all(|(k, &end)| side & (1 << k) == 0 || on_body(end)))
+            .map(|(_, depth_m)| Through::NearSide { depth_m })
     }
 
     /// With `seen_over` (off by default): a sample point of a box that the 2-D visibility map calls shadowed by a

@@ -8,7 +8,7 @@
 //! `sight.rs`, `memory_steps.rs`, `face.rs` and `attribution.rs`.
 
 use super::attribution::s_eta;
-use super::sight::OCCLUDERS;
+use super::sight::{Through, OCCLUDERS};
 use super::*;
 use crate::evidence_memory::Motion;
 use crate::verdict::PositionCause;
@@ -81,7 +81,8 @@ impl Monitor {
                 }
                 // Confirmed by evidence of its own (occupied cells it owns): what the rules below judge.
                 let confirmed_own = eta_own >= tau_tp && own_sum[2] >= 1.0;
-                let seen_through = cluster.is_none() && confirmed_own && self.seen_through(j, &region);
+                let through = if cluster.is_none() && confirmed_own { self.seen_through(j, &region) } else { None };
+                let seen_through = through.is_some();
                 // Confirmed by its own evidence, but that evidence's face stands in front of the box along the
                 // rays through it, beyond the margin: displaced away from the sensor by less than the cells show.
                 let face = if self.params.face_in_front && cluster.is_none() && !seen_through && confirmed_own {
@@ -185,11 +186,21 @@ impl Monitor {
                     s.offset_m = [region.footprint.cx - at[0], region.footprint.cy - at[1]];
                     s.position_cause = Some(PositionCause::JumpedFromEvidence);
                     SensorVerdict::PositionError
-                } else if seen_through {
+                } else if let Some(through) = through {
                     // Confirmed by evidence in its margin, but the rays prove its footprint empty: the object
                     // stands in front of its evidence, displaced towards the sensor (beyond the paper, whose
                     // checks cannot see this direction).
-                    s.offset_m = back_to_box(own_centre());
+                    s.offset_m = match through {
+                        Through::Majority => back_to_box(own_centre()),
+                        // Its near side seen empty: the evidence stands inside the box, `depth_m` behind where a
+                        // box in its place would begin; the offset points from there towards the sensor.
+                        Through::NearSide { depth_m } => {
+                            let o = self.visibility.origin();
+                            let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
+                            let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
+                            [-depth_m * dx / r, -depth_m * dy / r]
+                        }
+                    };
                     s.position_cause = Some(PositionCause::SeenThrough);
                     SensorVerdict::PositionError
                 } else if let Some(depth) = face {
