@@ -1576,11 +1576,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.spec.params.release_flagged_claims &= std::env::var_os("NORELEASE").is_none();
             // `RELCONF=1`: the params key `release_to_confirmed`.
             r.spec.params.release_to_confirmed |= std::env::var_os("RELCONF").is_some();
-            // `NORUNSON=1` turns the params key `evidence_runs_on` off.
             // `NOSIDE=1` turns the params key `seen_through_near_side` off.
             if std::env::var_os("NOSIDE").is_some() {
                 r.spec.params.seen_through_near_side = false;
             }
+            // `NORUNSON=1` turns the params key `evidence_runs_on` off.
             if std::env::var_os("NORUNSON").is_some() {
                 r.spec.params.evidence_runs_on = false;
             }

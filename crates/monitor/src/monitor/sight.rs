@@ -495,8 +495,10 @@ impl Monitor {
         let needed = self.params.ghost_visible_fraction * 9.0;
         let majority = free as f32 >= needed;
         let by_side = side.map(|(_, depth_m)| Through::NearSide { depth_m });
-        if !self.params.seen_body || !(majority || side.is_some()) {
-            return if majority { Some(Through::Majority) } else { by_side };
+        // The answer when the body test is not asked (or cannot be: the walk below declines).
+        let without_body = if majority { Some(Through::Majority) } else { by_side };
+        if !self.params.seen_body || without_body.is_none() {
+            return without_body;
         }
         // `seen_body`: a ray counts only when it ends on the object's body, within the box's depth (and the
         // safety margin) of the nearest return of the object's own evidence in the directions the grown region
@@ -508,7 +510,7 @@ impl Monitor {
                 front = r;
             }
         }) {
-            return if majority { Some(Through::Majority) } else { by_side };
+            return without_body;
         }
         let reach = front + self.params.safety_margin_m;
         let on_body = |end: f32| end != f32::NEG_INFINITY && end <= reach;

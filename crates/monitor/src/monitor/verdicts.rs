@@ -152,6 +152,13 @@ impl Monitor {
                     let (nx, ny) = region.footprint.nearest_point(c[0], c[1]);
                     [nx - c[0], ny - c[1]]
                 };
+                // An offset of `depth` metres along the line of sight, away from the sensor (towards it when negative).
+                let along_sight = |depth: f32| {
+                    let o = self.visibility.origin();
+                    let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
+                    let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
+                    [depth * dx / r, depth * dy / r]
+                };
                 // The centre of the occupied cells it owns (asked only of a box that owns one).
                 let own_centre = || [own_sum[0] / own_sum[2], own_sum[1] / own_sum[2]];
                 let Some(report) = self.reports.get_mut(j) else { continue };
@@ -194,21 +201,13 @@ impl Monitor {
                         Through::Majority => back_to_box(own_centre()),
                         // Its near side seen empty: the evidence stands inside the box, `depth_m` behind where a
                         // box in its place would begin; the offset points from there towards the sensor.
-                        Through::NearSide { depth_m } => {
-                            let o = self.visibility.origin();
-                            let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
-                            let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
-                            [-depth_m * dx / r, -depth_m * dy / r]
-                        }
+                        Through::NearSide { depth_m } => along_sight(-depth_m),
                     };
                     s.position_cause = Some(PositionCause::SeenThrough);
                     SensorVerdict::PositionError
                 } else if let Some(depth) = face {
                     // Its face stands `depth` in front of it along the rays: the box is that far behind its evidence.
-                    let o = self.visibility.origin();
-                    let (dx, dy) = (region.footprint.cx - o[0], region.footprint.cy - o[1]);
-                    let r = libm::sqrtf(dx * dx + dy * dy).max(1e-3);
-                    s.offset_m = [depth * dx / r, depth * dy / r];
+                    s.offset_m = along_sight(depth);
                     s.position_cause = Some(PositionCause::FaceInFront);
                     SensorVerdict::PositionError
                 } else if let Some(at) = beyond {
