@@ -609,6 +609,9 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
     if d.returns_beyond_cells != p.returns_beyond_cells {
         out.push(format!("returns_beyond_cells = {}", p.returns_beyond_cells));
     }
+    if d.spill_gap_m.to_bits() != p.spill_gap_m.to_bits() {
+        out.push(format!("spill_gap_m = {}", p.spill_gap_m));
+    }
     if d.memory_hold_s.to_bits() != p.memory_hold_s.to_bits() {
         out.push(format!("memory_hold_s = {}", p.memory_hold_s));
     }

@@ -6,7 +6,7 @@ use pmon_monitor::MonitorParams;
 
 /// Rule keys switched on or off against the default parameters for a whole run. All off: the defaults. An `no_*`
 /// switch wins over the switch of the same key.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
 pub struct RuleSwitches {
     /// Check with the params key `seen_over` on: the free-space test towards the sensor also looks over
@@ -22,6 +22,11 @@ pub struct RuleSwitches {
     /// returns beyond the grown region"). Off by default.
     #[cfg_attr(feature = "clap", arg(long, value_name = "N"))]
     pub returns_beyond_cells: Option<u32>,
+    /// Check with the params key `spill_gap_m = M`: spill-over gives a confirmed box of a vehicle's length a cluster
+    /// across a gap of empty cells up to M metres wide (whole cells; docs/attribution.md, "Spill-over across a gap").
+    /// 0.4 by default since issue #10's round of that name; 0 gives the verdicts before it.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "M"))]
+    pub spill_gap_m: Option<f32>,
     /// Check with the params key `jump_from_returns` on: step 9 (a box that jumps away from evidence that
     /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md). The
     /// default since issue #10; kept for older commands.
@@ -130,6 +135,9 @@ impl RuleSwitches {
         if let Some(n) = self.returns_beyond_cells {
             p.returns_beyond_cells = n;
         }
+        if let Some(m) = self.spill_gap_m {
+            p.spill_gap_m = m;
+        }
         p.jump_from_returns |= self.jump_from_returns || self.jump_first_return;
         p.jump_first_return |= self.jump_first_return;
         if self.no_jump_first_return {
@@ -206,6 +214,7 @@ mod tests {
         assert!(on(|s| s.seen_over = true).seen_over);
         assert!(on(|s| s.face_in_front = true).face_in_front);
         assert_eq!(on(|s| s.returns_beyond_cells = Some(2)).returns_beyond_cells, 2);
+        assert_eq!(on(|s| s.spill_gap_m = Some(0.0)).spill_gap_m.to_bits(), 0.0f32.to_bits());
         assert!(on(|s| s.shadow_gate = true).shadow_gate);
         assert!(on(|s| s.follow_owner_fit = true).follow_owner_fit);
         assert!(on(|s| s.release_flagged_claims = true).release_flagged_claims);

@@ -9,7 +9,7 @@
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
 //! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `NONEARSIDE=1` `spill_near_side`; `FIRST=1`: `jump_first_return`; `BEYOND=N`: `returns_beyond_cells = N`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
-//! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`; `OWNERFIT=1`: `follow_owner_fit`; `NORELEASE=1` turns `release_flagged_claims` off, the default since issue #10's round "Claims a flagged neighbour releases"; `RELCONF=1`: `release_to_confirmed`; `NORUNSON=1` turns `evidence_runs_on` off, the default since issue #10's round "Evidence in the margin that runs on"; `NOSIDE=1` turns `seen_through_near_side` off, the default since the round "The near side seen through"). With `FULL=1` the runs are those of the full plan
+//! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`; `OWNERFIT=1`: `follow_owner_fit`; `NORELEASE=1` turns `release_flagged_claims` off, the default since issue #10's round "Claims a flagged neighbour releases"; `RELCONF=1`: `release_to_confirmed`; `NORUNSON=1` turns `evidence_runs_on` off, the default since issue #10's round "Evidence in the margin that runs on"; `NOSIDE=1` turns `seen_through_near_side` off, the default since the round "The near side seen through"; `SPILLGAP=M`: `spill_gap_m = M`; `CELL=S`: every chosen run with cells of S metres). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
 //! scenes and injection seeds). With `CORRELATED=1` the false alarms under correlated noise up to 0.3 m are
 //! counted too, and each noise model's total is printed. `DETAIL=1` lists each false alarm (with `SEEN_OVER=1`
@@ -1583,6 +1583,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // `NORUNSON=1` turns the params key `evidence_runs_on` off.
             if std::env::var_os("NORUNSON").is_some() {
                 r.spec.params.evidence_runs_on = false;
+            }
+            // `SPILLGAP=M`: the params key `spill_gap_m = M` (spill-over across a gap of empty cells; 0.4 by default,
+            // `SPILLGAP=0` gives the verdicts before it).
+            if let Some(m) = std::env::var("SPILLGAP").ok().and_then(|v| v.parse().ok()) {
+                r.spec.params.spill_gap_m = m;
+            }
+            // `CELL=S`: every chosen run with cells of S metres (e.g. the false alarms, 0.5 m cells in the plan, at
+            // 0.2 m: `CELL=0.2 ... summary false_alarms`).
+            if let Some(c) = std::env::var("CELL").ok().and_then(|v| v.parse().ok()) {
+                r.spec.params.cell_size_m = c;
             }
             r
         })

@@ -16,6 +16,7 @@
 //! With `HISTORY=1` alone, every box is displaced at once as without it, but each displaced frame's check starts with
 //! a fresh track memory and a check of the previous sweep, clean (the paper's form at the onset of the error).
 //! `BEYOND=N` checks with the params key `returns_beyond_cells = N` (own returns beyond the grown region),
+//! `SPILLGAP=M` checks with the params key `spill_gap_m = M` (spill-over across a gap of empty cells),
 //! `SEEN_OVER=1` with `seen_over` (`BEYOND=1 FACE=1 SEEN_OVER=1`: the parameters of `--params profile:recall`).
 //! `FACE=1` checks with the params key `face_in_front`, `BODY=1` with `seen_body` (the free-space test counts only
 //! rays that end on the body), `MEMGATE=1` with `memory_gate` (evidence beyond the gate is never a box's),
@@ -74,6 +75,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         evidence_runs_on: base.evidence_runs_on && std::env::var_os("NORUNSON").is_none(),
         // `NOSIDE=1` turns the params key `seen_through_near_side` off (on by default).
         seen_through_near_side: base.seen_through_near_side && std::env::var_os("NOSIDE").is_none(),
+        // `SPILLGAP=M`: the params key `spill_gap_m = M` (0.4 by default; `SPILLGAP=0` gives the verdicts before it).
+        spill_gap_m: std::env::var("SPILLGAP").ok().and_then(|v| v.parse().ok()).unwrap_or(base.spill_gap_m),
         // `BEYOND=N`: the params key `returns_beyond_cells = N` (off by default).
         returns_beyond_cells: std::env::var("BEYOND").ok().and_then(|v| v.parse().ok()).unwrap_or(0),
         // The jump keys are the default since issue #10: `NOJUMP=1` turns both off, `NOFIRST=1` the first return.

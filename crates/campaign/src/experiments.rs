@@ -248,7 +248,7 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 24] = [
+const LATE_PARAMS_KEYS: [&str; 25] = [
     "spill_over_fit",
     "seen_over",
     "face_in_front",
@@ -273,6 +273,7 @@ const LATE_PARAMS_KEYS: [&str; 24] = [
     "release_to_confirmed",
     "evidence_runs_on",
     "seen_through_near_side",
+    "spill_gap_m",
 ];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].

@@ -396,6 +396,18 @@ pub struct MonitorParams {
     /// noise unchanged, real data byte-identical. Costs one squared range per hit cell in the walk over a confirmed
     /// box's region that spill-over already makes.
     pub spill_near_side: bool,
+    /// Metres; 0.4 by default since issue #10's round "Spill-over across a gap" (docs/attribution.md, under that
+    /// name; 0 gives the verdicts before it). Spill-over gives a confirmed box a cluster that, with its own evidence,
+    /// fits its box when a cell of the cluster is 8-adjacent to an occupied cell the box owns. With this key the
+    /// cluster may also stand across a gap of empty cells up to this wide (rounded down to whole cells, so a gap
+    /// narrower than a cell changes nothing), beside a box at least 2 m long: a vehicle's side seen at a grazing
+    /// angle is sampled sparsely, and at 0.2 m cells the returns of a displaced car's end often form one-cell
+    /// clusters two cells from the rest of its side. 0.4 m bridges two 0.2 m cells and none of 0.5 m, which already
+    /// span such gaps: the verdicts at 0.5 m cells are those without the key. Pedestrian-sized boxes never bridge a
+    /// gap (their returns are one compact blob; a cell across a gap from them is someone else's). Must be in [0, 1]
+    /// m. Costs a walk over the `(2 g + 3)^2` block of each cell of a cluster spill-over looks at beside such a box
+    /// (`g` the gap in cells) instead of its 3 x 3.
+    pub spill_gap_m: f32,
     /// Seconds; 1 by default since issue #10's round "Two rules together" (0, off, before it; docs/attribution.md).
     /// Step 8 over a gap (docs/attribution.md, "Step 8 held over a gap"): a track that alarms found displaced in at
     /// least two consecutive frames keeps the offset from its box to that evidence for this long after its last alarm,
@@ -568,6 +580,7 @@ impl MonitorParams {
         front_cluster: true,
         spill_in_front: true,
         spill_near_side: true,
+        spill_gap_m: 0.4,
         memory_hold_s: 1.0,
         shadow_gate: false,
         follow_owner_fit: false,
@@ -794,6 +807,9 @@ impl MonitorParams {
         if !(self.baseline_s.is_finite() && self.baseline_s >= 0.0) {
             return Err(ParamError { field: "baseline_s", reason: "must be finite and >= 0" });
         }
+        if !(self.spill_gap_m >= 0.0 && self.spill_gap_m <= 1.0) {
+            return Err(ParamError { field: "spill_gap_m", reason: "must be in [0, 1] m" });
+        }
         if !(self.memory_hold_s >= 0.0 && self.memory_hold_s <= 10.0) {
             return Err(ParamError { field: "memory_hold_s", reason: "must be in [0, 10] s" });
         }
@@ -926,6 +942,14 @@ mod tests {
         assert!(d.front_cluster && d.spill_in_front);
         assert!(MonitorParams { spill_in_front: false, ..d }.validate().is_ok());
         assert!(d.spill_near_side && MonitorParams { spill_near_side: false, ..d }.validate().is_ok());
+        assert_eq!(d.spill_gap_m.to_bits(), 0.4f32.to_bits(), "0.4 m by default since issue #10's round of the gap");
+        for ok in [0.0, 0.4, 1.0] {
+            assert!(MonitorParams { spill_gap_m: ok, ..d }.validate().is_ok(), "{ok}");
+        }
+        for bad in [-0.1, 1.5, f32::NAN, f32::INFINITY] {
+            let e = MonitorParams { spill_gap_m: bad, ..d }.validate().unwrap_err();
+            assert_eq!(e.field, "spill_gap_m", "{bad}: {e}");
+        }
         assert!(!d.seen_over && !d.face_in_front && !d.memory_gate && !d.shadow_gate && !d.follow_owner_fit);
         assert!(d.release_flagged_claims, "on by default since issue #10's round of released claims");
         assert!(MonitorParams { release_flagged_claims: false, ..d }.validate().is_ok());

@@ -1755,3 +1755,89 @@ fn a_box_confirmed_only_by_evidence_in_its_margin_that_runs_on_is_displaced() {
         }
     }
 }
+
+/// A row of returns along y = `y`, every 5 cm from `x_from` to `x_to`, at heights 0.5, 1.0 and 1.5 m.
+fn side_row(x_from: f32, x_to: f32, y: f32) -> Vec<[f32; 3]> {
+    let mut pts = Vec::new();
+    let mut x = x_from;
+    while x <= x_to + 1e-3 {
+        for z in [0.5f32, 1.0, 1.5] {
+            pts.push([x, y, z]);
+        }
+        x += 0.05;
+    }
+    pts
+}
+
+/// Spill-over across a gap (params key `spill_gap_m`, 0.4 m by default since issue #10's round of that name;
+/// docs/attribution.md, "Spill-over across a gap"). At 0.2 m cells, a car 25 m out seen along its side at a grazing
+/// angle: the side's returns are dense over most of its length, and its near end is one cell of returns two empty
+/// cells apart from the rest. Reported 1 m further along its length, the box still holds most of its side, so it is
+/// confirmed; its near end is a one-cell cluster beyond the grown region that touches none of its evidence (two cells
+/// between) and outweighs none of it. With `spill_gap_m = 0` spill-over leaves it: `consistent`. By default it bridges
+/// the gap (two 0.2 m cells), the cluster with the side fits the car, and the box is a `position_error` with its own
+/// evidence. The car reported where it stands is `consistent` either way. A pedestrian (no covariance stated, its
+/// margin the 0.1 m safety margin) with an unlabelled cell of returns one empty cell beyond its own evidence, outside
+/// its region, stays `consistent` even with the widest gap: the key bridges gaps only beside boxes of a vehicle's
+/// length (at least 2 m), whose sides a ray samples sparsely; beside a pedestrian that cell is someone else's.
+#[test]
+fn a_car_side_sampled_sparsely_spills_over_across_a_gap_of_empty_cells() {
+    let truth = object(1, 25.1, 4.0, 0.0, 4.8, 1.8);
+    // The side facing the sensor (y = 3.1): returns from 23.35 m to the far end, and the near end's cell 22.6-22.8 m.
+    let mut pts = side_row(23.35, 27.5, 3.15);
+    for x in [22.71f32, 22.74, 22.77] {
+        for y in [3.12f32, 3.15, 3.18] {
+            for z in [0.5f32, 1.0, 1.5] {
+                pts.push([x, y, z]);
+            }
+        }
+    }
+    pts.extend(ground_points(40.0));
+    let mut reported = truth;
+    reported.x_m += 1.0;
+    let d = MonitorParams { cell_size_m: 0.2, ..MonitorParams::default() };
+    assert_eq!(d.spill_gap_m.to_bits(), 0.4f32.to_bits(), "the default");
+    for spill_gap_m in [0.0f32, 0.4] {
+        let params = MonitorParams { spill_gap_m, ..d };
+        let mut m = Monitor::new(params).unwrap();
+        let r = run(&mut m, &[reported], &pts);
+        let s = r[0].sensor;
+        assert!(s.eta_own >= params.tau_tp, "gap {spill_gap_m}: its side confirms the box: {s:?}");
+        if spill_gap_m > 0.0 {
+            assert_eq!(s.verdict, SensorVerdict::PositionError, "gap {spill_gap_m}: {s:?}");
+            assert_eq!(s.position_cause, Some(PositionCause::DisplacedEvidence), "{s:?}");
+            // From the car's evidence to the reported box: along +x.
+            assert!(s.offset_m[0] > 0.1 && s.offset_m[1].abs() < 0.3, "{s:?}");
+        } else {
+            assert_eq!(s.verdict, SensorVerdict::Consistent, "gap {spill_gap_m}: {s:?}");
+        }
+        let mut m = Monitor::new(params).unwrap();
+        let r = run(&mut m, &[truth], &pts);
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "gap {spill_gap_m}, clean: {:?}", r[0].sensor);
+    }
+    // A pedestrian with an unlabelled cell one empty cell beyond its evidence, outside its region.
+    let mut ped = object(2, 15.1, -3.1, 0.0, 0.6, 0.6);
+    ped.class = pmon_monitor::ObjectClass::Pedestrian;
+    ped.uncertainty = Some(pmon_monitor::Uncertainty { x_m: 0.0, y_m: 0.0, ..d.default_uncertainty });
+    let mut near = Vec::new();
+    for y in [-3.15f32, -3.1, -3.05, -3.0, -2.95, -2.9, -2.85] {
+        for z in [0.5f32, 1.0, 1.5] {
+            near.push([14.85, y, z]);
+        }
+    }
+    for y in [-2.55f32, -2.5, -2.45] {
+        for x in [14.83f32, 14.86, 14.89] {
+            for z in [0.5f32, 1.0, 1.5] {
+                near.push([x, y, z]);
+            }
+        }
+    }
+    near.extend(ground_points(40.0));
+    for spill_gap_m in [0.0f32, 0.4, 1.0] {
+        let params = MonitorParams { spill_gap_m, ..d };
+        let mut m = Monitor::new(params).unwrap();
+        let (r, missed) = run_frame(&mut m, &[ped], &near);
+        assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "gap {spill_gap_m}, pedestrian: {:?}", r[0].sensor);
+        assert_eq!(missed, 1, "gap {spill_gap_m}: the cell beyond is a missed object");
+    }
+}

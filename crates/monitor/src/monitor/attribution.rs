@@ -197,9 +197,15 @@ impl Monitor {
         self.share_between_coincident_boxes();
         // Spill-over of the clusters left.
         let adjacent = core::f32::consts::SQRT_2 * self.grid.geometry.cell_size_m + 1e-3;
+        // With `spill_gap_m`, the evidence a cluster continues may stand across `gap` empty cells (boxes of a
+        // vehicle's length): its cells are then within `gap + 1` cell diagonals of the region (an owned cell overlaps
+        // it).
+        let continues = adjacent * (self.spill_gap_cells() + 1) as f32;
         // How far from a confirmed box's grown region a cluster may stand: a cell diagonal for one that continues the
-        // box's own evidence (8-adjacent cells), the gate for one in front of it (`spill_in_front`).
-        let far = if self.params.spill_in_front { self.params.conflict_association_m.max(adjacent) } else { adjacent };
+        // box's own evidence (8-adjacent cells; more across a gap), the gate for one in front of it
+        // (`spill_in_front`).
+        let far =
+            if self.params.spill_in_front { self.params.conflict_association_m.max(continues) } else { continues };
         self.own_spans.clear();
         self.own_spans.resize(self.scratch.len().min(self.own_spans.capacity()), None);
         for k in 0..self.clusters.len() {
@@ -211,7 +217,8 @@ impl Monitor {
             for m in lo..hi {
                 let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
                 let Some(&(rb, bits)) = self.candidates.get(j) else { continue };
-                // A confirmed object's own evidence continues into the cluster (8-adjacent cells), and both
+                // A confirmed object's own evidence continues into the cluster (8-adjacent cells, or with
+                // `spill_gap_m` across a gap of empty cells beside a vehicle-sized box), and both
                 // together fit its box: the box is displaced (or too small). Evidence merely near a confirmed box
                 // is not its. An unconfirmed object takes a cluster that touches its region and fits its box.
                 let confirmed = bits & CANDIDATE_CONFIRMED != 0;
@@ -227,7 +234,8 @@ impl Monitor {
                 }
                 let Some(d) = self.cluster_distance(k, &region.grown, reach) else { continue };
                 let ok = if confirmed {
-                    if d <= adjacent && self.cluster_touches_own_evidence(j, k) {
+                    let gap = self.spill_gap_for(&region);
+                    if d <= adjacent * (gap + 1) as f32 && self.cluster_near_own_evidence(j, k, gap) {
                         let own = self.own_spans(j, &region).all;
                         self.spill_fit(&region, k, own)
                     } else {
