@@ -242,9 +242,22 @@ pub fn run_identity(role: &str, spec: &RunSpec) -> String {
         return text;
     };
     LATE_PARAMS_KEYS.iter().fold(text, |text, key| match defaults.get(key) {
-        Some(default) if params.get(key) == Some(default) => text.replacen(&format!(",\"{key}\":{default}"), "", 1),
+        Some(default) if params.get(key) == Some(default) => without_scalar_key(text, key),
         _ => text,
     })
+}
+
+/// `text` without its first `,"key":value` (a scalar value: up to the next `,` or `}`). The value is cut as written,
+/// not as `serde_json::Value` prints it: an `f32` key such as `spill_gap_m = 0.4` is written `0.4` but reads back as
+/// the `f64` `0.4000000059604645`.
+fn without_scalar_key(text: String, key: &str) -> String {
+    let needle = format!(",\"{key}\":");
+    let Some(start) = text.find(&needle) else { return text };
+    let value = start + needle.len();
+    let end = text.get(value..).and_then(|rest| rest.find([',', '}'])).map_or(text.len(), |n| value + n);
+    let mut out = text;
+    out.replace_range(start..end, "");
+    out
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
