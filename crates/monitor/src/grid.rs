@@ -191,12 +191,18 @@ impl GridGeometry {
         self.origin_m + (i as f32 + 0.5) * self.cell_size_m
     }
 
-    /// A cell and its 8 neighbours inside the grid, row by row (at most 9 cells).
+    /// A cell and its 8 neighbours inside the grid, row by row (at most 9 cells): [`GridGeometry::block`] of radius 1.
     pub fn block3x3(self, index: u32) -> impl Iterator<Item = u32> {
+        self.block(index, 1)
+    }
+
+    /// The cells within `radius` cells of a cell along each grid axis, inside the grid, row by row (at most
+    /// `(2 radius + 1)^2` cells).
+    pub fn block(self, index: u32, radius: u32) -> impl Iterator<Item = u32> {
         let n = self.cells_per_side.max(1);
         let (cx, cy) = (index % n, index / n);
-        (cy.saturating_sub(1)..=(cy + 1).min(n - 1))
-            .flat_map(move |y| (cx.saturating_sub(1)..=(cx + 1).min(n - 1)).map(move |x| y * n + x))
+        (cy.saturating_sub(radius)..=(cy + radius).min(n - 1))
+            .flat_map(move |y| (cx.saturating_sub(radius)..=(cx + radius).min(n - 1)).map(move |x| y * n + x))
     }
 
     /// The 4-neighbours of a cell inside the grid (left, right, below, above; at most 4 cells). A neighbour

@@ -1473,13 +1473,19 @@ fn a_box_hidden_behind_far_evidence_takes_the_free_evidence_beyond_it() {
 
 /// A column of returns across a car's width (one every 5 cm, three heights): the face the sensor sees.
 fn face_column(x: f32, y_from: f32, width: f32) -> Vec<[f32; 3]> {
+    line_of_returns(y_from, y_from + width, |y| [x, y])
+}
+
+/// Returns every 5 cm of `v` from `from` to `to` at the ground position `at(v)`, at heights 0.5, 1.0 and 1.5 m.
+fn line_of_returns(from: f32, to: f32, at: impl Fn(f32) -> [f32; 2]) -> Vec<[f32; 3]> {
     let mut pts = Vec::new();
-    let mut y = y_from;
-    while y <= y_from + width + 1e-3 {
+    let mut v = from;
+    while v <= to + 1e-3 {
+        let [x, y] = at(v);
         for z in [0.5f32, 1.0, 1.5] {
             pts.push([x, y, z]);
         }
-        y += 0.05;
+        v += 0.05;
     }
     pts
 }
@@ -1756,17 +1762,9 @@ fn a_box_confirmed_only_by_evidence_in_its_margin_that_runs_on_is_displaced() {
     }
 }
 
-/// A row of returns along y = `y`, every 5 cm from `x_from` to `x_to`, at heights 0.5, 1.0 and 1.5 m.
-fn side_row(x_from: f32, x_to: f32, y: f32) -> Vec<[f32; 3]> {
-    let mut pts = Vec::new();
-    let mut x = x_from;
-    while x <= x_to + 1e-3 {
-        for z in [0.5f32, 1.0, 1.5] {
-            pts.push([x, y, z]);
-        }
-        x += 0.05;
-    }
-    pts
+/// Returns at every `x` of `xs` and `y` of `ys`, at heights 0.5, 1.0 and 1.5 m.
+fn returns_at(xs: &[f32], ys: &[f32]) -> Vec<[f32; 3]> {
+    xs.iter().flat_map(|&x| ys.iter().flat_map(move |&y| [0.5f32, 1.0, 1.5].map(|z| [x, y, z]))).collect()
 }
 
 /// Spill-over across a gap (params key `spill_gap_m`, 0.4 m by default since issue #10's round of that name;
@@ -1784,14 +1782,8 @@ fn side_row(x_from: f32, x_to: f32, y: f32) -> Vec<[f32; 3]> {
 fn a_car_side_sampled_sparsely_spills_over_across_a_gap_of_empty_cells() {
     let truth = object(1, 25.1, 4.0, 0.0, 4.8, 1.8);
     // The side facing the sensor (y = 3.1): returns from 23.35 m to the far end, and the near end's cell 22.6-22.8 m.
-    let mut pts = side_row(23.35, 27.5, 3.15);
-    for x in [22.71f32, 22.74, 22.77] {
-        for y in [3.12f32, 3.15, 3.18] {
-            for z in [0.5f32, 1.0, 1.5] {
-                pts.push([x, y, z]);
-            }
-        }
-    }
+    let mut pts = line_of_returns(23.35, 27.5, |x| [x, 3.15]);
+    pts.extend(returns_at(&[22.71, 22.74, 22.77], &[3.12, 3.15, 3.18]));
     pts.extend(ground_points(40.0));
     let mut reported = truth;
     reported.x_m += 1.0;
@@ -1819,19 +1811,8 @@ fn a_car_side_sampled_sparsely_spills_over_across_a_gap_of_empty_cells() {
     let mut ped = object(2, 15.1, -3.1, 0.0, 0.6, 0.6);
     ped.class = pmon_monitor::ObjectClass::Pedestrian;
     ped.uncertainty = Some(pmon_monitor::Uncertainty { x_m: 0.0, y_m: 0.0, ..d.default_uncertainty });
-    let mut near = Vec::new();
-    for y in [-3.15f32, -3.1, -3.05, -3.0, -2.95, -2.9, -2.85] {
-        for z in [0.5f32, 1.0, 1.5] {
-            near.push([14.85, y, z]);
-        }
-    }
-    for y in [-2.55f32, -2.5, -2.45] {
-        for x in [14.83f32, 14.86, 14.89] {
-            for z in [0.5f32, 1.0, 1.5] {
-                near.push([x, y, z]);
-            }
-        }
-    }
+    let mut near = returns_at(&[14.85], &[-3.15, -3.1, -3.05, -3.0, -2.95, -2.9, -2.85]);
+    near.extend(returns_at(&[14.83, 14.86, 14.89], &[-2.55, -2.5, -2.45]));
     near.extend(ground_points(40.0));
     for spill_gap_m in [0.0f32, 0.4, 1.0] {
         let params = MonitorParams { spill_gap_m, ..d };

@@ -12,43 +12,20 @@ use super::*;
 pub(super) const SPILL_GAP_MIN_LENGTH_M: f32 = 2.0;
 
 impl Monitor {
-    /// True when a cell of cluster `k` is 8-adjacent to an occupied cell that object `j` owns.
-    pub(super) fn cluster_touches_own_evidence(&self, j: usize, k: usize) -> bool {
-        let tau = self.params.tau_fn;
-        self.cluster_cells(k)
-            .iter()
-            .any(|&c| self.grid.geometry.block3x3(c).any(|idx| self.grid.probability(idx) > tau && self.owns(j, idx)))
-    }
-
-    /// With `spill_gap_m` (`gap` > 0 cells): a cell of cluster `k` within `gap + 1` cells (along each grid axis) of
-    /// an occupied cell that object `j` owns: the two stand across at most `gap` empty cells. `gap` 0 is
-    /// [`Monitor::cluster_touches_own_evidence`]. Bounded: the cluster's cells and the `(2 gap + 3)^2` block of each.
+    /// True when a cell of cluster `k` is within `gap + 1` cells (along each grid axis) of an occupied cell that
+    /// object `j` owns: the two stand across at most `gap` empty cells (`spill_gap_m`); `gap` 0 is 8-adjacency.
+    /// Bounded: the cluster's cells and the `(2 gap + 3)^2` block of each.
     pub(super) fn cluster_near_own_evidence(&self, j: usize, k: usize, gap: u32) -> bool {
-        if gap == 0 {
-            return self.cluster_touches_own_evidence(j, k);
-        }
         let tau = self.params.tau_fn;
-        let n = self.grid.geometry.cells_per_side.max(1);
-        let r = gap + 1;
         self.cluster_cells(k).iter().any(|&c| {
-            let (cx, cy) = (c % n, c / n);
-            (cy.saturating_sub(r)..=(cy + r).min(n - 1)).any(|y| {
-                (cx.saturating_sub(r)..=(cx + r).min(n - 1)).any(|x| {
-                    let idx = y * n + x;
-                    self.grid.probability(idx) > tau && self.owns(j, idx)
-                })
-            })
+            self.grid.geometry.block(c, gap + 1).any(|idx| self.grid.probability(idx) > tau && self.owns(j, idx))
         })
     }
 
     /// `spill_gap_m` in whole cells (rounded down; a thousandth of a cell's tolerance for 0.4 m / 0.2 m in floats).
     pub(super) fn spill_gap_cells(&self) -> u32 {
-        let cells = self.params.spill_gap_m / self.grid.geometry.cell_size_m + 1e-3;
-        if cells >= 1.0 {
-            cells as u32
-        } else {
-            0
-        }
+        // `as` truncates towards zero (and saturates): a gap narrower than a cell is no cell.
+        (self.params.spill_gap_m / self.grid.geometry.cell_size_m + 1e-3) as u32
     }
 
     /// The gap spill-over bridges for a box (`spill_gap_cells`): only for one at least [`SPILL_GAP_MIN_LENGTH_M`]
