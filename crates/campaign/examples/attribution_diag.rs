@@ -27,8 +27,13 @@
 //! were in the previous frame (cluster identity over frames; `IDENT_DILATE=1`: a cell nobody had takes a labelled
 //! 8-neighbour's owner; `TRACK=ID` prints the track's frames); docs/attribution.md, "Cluster identity over frames".
 //! `MISSRUN=1` sorts each verifiable miss (and each error found) by the track's alarms before it in the run: in the
-//! previous frame, earlier only, never (docs/attribution.md, "Misses by the track's alarms before them"). `HOLD=S`
-//! runs with the params key `memory_hold_s = S` (docs/attribution.md, "Step 8 held over a gap"). `MAP=1` (with
+//! previous frame, earlier only, never (docs/attribution.md, "Misses by the track's alarms before them"). `HOLDSIM=H`
+//! estimates, after the fact and without changing the monitor, a hold for static vehicles: a track reported at least 3
+//! m long and slower than 0.5 m/s whose alarms ran for two or more consecutive frames counts as flagged for H frames
+//! after the run's last alarm; it prints the verifiable errors, those found with and without the hold, and the alarms
+//! and true alarms with and without it (`HOLDFRESH=1`: only alarms from the frame's own evidence, a cluster or free
+//! space, make a run; docs/attribution.md, "Parked cars in a row"). `HOLD=S` runs with the params key `memory_hold_s =
+//! S` (docs/attribution.md, "Step 8 held over a gap"). `MAP=1` (with
 //! `MISSES=1` or `DETAIL=1`) draws the cells around each listed box; `OWNERS=1` counts each verifiable miss by whose
 //! the occupied cells under its true footprint went to (docs/attribution.md, "Where a displaced box's evidence goes");
 //! `FAKIND=1` counts each false alarm by whether the box is confirmed by its own evidence in the faulted frame and by
@@ -971,6 +976,58 @@ fn miss_runs(scene: &Scene, run: &PlannedRun) -> Result<BTreeMap<String, u64>, S
     Ok(out)
 }
 
+/// `HOLDSIM=H` (a post-hoc estimate, no monitor change): a static vehicle (reported length >= 3 m, speed < 0.5 m/s)
+/// whose alarms ran for two or more consecutive frames counts as flagged for H frames after the run's last alarm.
+fn hold_sim(scene: &Scene, run: &PlannedRun, hold: usize) -> Result<BTreeMap<String, u64>, String> {
+    let spec = &run.spec;
+    let mut out: BTreeMap<String, u64> = BTreeMap::new();
+    // Track id -> (last frame flagged, length of the run ending there).
+    let mut runs: BTreeMap<u64, (usize, usize)> = BTreeMap::new();
+    // Track id -> last frame of a run of two or more.
+    let mut held: BTreeMap<u64, usize> = BTreeMap::new();
+    pmon_campaign::paired_frames(scene, spec, |f| {
+        for (i, r) in f.reports.iter().enumerate() {
+            if !pmon_campaign::in_scope(r.sensor.verdict) {
+                continue;
+            }
+            let (injected, alarm) = injected_and_alarm(f, i, r);
+            let Some(o) = f.objects.get(i) else { continue };
+            let vehicle = o.length_m >= 3.0 && o.speed_mps.abs() < 0.5;
+            let sim = alarm || (vehicle && held.get(&o.id).is_some_and(|&k| f.k <= k + hold));
+            let verifiable = injected && f.confirmed.get(i).copied().unwrap_or(false);
+            let mut add = |k: &str, v: bool| *out.entry(format!("HOLDSIM {k}")).or_default() += u64::from(v);
+            add("verifiable", verifiable);
+            add("detected", verifiable && alarm);
+            add("detected_sim", verifiable && sim);
+            add("alarms", alarm);
+            add("true_alarms", alarm && injected);
+            add("alarms_sim", sim);
+            add("true_alarms_sim", sim && injected);
+            // `HOLDFRESH=1`: only alarms from this frame's evidence (a cluster, or free space) make a run.
+            let fresh = std::env::var_os("HOLDFRESH").is_none()
+                || matches!(
+                    r.sensor.position_cause,
+                    Some(pmon_monitor::PositionCause::DisplacedEvidence | pmon_monitor::PositionCause::SeenThrough)
+                );
+            if alarm && !fresh {
+                runs.remove(&o.id);
+            }
+            if alarm && fresh {
+                let n = match runs.get(&o.id) {
+                    Some(&(k, n)) if k + 1 == f.k => n + 1,
+                    _ => 1,
+                };
+                runs.insert(o.id, (f.k, n));
+                if n >= 2 {
+                    held.insert(o.id, f.k);
+                }
+            }
+        }
+        Ok(())
+    })?;
+    Ok(out)
+}
+
 /// Whether object `i` of the frame carries an injected error, and whether its sensor verdict (`r`) is an alarm in
 /// scope (a ghost or a position error).
 fn injected_and_alarm(f: &pmon_campaign::PairedFrame<'_>, i: usize, r: &pmon_monitor::ObjectReport) -> (bool, bool) {
@@ -1605,6 +1662,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut c = if mode == "causes" { causes(scene, r)? } else { BTreeMap::new() };
             if std::env::var_os("MISSRUN").is_some() {
                 c.extend(miss_runs(scene, r)?);
+            }
+            if let Some(h) = std::env::var("HOLDSIM").ok().and_then(|v| v.parse().ok()) {
+                c.extend(hold_sim(scene, r, h)?);
             }
             let h = if std::env::var_os("HELD").is_some() { Some(held(scene, r)?) } else { None };
             let d = if std::env::var_os("DRIFT").is_some() { Some(drift(scene, r)?) } else { None };

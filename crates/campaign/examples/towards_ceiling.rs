@@ -1,6 +1,6 @@
 //! How many displacements towards the ego could *any* free-space rule prove, given the sweep? An upper bound
 //! (a ceiling) for issue #10's goal "towards the ego >= 90 % from 1 m", measured on the `pmon reproduce` runs
-//! (docs/attribution.md, "Towards the ego: the ceiling the rays allow"):
+//! (docs/attribution.md, "The ceiling the rays allow"):
 //!
 //! `cargo run --release -p pmon-campaign --example towards_ceiling -- SEED [FILTER]`
 //!

@@ -158,7 +158,7 @@ impl Monitor {
     /// evidence moved with it leaves no return of its own where the displaced box no longer reaches, and its
     /// displaced evidence ends within its extent: a box that keeps a return at its far end, or a cluster whose
     /// returns run on beyond the box's extent, is a clean box next to unlabelled returns (docs/attribution.md,
-    /// "spill-over counts every return"). Bounded: one walk over the region's cells and the 3 x 3 neighbourhood of
+    /// "Every return made the default"). Bounded: one walk over the region's cells and the 3 x 3 neighbourhood of
     /// each cluster cell. The reference of [`Monitor::spill_fits_with`], which spill-over runs (the object's own
     /// spans walked once per frame), kept for the tests.
     #[cfg(test)]
