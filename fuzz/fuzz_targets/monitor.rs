@@ -108,6 +108,8 @@ fuzz_target!(|data: &[u8]| {
         // neighbours beyond a region.
         evidence_runs_on: front_cluster,
         memory_hold_s: if memory_gate { 1.0 } else { 0.0 },
+        // The parked hold reads the memory the held offsets go to: on with them.
+        parked_hold_s: if memory_gate { 3.0 } else { 0.0 },
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,
         ..MonitorParams::default()

@@ -36,7 +36,7 @@ class CheckResult:
       else None), ``conditions`` (implausible motion's conditions), ``position_cause`` (which test found a
       position error: ``displaced_evidence``, ``evidence_followed``, ``jumped_from_evidence``, ``seen_through``,
       ``face_in_front``, ``returns_beyond``, ``evidence_released``,
-      ``evidence_runs_on``; else None), ``sensor`` and ``motion`` (each check's
+      ``evidence_runs_on``, ``held_while_parked``; else None), ``sensor`` and ``motion`` (each check's
       own verdict text), ``kind`` / ``error_size`` / ``error_unit`` / ``severity`` (implausible motion: what
       is wrong and how much; None / NaN otherwise), ``is_alarm`` (bool);
     - the sensor checks: ``eta`` (consistency, eq. 5), ``margin_length_m``, ``margin_width_m``,

@@ -36,6 +36,7 @@ class Params:
     spill_near_side: bool
     spill_gap_m: float
     memory_hold_s: float
+    parked_hold_s: float
     shadow_gate: bool
     follow_owner_fit: bool
     release_flagged_claims: bool

@@ -16,6 +16,7 @@ CAUSES = {
     "returns_beyond",
     "evidence_released",
     "evidence_runs_on",
+    "held_while_parked",
     "position_error (no cause)",
 }
 

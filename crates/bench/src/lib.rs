@@ -615,6 +615,9 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
     if d.memory_hold_s.to_bits() != p.memory_hold_s.to_bits() {
         out.push(format!("memory_hold_s = {}", p.memory_hold_s));
     }
+    if d.parked_hold_s.to_bits() != p.parked_hold_s.to_bits() {
+        out.push(format!("parked_hold_s = {}", p.parked_hold_s));
+    }
     if d.roi_graze_fraction.to_bits() != p.roi_graze_fraction.to_bits() {
         out.push(format!("roi_graze_fraction = {}", p.roi_graze_fraction));
     }

@@ -27,6 +27,11 @@ pub struct RuleSwitches {
     /// 0.4 by default since issue #10's round of that name; 0 gives the verdicts before it.
     #[cfg_attr(feature = "clap", arg(long, value_name = "M"))]
     pub spill_gap_m: Option<f32>,
+    /// Check with the params key `parked_hold_s = S`: a parked vehicle that alarms found displaced in two or more
+    /// consecutive frames stays flagged for S seconds (docs/attribution.md, "Parked cars in a row"). Off (0) by
+    /// default.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "S"))]
+    pub parked_hold_s: Option<f64>,
     /// Check with the params key `jump_from_returns` on: step 9 (a box that jumps away from evidence that
     /// stayed) takes evidence centres from the returns, with a narrower allowance (docs/attribution.md). The
     /// default since issue #10; kept for older commands.
@@ -138,6 +143,9 @@ impl RuleSwitches {
         if let Some(m) = self.spill_gap_m {
             p.spill_gap_m = m;
         }
+        if let Some(s) = self.parked_hold_s {
+            p.parked_hold_s = s;
+        }
         p.jump_from_returns |= self.jump_from_returns || self.jump_first_return;
         p.jump_first_return |= self.jump_first_return;
         if self.no_jump_first_return {
@@ -215,6 +223,7 @@ mod tests {
         assert!(on(|s| s.face_in_front = true).face_in_front);
         assert_eq!(on(|s| s.returns_beyond_cells = Some(2)).returns_beyond_cells, 2);
         assert_eq!(on(|s| s.spill_gap_m = Some(0.0)).spill_gap_m.to_bits(), 0.0f32.to_bits());
+        assert_eq!(on(|s| s.parked_hold_s = Some(3.0)).parked_hold_s.to_bits(), 3.0f64.to_bits());
         assert!(on(|s| s.shadow_gate = true).shadow_gate);
         assert!(on(|s| s.follow_owner_fit = true).follow_owner_fit);
         assert!(on(|s| s.release_flagged_claims = true).release_flagged_claims);

@@ -985,6 +985,8 @@ fn hold_sim(scene: &Scene, run: &PlannedRun, hold: usize) -> Result<BTreeMap<Str
     let mut runs: BTreeMap<u64, (usize, usize)> = BTreeMap::new();
     // Track id -> last frame of a run of two or more.
     let mut held: BTreeMap<u64, usize> = BTreeMap::new();
+    // Track id -> the features of its last alarm (`HOLDFEAT` lines: what the monitor could tell held runs by).
+    let mut feats: BTreeMap<u64, String> = BTreeMap::new();
     pmon_campaign::paired_frames(scene, spec, |f| {
         for (i, r) in f.reports.iter().enumerate() {
             if !pmon_campaign::in_scope(r.sensor.verdict) {
@@ -994,6 +996,11 @@ fn hold_sim(scene: &Scene, run: &PlannedRun, hold: usize) -> Result<BTreeMap<Str
             let Some(o) = f.objects.get(i) else { continue };
             let vehicle = o.length_m >= 3.0 && o.speed_mps.abs() < 0.5;
             let sim = alarm || (vehicle && held.get(&o.id).is_some_and(|&k| f.k <= k + hold));
+            if sim && !alarm {
+                if let Some(feat) = feats.get(&o.id) {
+                    *out.entry(format!("HOLDFEAT inj {} {feat}", u8::from(injected))).or_default() += 1;
+                }
+            }
             let verifiable = injected && f.confirmed.get(i).copied().unwrap_or(false);
             let mut add = |k: &str, v: bool| *out.entry(format!("HOLDSIM {k}")).or_default() += u64::from(v);
             add("verifiable", verifiable);
@@ -1018,8 +1025,45 @@ fn hold_sim(scene: &Scene, run: &PlannedRun, hold: usize) -> Result<BTreeMap<Str
                     _ => 1,
                 };
                 runs.insert(o.id, (f.k, n));
-                if n >= 2 {
+                let [dx, dy] = r.sensor.offset_m;
+                let range = o.x_m.hypot(o.y_m).max(1e-3);
+                let radial = (dx * o.x_m + dy * o.y_m) / range;
+                let mag = dx.hypot(dy);
+                feats.insert(
+                    o.id,
+                    format!(
+                        "radial {} conf {} mag {} cause {:?} n {}",
+                        if radial > 0.3 * mag {
+                            "away"
+                        } else if radial < -0.3 * mag {
+                            "towards"
+                        } else {
+                            "side"
+                        },
+                        u8::from(r.sensor.eta_own >= spec.params.tau_tp),
+                        if mag < 1.0 {
+                            "<1"
+                        } else if mag < 2.0 {
+                            "1-2"
+                        } else {
+                            ">2"
+                        },
+                        r.sensor.position_cause,
+                        n.min(5)
+                    ),
+                );
+                // `HOLDAWAY=M`: only a run whose last alarm puts the evidence in front of the box on its line of
+                // sight (the offset's radial part above 0.3 of it) and less than M metres from it is held.
+                let [dx, dy] = r.sensor.offset_m;
+                let away = (dx * o.x_m + dy * o.y_m) / o.x_m.hypot(o.y_m).max(1e-3) > 0.3 * dx.hypot(dy);
+                let holdable = std::env::var("HOLDAWAY")
+                    .ok()
+                    .and_then(|v| v.parse::<f32>().ok())
+                    .is_none_or(|m| away && dx.hypot(dy) < m);
+                if n >= 2 && holdable {
                     held.insert(o.id, f.k);
+                } else if !holdable {
+                    held.remove(&o.id);
                 }
             }
         }
@@ -1645,6 +1689,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // `SPILLGAP=0` gives the verdicts before it).
             if let Some(m) = std::env::var("SPILLGAP").ok().and_then(|v| v.parse().ok()) {
                 r.spec.params.spill_gap_m = m;
+            }
+            // `PARKED=S`: the params key `parked_hold_s = S` (docs/attribution.md, "Parked cars in a row").
+            if let Some(s) = std::env::var("PARKED").ok().and_then(|v| v.parse().ok()) {
+                r.spec.params.parked_hold_s = s;
             }
             // `CELL=S`: every chosen run with cells of S metres (e.g. the false alarms, 0.5 m cells in the plan, at
             // 0.2 m: `CELL=0.2 ... summary false_alarms`).

@@ -302,6 +302,9 @@ pub struct CauseCounts {
     /// `PositionCause::EvidenceRunsOn` (absent from results written before it: 0).
     #[serde(default)]
     pub evidence_runs_on: u64,
+    /// `PositionCause::HeldWhileParked` (absent from results written before it: 0).
+    #[serde(default)]
+    pub held_while_parked: u64,
     /// Position errors without a cause (index `CAUSES - 1`).
     pub no_cause: u64,
 }
@@ -319,7 +322,8 @@ impl CauseCounts {
             6 => &mut self.returns_beyond,
             7 => &mut self.evidence_released,
             8 => &mut self.evidence_runs_on,
-            9 => &mut self.no_cause,
+            9 => &mut self.held_while_parked,
+            10 => &mut self.no_cause,
             _ => return None,
         })
     }

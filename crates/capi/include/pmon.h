@@ -83,6 +83,9 @@
 // Confirmed only by evidence in its margin that runs on beyond its region (params key `evidence_runs_on`).
 #define PMON_POSITION_CAUSE_EVIDENCE_RUNS_ON 8
 
+// A parked vehicle found displaced in the frames before, held while it stays parked (params key `parked_hold_s`).
+#define PMON_POSITION_CAUSE_HELD_WHILE_PARKED 9
+
 // A cause the core added after this header: its name is in `position_cause_name`.
 #define PMON_POSITION_CAUSE_OTHER 255
 

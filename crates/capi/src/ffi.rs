@@ -71,6 +71,8 @@ pub const PMON_POSITION_CAUSE_RETURNS_BEYOND: u32 = 6;
 pub const PMON_POSITION_CAUSE_EVIDENCE_RELEASED: u32 = 7;
 /// Confirmed only by evidence in its margin that runs on beyond its region (params key `evidence_runs_on`).
 pub const PMON_POSITION_CAUSE_EVIDENCE_RUNS_ON: u32 = 8;
+/// A parked vehicle found displaced in the frames before, held while it stays parked (params key `parked_hold_s`).
+pub const PMON_POSITION_CAUSE_HELD_WHILE_PARKED: u32 = 9;
 /// A cause the core added after this header: its name is in `position_cause_name`.
 pub const PMON_POSITION_CAUSE_OTHER: u32 = 255;
 
@@ -539,6 +541,7 @@ fn position_cause_code(c: PositionCause) -> u32 {
         "returns_beyond" => PMON_POSITION_CAUSE_RETURNS_BEYOND,
         "evidence_released" => PMON_POSITION_CAUSE_EVIDENCE_RELEASED,
         "evidence_runs_on" => PMON_POSITION_CAUSE_EVIDENCE_RUNS_ON,
+        "held_while_parked" => PMON_POSITION_CAUSE_HELD_WHILE_PARKED,
         _ => PMON_POSITION_CAUSE_OTHER,
     }
 }

@@ -39,6 +39,8 @@ struct Entry {
     duplicate: bool,
     /// A displaced offset found by alarms (world axes), kept beside the evidence (params key `memory_hold_s`).
     hold: Option<Hold>,
+    /// The same, kept for a parked vehicle (params key `parked_hold_s`).
+    parked: Option<Hold>,
 }
 
 /// A displaced offset found by alarms, and when: kept over frames without an alarm (the params key
@@ -121,6 +123,13 @@ impl EvidenceMemory {
         )
     }
 
+    /// The offset held for a parked vehicle (`parked_hold_s`), current ego frame's axes, under the conditions of
+    /// [`EvidenceMemory::recall`].
+    pub(crate) fn recall_parked(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<Hold> {
+        let e = self.recallable(id, t_s, yaw_rad, max_dt_s)?;
+        e.parked.map(|h| Hold { offset_m: rotate(h.offset_m, -yaw_rad), ..h })
+    }
+
     /// The held offset alone ([`EvidenceMemory::recall_with_hold`]).
     #[cfg(test)]
     pub(crate) fn recall_hold(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<Hold> {
@@ -188,6 +197,7 @@ impl EvidenceMemory {
     /// [`EvidenceMemory::record`] of the evidence, if any, and of a displaced offset found by alarms (`hold`, ego
     /// frame), if any. Nothing is recorded without either.
     #[allow(clippy::too_many_arguments)]
+    #[cfg(test)]
     pub(crate) fn record_with_hold(
         &mut self,
         id: u64,
@@ -198,13 +208,31 @@ impl EvidenceMemory {
         motion: Option<Motion>,
         hold: Option<Hold>,
     ) {
-        let hold = hold.map(|h| Hold { offset_m: rotate(h.offset_m, yaw_rad), ..h }).filter(Hold::is_finite);
+        self.record_with_holds(id, seq, t_s, yaw_rad, evidence, motion, [hold, None]);
+    }
+
+    /// [`EvidenceMemory::record_with_hold`], with the offset held for a parked vehicle too (`[hold, parked]`, ego
+    /// frame). Nothing is recorded without evidence or a held offset.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn record_with_holds(
+        &mut self,
+        id: u64,
+        seq: usize,
+        t_s: f64,
+        yaw_rad: f64,
+        evidence: Option<(EvidenceKind, [f32; 2])>,
+        motion: Option<Motion>,
+        [hold, parked]: [Option<Hold>; 2],
+    ) {
+        let to_world =
+            |h: Option<Hold>| h.map(|h| Hold { offset_m: rotate(h.offset_m, yaw_rad), ..h }).filter(Hold::is_finite);
+        let (hold, parked) = (to_world(hold), to_world(parked));
         let (kind, offset_world_m) = match evidence {
             Some((kind, offset_ego_m)) => (Some(kind), rotate(offset_ego_m, yaw_rad)),
             None => (None, [0.0; 2]),
         };
         if !(t_s.is_finite() && offset_world_m.iter().all(|v| v.is_finite()))
-            || (kind.is_none() && hold.is_none())
+            || (kind.is_none() && hold.is_none() && parked.is_none())
             || self.next.len() >= self.next.capacity()
         {
             return;
@@ -219,7 +247,7 @@ impl EvidenceMemory {
             returns_offset_world_m: m.returns_offset_world_m.filter(|r| r.iter().all(|v| v.is_finite())),
             ..m
         });
-        self.next.push(Entry { id, seq, t_s, offset_world_m, kind, motion, duplicate: false, hold });
+        self.next.push(Entry { id, seq, t_s, offset_world_m, kind, motion, duplicate: false, hold, parked });
     }
 
     /// Ends the frame: its records become the memory the next frame recalls.

@@ -139,6 +139,8 @@ struct ObjectScratch {
     /// The displaced offset the track keeps: found by an alarm in the previous frame, or held since
     /// (`memory_hold_s`; ego frame).
     hold: Option<Hold>,
+    /// With `parked_hold_s`: the displaced offset a parked vehicle's track keeps (ego frame).
+    parked: Option<Hold>,
     /// Sum of the centres of the occupied cells the object owns, and their number.
     own_sum: [f32; 3],
     /// With `evidence_runs_on`: one of those cells overlaps the object's footprint (not only its margin).
@@ -680,6 +682,16 @@ impl Monitor {
                 sight: None,
                 recalled,
                 hold,
+                parked: (self.params.parked_hold_s > 0.0)
+                    .then(|| {
+                        self.memory.recall_parked(
+                            o.id,
+                            frame.timestamp_s,
+                            frame.world_from_ego.yaw_rad,
+                            self.params.max_time_step_s,
+                        )
+                    })
+                    .flatten(),
                 own_sum: [0.0; 3],
                 own_on_footprint: false,
                 own_returns: [0.0; 3],

@@ -422,6 +422,16 @@ pub struct MonitorParams {
     /// measuring allowed 0.5). Must be in [0, 10] s. Costs nothing per frame beyond step 8's walk for such a hidden
     /// track.
     pub memory_hold_s: f64,
+    /// Seconds; 0 (off) by default. A hold for parked vehicles (docs/attribution.md, "Parked cars in a row"): a box
+    /// reported at least [`PARKED_MIN_LENGTH_M`] long and slower than [`PARKED_MAX_SPEED_MPS`] that alarms found
+    /// displaced in at least two consecutive frames stays a `position_error` (the cause `held_while_parked`, the
+    /// offset the last of those alarms found) for this long after that alarm, while it is still reported so and the
+    /// held offset still puts its evidence in front of it on its line of sight, within `conflict_association_m` of
+    /// it. A parked car in a row, displaced along the row, is what a correct box would give whenever the car in
+    /// front hides its near end; the ego's moving view opens and closes on it. Held verdicts are not evidence: they
+    /// start no run and the memory records nothing of them. Must be in [0, 10] s. Costs a look-up in the evidence
+    /// memory for each such box that no test flagged.
+    pub parked_hold_s: f64,
     /// Off by default. Bounds "behind evidence nobody explains" by the gate (docs/attribution.md, "The shadow of far
     /// evidence"): a footprint cell shadowed by unexplained evidence counts as contradicted (`unexplained_shadow`:
     /// the object's own displaced evidence may stand in front of it) only when the conflict cell that shadows it has
@@ -582,6 +592,7 @@ impl MonitorParams {
         spill_near_side: true,
         spill_gap_m: 0.4,
         memory_hold_s: 1.0,
+        parked_hold_s: 0.0,
         shadow_gate: false,
         follow_owner_fit: false,
         release_flagged_claims: true,
@@ -813,6 +824,9 @@ impl MonitorParams {
         if !(self.memory_hold_s >= 0.0 && self.memory_hold_s <= 10.0) {
             return Err(ParamError { field: "memory_hold_s", reason: "must be in [0, 10] s" });
         }
+        if !(self.parked_hold_s >= 0.0 && self.parked_hold_s <= 10.0) {
+            return Err(ParamError { field: "parked_hold_s", reason: "must be in [0, 10] s" });
+        }
         if self.warmup_frames > 100 {
             return Err(ParamError { field: "warmup_frames", reason: "must be <= 100" });
         }
@@ -849,6 +863,11 @@ pub const MAX_CELLS_PER_SIDE: u32 = 4096;
 pub const MAX_POINTS: u32 = 4_194_304;
 /// Largest accepted `max_objects`.
 pub const MAX_OBJECTS: u32 = 65_536;
+/// The shortest box `parked_hold_s` holds, metres: a vehicle (the simulator's and the datasets' cars are 3.8-5 m,
+/// a pedestrian or a cyclist below 2 m).
+pub const PARKED_MIN_LENGTH_M: f32 = 3.0;
+/// The fastest box `parked_hold_s` holds, m/s: standing still, up to a tracker's speed noise.
+pub const PARKED_MAX_SPEED_MPS: f32 = 0.5;
 
 /// A parameter out of its range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -966,6 +985,14 @@ mod tests {
         for bad in [f64::NAN, -0.1, 10.5, f64::INFINITY] {
             let e = MonitorParams { memory_hold_s: bad, ..d }.validate().unwrap_err();
             assert_eq!(e.field, "memory_hold_s", "{bad}: {e}");
+        }
+        assert_eq!(d.parked_hold_s.to_bits(), 0.0f64.to_bits());
+        for ok in [0.0, 3.0, 10.0] {
+            assert!(MonitorParams { parked_hold_s: ok, ..d }.validate().is_ok(), "{ok}");
+        }
+        for bad in [f64::NAN, -0.1, 10.5, f64::INFINITY] {
+            let e = MonitorParams { parked_hold_s: bad, ..d }.validate().unwrap_err();
+            assert_eq!(e.field, "parked_hold_s", "{bad}: {e}");
         }
     }
 

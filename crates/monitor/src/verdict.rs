@@ -95,11 +95,14 @@ pub enum PositionCause {
     /// Confirmed only by evidence in its margin that runs on beyond its grown region (params key
     /// `evidence_runs_on`).
     EvidenceRunsOn,
+    /// A parked vehicle that alarms found displaced in the frames before, held while it stays parked (params key
+    /// `parked_hold_s`).
+    HeldWhileParked,
 }
 
 impl PositionCause {
     /// Every cause, in the order of their codes (`pmon.h`'s `PMON_POSITION_CAUSE_*` are 1 + the index).
-    pub const ALL: [Self; 8] = [
+    pub const ALL: [Self; 9] = [
         Self::DisplacedEvidence,
         Self::EvidenceFollowed,
         Self::JumpedFromEvidence,
@@ -108,6 +111,7 @@ impl PositionCause {
         Self::ReturnsBeyond,
         Self::EvidenceReleased,
         Self::EvidenceRunsOn,
+        Self::HeldWhileParked,
     ];
 
     /// Short snake_case name, as in JSON output.
@@ -122,6 +126,7 @@ impl PositionCause {
             Self::ReturnsBeyond => "returns_beyond",
             Self::EvidenceReleased => "evidence_released",
             Self::EvidenceRunsOn => "evidence_runs_on",
+            Self::HeldWhileParked => "held_while_parked",
         }
     }
 
@@ -137,6 +142,7 @@ impl PositionCause {
             Self::ReturnsBeyond => "its own returns stand beyond its region",
             Self::EvidenceReleased => "it stands behind evidence a neighbour held only by its wrong place",
             Self::EvidenceRunsOn => "its evidence lies only in its margin and runs on beyond its region",
+            Self::HeldWhileParked => "parked, it was found displaced from its evidence in the frames before",
         }
     }
 }

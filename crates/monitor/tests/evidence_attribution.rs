@@ -1822,3 +1822,68 @@ fn a_car_side_sampled_sparsely_spills_over_across_a_gap_of_empty_cells() {
         assert_eq!(missed, 1, "gap {spill_gap_m}: the cell beyond is a missed object");
     }
 }
+
+/// A parked car held (params key `parked_hold_s`; docs/attribution.md, "Parked cars in a row"): a car reported
+/// 1.5 m further along its length than it stands is flagged while its near end is in view (its evidence in front of
+/// the box), then the near end hides and only the side, inside the displaced box's region, stays in view. Without
+/// the key the box is `consistent` from then on; with it, after two alarms in a row, it stays a `position_error`
+/// (`held_while_parked`, the offset pointing away from the sensor) for the key's time, and no longer; a single alarm
+/// is not held, nor a car that moves (0.6 m/s) or a box shorter than 3 m.
+#[test]
+fn a_parked_car_found_displaced_twice_is_held_while_its_near_end_hides() {
+    let car = object(7, 20.0, -3.0, 0.0, 4.5, 1.8);
+    let whole = visible_face_points(&car, 0.05);
+    // Only its side: the returns beyond the displaced box's near edge (20 + 1.5 - 2.25 - 0.4 = 18.85 m).
+    let side: Vec<[f32; 3]> = whole.iter().copied().filter(|p| p[0] > 19.5).collect();
+    let (mut seen, mut hidden) = (whole.clone(), side.clone());
+    seen.extend(ground_points(45.0));
+    hidden.extend(ground_points(45.0));
+    let held = Some(PositionCause::HeldWhileParked);
+    // (parked_hold_s, alarms before the near end hides, the box's speed and length, time of the frame looked at,
+    // held then)
+    for (hold, alarms, speed, length, at, want) in [
+        (3.0, 2, 0.0, 4.5, 0.3, true),
+        (3.0, 2, 0.0, 4.5, 2.9, true),
+        (0.0, 2, 0.0, 4.5, 0.3, false),
+        (3.0, 2, 0.0, 4.5, 3.5, false),
+        (3.0, 1, 0.0, 4.5, 0.3, false),
+        (3.0, 2, 0.6, 4.5, 0.3, false),
+        (3.0, 2, 0.0, 2.5, 0.3, false),
+    ] {
+        let what = format!("hold {hold}, {alarms} alarms, {speed} m/s, {length} m long, at {at} s");
+        let body = pmon_monitor::ObjectState { length_m: length, ..car };
+        let mut body_seen = visible_face_points(&body, 0.05);
+        body_seen.extend(ground_points(45.0));
+        let mut body_hidden: Vec<[f32; 3]> =
+            visible_face_points(&body, 0.05).into_iter().filter(|p| p[0] > 19.5).collect();
+        body_hidden.extend(ground_points(45.0));
+        let (first, rest) = if length < 4.0 { (&body_seen, &body_hidden) } else { (&seen, &hidden) };
+        let reported = pmon_monitor::ObjectState { x_m: 21.5, speed_mps: speed, ..body };
+        let mut m = Monitor::new(MonitorParams { parked_hold_s: hold, ..MonitorParams::default() }).unwrap();
+        let mut t = 0.0f32;
+        for _ in 0..alarms {
+            let r = check_at(&mut m, t, &[reported], first, Pose2::default());
+            assert_eq!(
+                r[0].sensor.verdict,
+                SensorVerdict::PositionError,
+                "{what}, near end seen at {t}: {:?}",
+                r[0].sensor
+            );
+            assert_eq!(r[0].sensor.position_cause, Some(PositionCause::DisplacedEvidence), "{what}");
+            t += 0.1;
+        }
+        let mut last = None;
+        while t <= at + 0.05 {
+            last = Some(check_at(&mut m, t, &[reported], rest, Pose2::default()));
+            t += 0.1;
+        }
+        let r = last.unwrap();
+        if want {
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "{what}: {:?}", r[0].sensor);
+            assert_eq!(r[0].sensor.position_cause, held, "{what}");
+            assert!(r[0].sensor.offset_m[0] > 0.5, "from the evidence back to the box, away: {:?}", r[0].sensor);
+        } else {
+            assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "{what}: {:?}", r[0].sensor);
+        }
+    }
+}

@@ -10,7 +10,7 @@
 use super::attribution::s_eta;
 use super::sight::{Through, OCCLUDERS};
 use super::*;
-use crate::evidence_memory::Motion;
+use crate::evidence_memory::{Hold, Motion};
 use crate::verdict::PositionCause;
 
 impl Monitor {
@@ -262,6 +262,47 @@ impl Monitor {
                     }),
                 };
                 let hold = hold.filter(|_| self.params.memory_hold_s > 0.0);
+                // `parked_hold_s`: the same for a parked vehicle, kept that long after the alarm that found it.
+                let parked_vehicle = self.params.parked_hold_s > 0.0
+                    && frame.objects.get(j).is_some_and(|o| {
+                        o.length_m >= crate::params::PARKED_MIN_LENGTH_M
+                            && libm::fabsf(o.speed_mps) < crate::params::PARKED_MAX_SPEED_MPS
+                    });
+                let parked = match evidence {
+                    _ if !parked_vehicle => None,
+                    Some((EvidenceKind::Displaced, at)) if s.verdict == SensorVerdict::PositionError => {
+                        let flagged_before = matches!(scratch.recalled, Some((EvidenceKind::Displaced, _)));
+                        let run_start_t_s = match scratch.parked {
+                            Some(h) if flagged_before => h.run_start_t_s,
+                            _ => frame.timestamp_s,
+                        };
+                        Some(Hold {
+                            offset_m: [at[0] - centre[0], at[1] - centre[1]],
+                            alarm_t_s: frame.timestamp_s,
+                            run_start_t_s,
+                        })
+                    }
+                    _ => scratch.parked.filter(|h| {
+                        h.alarm_t_s > h.run_start_t_s && frame.timestamp_s - h.alarm_t_s <= self.params.parked_hold_s
+                    }),
+                };
+                // A parked vehicle no test flagged keeps the alarm its held offset found (a run of two or more, the
+                // evidence in front of it on its line of sight, within the gate). Not evidence: the memory records
+                // what the frame showed (`evidence` above), so a held verdict starts no run.
+                if let (
+                    Some(h),
+                    SensorVerdict::Consistent | SensorVerdict::NotMonitored(NotMonitoredReason::Occluded),
+                ) = (parked.filter(|h| h.alarm_t_s < frame.timestamp_s), s.verdict)
+                {
+                    let off = back_to_box([centre[0] + h.offset_m[0], centre[1] + h.offset_m[1]]);
+                    let [ux, uy] = along_sight(1.0);
+                    let size = libm::hypotf(off[0], off[1]);
+                    if size <= self.params.conflict_association_m && off[0] * ux + off[1] * uy > 0.3 * size {
+                        s.verdict = SensorVerdict::PositionError;
+                        s.position_cause = Some(PositionCause::HeldWhileParked);
+                        s.offset_m = off;
+                    }
+                }
                 // Where a confirmed track should stand next frame: its centre and stated velocity, world frame.
                 let motion =
                     matches!(evidence, Some((EvidenceKind::Own, _))).then(|| frame.objects.get(j)).flatten().map(|o| {
@@ -284,14 +325,14 @@ impl Monitor {
                         }
                     });
                 // The evidence and the held offset, either or both (nothing is recorded without either).
-                self.memory.record_with_hold(
+                self.memory.record_with_holds(
                     report.id,
                     j,
                     frame.timestamp_s,
                     frame.world_from_ego.yaw_rad,
                     evidence.map(|(kind, at)| (kind, [at[0] - centre[0], at[1] - centre[1]])),
                     motion,
-                    hold,
+                    [hold, parked],
                 );
             }
             let Some(report) = self.reports.get_mut(j) else { continue };
