@@ -54,11 +54,16 @@ pub(crate) struct Hold {
     pub(crate) alarm_t_s: f64,
     /// When the run of alarms in consecutive frames that ended at `alarm_t_s` began.
     pub(crate) run_start_t_s: f64,
+    /// The box's centre (world frame, metres) at `alarm_t_s`: `parked_hold_s` holds only a box still standing there.
+    pub(crate) anchor_world_m: [f64; 2],
 }
 
 impl Hold {
     fn is_finite(&self) -> bool {
-        self.offset_m.iter().all(|v| v.is_finite()) && self.alarm_t_s.is_finite() && self.run_start_t_s.is_finite()
+        self.offset_m.iter().all(|v| v.is_finite())
+            && self.alarm_t_s.is_finite()
+            && self.run_start_t_s.is_finite()
+            && self.anchor_world_m.iter().all(|v| v.is_finite())
     }
 }
 
@@ -292,7 +297,7 @@ mod tests {
     #[test]
     fn a_held_offset_is_kept_beside_the_evidence_and_alone() {
         let mut m = EvidenceMemory::new(4);
-        let hold = Hold { offset_m: [2.0, 0.0], alarm_t_s: 1.0, run_start_t_s: 0.9 };
+        let hold = Hold { offset_m: [2.0, 0.0], alarm_t_s: 1.0, run_start_t_s: 0.9, anchor_world_m: [5.0, 0.0] };
         m.begin();
         // Beside own evidence, and alone (no evidence this frame), the ego turned by 90 degrees.
         m.record_with_hold(7, 0, 1.1, 0.0, Some((EvidenceKind::Own, [0.1, 0.0])), None, Some(hold));

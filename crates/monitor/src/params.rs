@@ -425,9 +425,10 @@ pub struct MonitorParams {
     /// Seconds; 0 (off) by default. A hold for parked vehicles (docs/attribution.md, "Parked cars in a row"): a box
     /// reported at least [`PARKED_MIN_LENGTH_M`] long and slower than [`PARKED_MAX_SPEED_MPS`] that alarms found
     /// displaced in at least two consecutive frames stays a `position_error` (the cause `held_while_parked`, the
-    /// offset the last of those alarms found) for this long after that alarm, while it is still reported so and the
-    /// held offset still puts its evidence in front of it on its line of sight, within `conflict_association_m` of
-    /// it. A parked car in a row, displaced along the row, is what a correct box would give whenever the car in
+    /// offset the last of those alarms found) for this long after that alarm, while it is still reported so, stands
+    /// within half that offset of where the alarm found it (world frame: an error that ended moves the box back to
+    /// its evidence) and the held offset still puts its evidence in front of it on its line of sight, within
+    /// `conflict_association_m` of it. A parked car in a row, displaced along the row, is what a correct box would give whenever the car in
     /// front hides its near end; the ego's moving view opens and closes on it. Held verdicts are not evidence: they
     /// start no run and the memory records nothing of them. Must be in [0, 10] s. Costs a look-up in the evidence
     /// memory for each such box that no test flagged.

@@ -1828,7 +1828,8 @@ fn a_car_side_sampled_sparsely_spills_over_across_a_gap_of_empty_cells() {
 /// the box), then the near end hides and only the side, inside the displaced box's region, stays in view. Without
 /// the key the box is `consistent` from then on; with it, after two alarms in a row, it stays a `position_error`
 /// (`held_while_parked`, the offset pointing away from the sensor) for the key's time, and no longer; a single alarm
-/// is not held, nor a car that moves (0.6 m/s) or a box shorter than 3 m.
+/// is not held, nor a car that moves (0.6 m/s), a box shorter than 3 m, or a box reported back where the car stands
+/// (an error that ended).
 #[test]
 fn a_parked_car_found_displaced_twice_is_held_while_its_near_end_hides() {
     let car = object(7, 20.0, -3.0, 0.0, 4.5, 1.8);
@@ -1839,18 +1840,19 @@ fn a_parked_car_found_displaced_twice_is_held_while_its_near_end_hides() {
     seen.extend(ground_points(45.0));
     hidden.extend(ground_points(45.0));
     let held = Some(PositionCause::HeldWhileParked);
-    // (parked_hold_s, alarms before the near end hides, the box's speed and length, time of the frame looked at,
-    // held then)
-    for (hold, alarms, speed, length, at, want) in [
-        (3.0, 2, 0.0, 4.5, 0.3, true),
-        (3.0, 2, 0.0, 4.5, 2.9, true),
-        (0.0, 2, 0.0, 4.5, 0.3, false),
-        (3.0, 2, 0.0, 4.5, 3.5, false),
-        (3.0, 1, 0.0, 4.5, 0.3, false),
-        (3.0, 2, 0.6, 4.5, 0.3, false),
-        (3.0, 2, 0.0, 2.5, 0.3, false),
+    // (parked_hold_s, alarms before the near end hides, the box's speed and length, where it is reported once the
+    // near end hides, time of the frame looked at, held then)
+    for (hold, alarms, speed, length, then_x, at, want) in [
+        (3.0, 2, 0.0, 4.5, 21.5, 0.3, true),
+        (3.0, 2, 0.0, 4.5, 21.5, 2.9, true),
+        (0.0, 2, 0.0, 4.5, 21.5, 0.3, false),
+        (3.0, 2, 0.0, 4.5, 21.5, 3.5, false),
+        (3.0, 1, 0.0, 4.5, 21.5, 0.3, false),
+        (3.0, 2, 0.6, 4.5, 21.5, 0.3, false),
+        (3.0, 2, 0.0, 2.5, 21.5, 0.3, false),
+        (3.0, 2, 0.0, 4.5, 20.0, 0.3, false),
     ] {
-        let what = format!("hold {hold}, {alarms} alarms, {speed} m/s, {length} m long, at {at} s");
+        let what = format!("hold {hold}, {alarms} alarms, {speed} m/s, {length} m long, then at x {then_x}, at {at} s");
         let body = pmon_monitor::ObjectState { length_m: length, ..car };
         let mut body_seen = visible_face_points(&body, 0.05);
         body_seen.extend(ground_points(45.0));
@@ -1872,9 +1874,10 @@ fn a_parked_car_found_displaced_twice_is_held_while_its_near_end_hides() {
             assert_eq!(r[0].sensor.position_cause, Some(PositionCause::DisplacedEvidence), "{what}");
             t += 0.1;
         }
+        let then = pmon_monitor::ObjectState { x_m: then_x, ..reported };
         let mut last = None;
         while t <= at + 0.05 {
-            last = Some(check_at(&mut m, t, &[reported], rest, Pose2::default()));
+            last = Some(check_at(&mut m, t, &[then], rest, Pose2::default()));
             t += 0.1;
         }
         let r = last.unwrap();

@@ -244,6 +244,11 @@ impl Monitor {
                 // of alarms in consecutive frames goes on when the track was flagged in the previous frame), or the
                 // one kept so far, until `memory_hold_s` after the alarm that found it, and only when alarms found it
                 // in at least two frames in a row (a clean track flagged once by a neighbour's evidence keeps none).
+                // The box's centre in the world frame (where a held offset was found, and whether the box stays there).
+                let centre_world = || {
+                    let (x, y) = frame.world_from_ego.transform_point(f64::from(centre[0]), f64::from(centre[1]));
+                    [x, y]
+                };
                 let hold = match evidence {
                     Some((EvidenceKind::Displaced, at)) if s.verdict == SensorVerdict::PositionError => {
                         let flagged_before = matches!(scratch.recalled, Some((EvidenceKind::Displaced, _)));
@@ -255,6 +260,7 @@ impl Monitor {
                             offset_m: [at[0] - centre[0], at[1] - centre[1]],
                             alarm_t_s: frame.timestamp_s,
                             run_start_t_s,
+                            anchor_world_m: centre_world(),
                         })
                     }
                     _ => scratch.hold.filter(|h| {
@@ -280,6 +286,7 @@ impl Monitor {
                             offset_m: [at[0] - centre[0], at[1] - centre[1]],
                             alarm_t_s: frame.timestamp_s,
                             run_start_t_s,
+                            anchor_world_m: centre_world(),
                         })
                     }
                     _ => scratch.parked.filter(|h| {
@@ -297,7 +304,14 @@ impl Monitor {
                     let off = back_to_box([centre[0] + h.offset_m[0], centre[1] + h.offset_m[1]]);
                     let [ux, uy] = along_sight(1.0);
                     let size = libm::hypotf(off[0], off[1]);
-                    if size <= self.params.conflict_association_m && off[0] * ux + off[1] * uy > 0.3 * size {
+                    // Still where the alarm found it: a box that moved back to its evidence (an error that ended)
+                    // has moved by about the offset.
+                    let now = centre_world();
+                    let drift = libm::hypot(now[0] - h.anchor_world_m[0], now[1] - h.anchor_world_m[1]);
+                    if size <= self.params.conflict_association_m
+                        && off[0] * ux + off[1] * uy > 0.3 * size
+                        && drift <= 0.5 * f64::from(size)
+                    {
                         s.verdict = SensorVerdict::PositionError;
                         s.position_cause = Some(PositionCause::HeldWhileParked);
                         s.offset_m = off;
