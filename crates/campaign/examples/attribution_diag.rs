@@ -32,7 +32,9 @@
 //! m long and slower than 0.5 m/s whose alarms ran for two or more consecutive frames counts as flagged for H frames
 //! after the run's last alarm; it prints the verifiable errors, those found with and without the hold, and the alarms
 //! and true alarms with and without it (`HOLDFRESH=1`: only alarms from the frame's own evidence, a cluster or free
-//! space, make a run; docs/attribution.md, "Parked cars in a row"). `HOLD=S` runs with the params key `memory_hold_s =
+//! space, make a run; `HOLDAWAY=M`: only a run whose last alarm put the evidence in front of the box on its line of
+//! sight, less than M metres from it; each held state is also counted by that alarm's features, the `HOLDFEAT` lines;
+//! docs/attribution.md, "Parked cars in a row"). `HOLD=S` runs with the params key `memory_hold_s =
 //! S` (docs/attribution.md, "Step 8 held over a gap"). `MAP=1` (with
 //! `MISSES=1` or `DETAIL=1`) draws the cells around each listed box; `OWNERS=1` counts each verifiable miss by whose
 //! the occupied cells under its true footprint went to (docs/attribution.md, "Where a displaced box's evidence goes");
