@@ -43,6 +43,9 @@ struct Entry {
     parked: Option<Hold>,
 }
 
+/// The displaced offsets a track keeps: for step 8 (`memory_hold_s`) and for a parked vehicle (`parked_hold_s`).
+pub(crate) type Holds = [Option<Hold>; 2];
+
 /// A displaced offset found by alarms, and when: kept over frames without an alarm (the params key
 /// `memory_hold_s`) so that step 8 can still find the track's evidence where it puts it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -112,33 +115,25 @@ impl EvidenceMemory {
         self.recall_with_hold(id, t_s, yaw_rad, max_dt_s).0
     }
 
-    /// [`EvidenceMemory::recall`], and the displaced offset track `id` keeps (current ego frame's axes) under the same
-    /// conditions: found by an alarm in the previous frame, or held since (`memory_hold_s`). One look-up for both.
+    /// [`EvidenceMemory::recall`], and the displaced offsets track `id` keeps (current ego frame's axes) under the same
+    /// conditions: for step 8 (found by an alarm in the previous frame, or held since: `memory_hold_s`) and for a
+    /// parked vehicle (`parked_hold_s`). One look-up for all three.
     pub(crate) fn recall_with_hold(
         &self,
         id: u64,
         t_s: f64,
         yaw_rad: f64,
         max_dt_s: f64,
-    ) -> (Option<(EvidenceKind, [f32; 2])>, Option<Hold>) {
-        let Some(e) = self.recallable(id, t_s, yaw_rad, max_dt_s) else { return (None, None) };
-        (
-            e.kind.map(|k| (k, rotate(e.offset_world_m, -yaw_rad))),
-            e.hold.map(|h| Hold { offset_m: rotate(h.offset_m, -yaw_rad), ..h }),
-        )
-    }
-
-    /// The offset held for a parked vehicle (`parked_hold_s`), current ego frame's axes, under the conditions of
-    /// [`EvidenceMemory::recall`].
-    pub(crate) fn recall_parked(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<Hold> {
-        let e = self.recallable(id, t_s, yaw_rad, max_dt_s)?;
-        e.parked.map(|h| Hold { offset_m: rotate(h.offset_m, -yaw_rad), ..h })
+    ) -> (Option<(EvidenceKind, [f32; 2])>, Holds) {
+        let Some(e) = self.recallable(id, t_s, yaw_rad, max_dt_s) else { return (None, [None, None]) };
+        let to_ego = |h: Option<Hold>| h.map(|h| Hold { offset_m: rotate(h.offset_m, -yaw_rad), ..h });
+        (e.kind.map(|k| (k, rotate(e.offset_world_m, -yaw_rad))), [to_ego(e.hold), to_ego(e.parked)])
     }
 
     /// The held offset alone ([`EvidenceMemory::recall_with_hold`]).
     #[cfg(test)]
     pub(crate) fn recall_hold(&self, id: u64, t_s: f64, yaw_rad: f64, max_dt_s: f64) -> Option<Hold> {
-        self.recall_with_hold(id, t_s, yaw_rad, max_dt_s).1
+        self.recall_with_hold(id, t_s, yaw_rad, max_dt_s).1[0]
     }
 
     /// The previous frame's entry of track `id`, if that frame was `0 < t_s - t_prev <= max_dt_s` ago, the id was
@@ -196,28 +191,12 @@ impl EvidenceMemory {
         (kind, offset_ego_m): (EvidenceKind, [f32; 2]),
         motion: Option<Motion>,
     ) {
-        self.record_with_hold(id, seq, t_s, yaw_rad, Some((kind, offset_ego_m)), motion, None);
+        self.record_with_holds(id, seq, t_s, yaw_rad, Some((kind, offset_ego_m)), motion, [None, None]);
     }
 
-    /// [`EvidenceMemory::record`] of the evidence, if any, and of a displaced offset found by alarms (`hold`, ego
-    /// frame), if any. Nothing is recorded without either.
-    #[allow(clippy::too_many_arguments)]
-    #[cfg(test)]
-    pub(crate) fn record_with_hold(
-        &mut self,
-        id: u64,
-        seq: usize,
-        t_s: f64,
-        yaw_rad: f64,
-        evidence: Option<(EvidenceKind, [f32; 2])>,
-        motion: Option<Motion>,
-        hold: Option<Hold>,
-    ) {
-        self.record_with_holds(id, seq, t_s, yaw_rad, evidence, motion, [hold, None]);
-    }
-
-    /// [`EvidenceMemory::record_with_hold`], with the offset held for a parked vehicle too (`[hold, parked]`, ego
-    /// frame). Nothing is recorded without evidence or a held offset.
+    /// [`EvidenceMemory::record`] of the evidence, if any, and of the displaced offsets found by alarms, if any
+    /// (`[hold, parked]`, ego frame: for step 8, `memory_hold_s`, and for a parked vehicle, `parked_hold_s`). Nothing
+    /// is recorded without evidence or a held offset.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn record_with_holds(
         &mut self,
@@ -227,7 +206,7 @@ impl EvidenceMemory {
         yaw_rad: f64,
         evidence: Option<(EvidenceKind, [f32; 2])>,
         motion: Option<Motion>,
-        [hold, parked]: [Option<Hold>; 2],
+        [hold, parked]: Holds,
     ) {
         let to_world =
             |h: Option<Hold>| h.map(|h| Hold { offset_m: rotate(h.offset_m, yaw_rad), ..h }).filter(Hold::is_finite);
@@ -300,10 +279,10 @@ mod tests {
         let hold = Hold { offset_m: [2.0, 0.0], alarm_t_s: 1.0, run_start_t_s: 0.9, anchor_world_m: [5.0, 0.0] };
         m.begin();
         // Beside own evidence, and alone (no evidence this frame), the ego turned by 90 degrees.
-        m.record_with_hold(7, 0, 1.1, 0.0, Some((EvidenceKind::Own, [0.1, 0.0])), None, Some(hold));
-        m.record_with_hold(8, 1, 1.1, core::f64::consts::FRAC_PI_2, None, None, Some(hold));
-        m.record_with_hold(9, 2, 1.1, 0.0, None, None, None);
-        m.record_with_hold(10, 3, 1.1, 0.0, None, None, Some(Hold { alarm_t_s: f64::NAN, ..hold }));
+        m.record_with_holds(7, 0, 1.1, 0.0, Some((EvidenceKind::Own, [0.1, 0.0])), None, [Some(hold), None]);
+        m.record_with_holds(8, 1, 1.1, core::f64::consts::FRAC_PI_2, None, None, [Some(hold), None]);
+        m.record_with_holds(9, 2, 1.1, 0.0, None, None, [None, None]);
+        m.record_with_holds(10, 3, 1.1, 0.0, None, None, [Some(Hold { alarm_t_s: f64::NAN, ..hold }), None]);
         m.commit();
         assert_eq!(m.recall(7, 1.2, 0.0, 0.5), Some((EvidenceKind::Own, [0.1, 0.0])));
         assert_eq!(m.recall_hold(7, 1.2, 0.0, 0.5), Some(hold));

@@ -669,7 +669,7 @@ impl Monitor {
         self.reports.clear();
         for o in frame.objects {
             self.valid.push(object_is_valid(o, &self.params));
-            let (recalled, hold) = self.memory.recall_with_hold(
+            let (recalled, [hold, parked]) = self.memory.recall_with_hold(
                 o.id,
                 frame.timestamp_s,
                 frame.world_from_ego.yaw_rad,
@@ -682,16 +682,7 @@ impl Monitor {
                 sight: None,
                 recalled,
                 hold,
-                parked: (self.params.parked_hold_s > 0.0)
-                    .then(|| {
-                        self.memory.recall_parked(
-                            o.id,
-                            frame.timestamp_s,
-                            frame.world_from_ego.yaw_rad,
-                            self.params.max_time_step_s,
-                        )
-                    })
-                    .flatten(),
+                parked,
                 own_sum: [0.0; 3],
                 own_on_footprint: false,
                 own_returns: [0.0; 3],

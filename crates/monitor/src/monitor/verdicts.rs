@@ -240,19 +240,17 @@ impl Monitor {
                     SensorVerdict::Consistent if own_sum[2] >= 1.0 => Some((EvidenceKind::Own, own_centre())),
                     _ => None,
                 };
-                // The displaced offset kept for step 8 (`memory_hold_s`): the one this frame's alarm found (its run
-                // of alarms in consecutive frames goes on when the track was flagged in the previous frame), or the
-                // one kept so far, until `memory_hold_s` after the alarm that found it, and only when alarms found it
-                // in at least two frames in a row (a clean track flagged once by a neighbour's evidence keeps none).
                 // The box's centre in the world frame (where a held offset was found, and whether the box stays there).
                 let centre_world = || {
                     let (x, y) = frame.world_from_ego.transform_point(f64::from(centre[0]), f64::from(centre[1]));
                     [x, y]
                 };
-                let hold = match evidence {
+                // One rule for both holds: the offset this frame's alarm found, or the one kept so far (`kept`) while
+                // it is at most `keep_s` old and a run of two or more found it.
+                let held = |kept: Option<Hold>, keep_s: f64| match evidence {
                     Some((EvidenceKind::Displaced, at)) if s.verdict == SensorVerdict::PositionError => {
                         let flagged_before = matches!(scratch.recalled, Some((EvidenceKind::Displaced, _)));
-                        let run_start_t_s = match scratch.hold {
+                        let run_start_t_s = match kept {
                             Some(h) if flagged_before => h.run_start_t_s,
                             _ => frame.timestamp_s,
                         };
@@ -263,36 +261,20 @@ impl Monitor {
                             anchor_world_m: centre_world(),
                         })
                     }
-                    _ => scratch.hold.filter(|h| {
-                        h.alarm_t_s > h.run_start_t_s && frame.timestamp_s - h.alarm_t_s <= self.params.memory_hold_s
-                    }),
+                    _ => kept.filter(|h| h.alarm_t_s > h.run_start_t_s && frame.timestamp_s - h.alarm_t_s <= keep_s),
                 };
-                let hold = hold.filter(|_| self.params.memory_hold_s > 0.0);
+                // The displaced offset kept for step 8 (`memory_hold_s`): the one this frame's alarm found (its run
+                // of alarms in consecutive frames goes on when the track was flagged in the previous frame), or the
+                // one kept so far, until `memory_hold_s` after the alarm that found it, and only when alarms found it
+                // in at least two frames in a row (a clean track flagged once by a neighbour's evidence keeps none).
+                let hold = held(scratch.hold, self.params.memory_hold_s).filter(|_| self.params.memory_hold_s > 0.0);
                 // `parked_hold_s`: the same for a parked vehicle, kept that long after the alarm that found it.
                 let parked_vehicle = self.params.parked_hold_s > 0.0
                     && frame.objects.get(j).is_some_and(|o| {
                         o.length_m >= crate::params::PARKED_MIN_LENGTH_M
                             && libm::fabsf(o.speed_mps) < crate::params::PARKED_MAX_SPEED_MPS
                     });
-                let parked = match evidence {
-                    _ if !parked_vehicle => None,
-                    Some((EvidenceKind::Displaced, at)) if s.verdict == SensorVerdict::PositionError => {
-                        let flagged_before = matches!(scratch.recalled, Some((EvidenceKind::Displaced, _)));
-                        let run_start_t_s = match scratch.parked {
-                            Some(h) if flagged_before => h.run_start_t_s,
-                            _ => frame.timestamp_s,
-                        };
-                        Some(Hold {
-                            offset_m: [at[0] - centre[0], at[1] - centre[1]],
-                            alarm_t_s: frame.timestamp_s,
-                            run_start_t_s,
-                            anchor_world_m: centre_world(),
-                        })
-                    }
-                    _ => scratch.parked.filter(|h| {
-                        h.alarm_t_s > h.run_start_t_s && frame.timestamp_s - h.alarm_t_s <= self.params.parked_hold_s
-                    }),
-                };
+                let parked = parked_vehicle.then(|| held(scratch.parked, self.params.parked_hold_s)).flatten();
                 // A parked vehicle no test flagged keeps the alarm its held offset found (a run of two or more, the
                 // evidence in front of it on its line of sight, within the gate). Not evidence: the memory records
                 // what the frame showed (`evidence` above), so a held verdict starts no run.
@@ -321,7 +303,7 @@ impl Monitor {
                 let motion =
                     matches!(evidence, Some((EvidenceKind::Own, _))).then(|| frame.objects.get(j)).flatten().map(|o| {
                         let pose = &frame.world_from_ego;
-                        let (x, y) = pose.transform_point(f64::from(centre[0]), f64::from(centre[1]));
+                        let [x, y] = centre_world();
                         let heading = f64::from(o.heading_rad) + pose.yaw_rad;
                         let (s, c) = libm::sincos(heading);
                         let v = f64::from(o.speed_mps);
