@@ -34,6 +34,7 @@ class Params:
     front_cluster: bool
     spill_in_front: bool
     spill_near_side: bool
+    spill_least_stretch: bool
     spill_gap_m: float
     memory_hold_s: float
     parked_hold_s: float

@@ -598,6 +598,7 @@ fn changed_keys(opts: &BenchOptions) -> Vec<String> {
         ("front_cluster", d.front_cluster, p.front_cluster),
         ("spill_in_front", d.spill_in_front, p.spill_in_front),
         ("spill_near_side", d.spill_near_side, p.spill_near_side),
+        ("spill_least_stretch", d.spill_least_stretch, p.spill_least_stretch),
         ("jump_evidence_at_prediction", d.jump_evidence_at_prediction, p.jump_evidence_at_prediction),
         ("jump_coincident_boxes", d.jump_coincident_boxes, p.jump_coincident_boxes),
         ("jump_jumped_boxes", d.jump_jumped_boxes, p.jump_jumped_boxes),

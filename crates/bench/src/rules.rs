@@ -111,6 +111,11 @@ pub struct RuleSwitches {
     /// in front of a confirmed box counts all its own evidence, its far side too.
     #[cfg_attr(feature = "clap", arg(long))]
     pub no_spill_near_side: bool,
+    /// Check with `spill_least_stretch` on (off by default; issue #10's round "The box a cluster stretches least"):
+    /// a cluster that continues several confirmed boxes' evidence, the nearest of them vehicle-sized, goes to the one
+    /// it stretches least.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub spill_least_stretch: bool,
     /// Check with `memory_hold_s = 0`: a displaced track's offset lives one frame (the default before issue
     /// #10's round "Two rules together", which made it 1 s; docs/attribution.md, "Step 8 held over a gap").
     #[cfg_attr(feature = "clap", arg(long))]
@@ -180,6 +185,9 @@ impl RuleSwitches {
         }
         if self.no_spill_near_side {
             p.spill_near_side = false;
+        }
+        if self.spill_least_stretch {
+            p.spill_least_stretch = true;
         }
         if self.no_memory_hold {
             p.memory_hold_s = 0.0;
@@ -251,11 +259,19 @@ mod tests {
         assert!(!on(|s| s.no_front_cluster = true).front_cluster);
         assert!(!on(|s| s.no_spill_in_front = true).spill_in_front);
         assert!(!on(|s| s.no_spill_near_side = true).spill_near_side);
+        assert!(on(|s| s.spill_least_stretch = true).spill_least_stretch);
         assert_eq!(on(|s| s.no_memory_hold = true).memory_hold_s.to_bits(), 0.0f64.to_bits());
         assert_eq!(on(|s| s.no_roi_graze = true).roi_graze_fraction.to_bits(), 0.0f32.to_bits());
         assert_eq!(on(|s| s.roi_graze = true).roi_graze_fraction.to_bits(), 0.5f32.to_bits());
         // The defaults these switches turn off are on in the default parameters (else the switch does nothing).
-        assert!(d.seen_body && d.follow_gate && d.front_cluster && d.spill_in_front && d.spill_near_side);
+        assert!(
+            d.seen_body
+                && d.follow_gate
+                && d.front_cluster
+                && d.spill_in_front
+                && d.spill_near_side
+                && !d.spill_least_stretch
+        );
         assert!(d.jump_from_returns && d.memory_hold_s > 0.0);
         assert!(d.roi_graze_fraction > 0.0);
     }

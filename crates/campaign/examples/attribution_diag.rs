@@ -7,7 +7,7 @@
 //! and hard conditions, towards the ego) with the same seeds as `pmon reproduce --quick --seed SEED` and prints
 //! their curves; `causes` also breaks every false alarm and every verifiable miss down by cause. `FILTER`
 //! keeps only the runs whose curve label contains it (for example `towards` or `paper`). With `SEEN_OVER=1` the
-//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `NONEARSIDE=1` `spill_near_side`; `FIRST=1`: `jump_first_return`; `BEYOND=N`: `returns_beyond_cells = N`; the jump keys are the default since issue #10:
+//! monitor runs with the params key `seen_over` on (`FACE=1`: `face_in_front`; `JUMP=1`: `jump_from_returns`; `BODY=1`: `seen_body`; `MEMGATE=1`: `memory_gate`; `FOLLOWGATE=1`: `follow_gate`; `NOBODY=1` / `NOFOLLOWGATE=1` turn those two defaults off; `SHADOWGATE=1`: `shadow_gate`; `FRONT=1`: `front_cluster`, `NOFRONT=1` turns it off; `NOSPILLFRONT=1` turns `spill_in_front` off; `NONEARSIDE=1` `spill_near_side`; `STRETCH=1`: `spill_least_stretch` on; `FIRST=1`: `jump_first_return`; `BEYOND=N`: `returns_beyond_cells = N`; the jump keys are the default since issue #10:
 //! `NOJUMP=1` turns both off, `NOFIRST=1` only `jump_first_return`; `NOPRED=1` turns `jump_evidence_at_prediction` off,
 //! `NOCOINC=1` `jump_coincident_boxes`, `NOJUMPED=1` `jump_jumped_boxes`; `OWNERFIT=1`: `follow_owner_fit`; `NORELEASE=1` turns `release_flagged_claims` off, the default since issue #10's round "Claims a flagged neighbour releases"; `RELCONF=1`: `release_to_confirmed`; `NORUNSON=1` turns `evidence_runs_on` off, the default since issue #10's round "Evidence in the margin that runs on"; `NOSIDE=1` turns `seen_through_near_side` off, the default since the round "The near side seen through"; `SPILLGAP=M`: `spill_gap_m = M`; `CELL=S`: every chosen run with cells of S metres). With `FULL=1` the runs are those of the full plan
 //! (`pmon reproduce --seed SEED` without `--quick`: `Scale::Full` and the scenes' own lengths, the same runs,
@@ -1654,6 +1654,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // `NONEARSIDE=1`: `spill_near_side` off (the default since issue #10's round "The near side of the box"):
             // spill-over in front of a box counts all its own evidence, its far side too.
             r.spec.params.spill_near_side &= std::env::var_os("NONEARSIDE").is_none();
+            // `STRETCH=1`: `spill_least_stretch` on (off by default; issue #10's round "The box a cluster stretches
+            // least").
+            r.spec.params.spill_least_stretch |= std::env::var_os("STRETCH").is_some();
             // `HOLD=S`: a track flagged as displaced keeps its offset S seconds after its last alarm for step 8
             // (the params key `memory_hold_s`).
             if let Some(s) = std::env::var("HOLD").ok().and_then(|v| v.parse().ok()) {

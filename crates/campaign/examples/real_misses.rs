@@ -29,7 +29,8 @@
 //! `DETAIL=1` (with `ONE_BOX=1 HISTORY=1`) prints, for each clean box flagged beside a displaced one, where both stand
 //! and the cluster that flagged it.
 //! `NOSPILLFRONT=1` checks with the params key `spill_in_front` off (on by default since issue #10's round
-//! "Spill-over in front of the box"); `NONEARSIDE=1` with `spill_near_side` off (on by default since the round "The
+//! "Spill-over in front of the box"); `STRETCH=1` with `spill_least_stretch` on (off by default; the round "The
+//! box a cluster stretches least"); `NONEARSIDE=1` with `spill_near_side` off (on by default since the round "The
 //! near side of the box").
 //! `NOFRONT=1` checks with the params key `front_cluster` off (on by default since issue #10's round "Two rules
 //! together": a free cluster in front of a confirmed box, fitting it, goes to it when the evidence confirming the box
@@ -96,6 +97,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         spill_in_front: base.spill_in_front && std::env::var_os("NOSPILLFRONT").is_none(),
         // The default since issue #10's round "The near side of the box": `NONEARSIDE=1` turns it off.
         spill_near_side: base.spill_near_side && std::env::var_os("NONEARSIDE").is_none(),
+        spill_least_stretch: base.spill_least_stretch || std::env::var_os("STRETCH").is_some(),
         memory_hold_s: std::env::var("HOLD").ok().and_then(|v| v.parse().ok()).unwrap_or(base.memory_hold_s),
         // Default since issue #10: `NOPRED=1` / `NOCOINC=1` turn them off.
         jump_evidence_at_prediction: base.jump_evidence_at_prediction && std::env::var_os("NOPRED").is_none(),

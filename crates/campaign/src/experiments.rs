@@ -261,7 +261,7 @@ fn without_scalar_key(text: String, key: &str) -> String {
 }
 
 /// The params keys added after the run identities were fixed, left out of [`run_identity`] at their defaults.
-const LATE_PARAMS_KEYS: [&str; 26] = [
+const LATE_PARAMS_KEYS: [&str; 27] = [
     "spill_over_fit",
     "seen_over",
     "face_in_front",
@@ -288,6 +288,7 @@ const LATE_PARAMS_KEYS: [&str; 26] = [
     "seen_through_near_side",
     "spill_gap_m",
     "parked_hold_s",
+    "spill_least_stretch",
 ];
 
 /// The injection seed of a run: the campaign seed mixed with a hash (FNV-1a) of [`run_identity`].

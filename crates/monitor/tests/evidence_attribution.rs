@@ -1890,3 +1890,54 @@ fn a_parked_car_found_displaced_twice_is_held_while_its_near_end_hides() {
         }
     }
 }
+
+/// Points filling the 0.5 m cell whose centre is `(cx, cy)` (a 3 x 3 pattern at three heights: occupied).
+fn cell_points(cx: f32, cy: f32) -> Vec<[f32; 3]> {
+    let mut out = Vec::new();
+    for dx in [-0.15f32, 0.0, 0.15] {
+        for dy in [-0.15f32, 0.0, 0.15] {
+            for z in [0.5f32, 1.0, 1.5] {
+                out.push([cx + dx, cy + dy, z]);
+            }
+        }
+    }
+    out
+}
+
+/// Spill-over's choice between confirmed boxes with the params key `spill_least_stretch` (off by default;
+/// docs/attribution.md, "The box a cluster stretches least"): a parked
+/// car 10.45-14.85 m ahead, beside the lane, and a pedestrian box just in front of its near end whose evidence
+/// reaches one cell beyond its region, into the gap between them. That cell continues both boxes' own evidence and
+/// fits either box (within the fit's slack); it is nearer the car's grown region (its centre 0.3 m from it against
+/// 0.35 m), but with it the car's evidence would span 0.6 m more than its length (over cell centres), the
+/// pedestrian's not at all. The cell goes to the
+/// pedestrian (a `position_error` on its own evidence) and the car stays `consistent`; with no pedestrian there,
+/// the car takes the cell (it is then its own evidence reaching over its edge). Without the key (the default), the
+/// car takes it beside the pedestrian too (the nearest).
+#[test]
+fn a_cell_between_a_car_and_a_pedestrian_goes_to_the_box_it_stretches_least() {
+    let car = object(1, 12.65, -2.8, 0.0, 4.4, 1.8);
+    let pedestrian = object(2, 8.7, -3.25, 0.0, 0.6, 0.6);
+    let mut pts = visible_face_points(&car, 0.05);
+    pts.extend(cell_points(9.25, -3.25));
+    pts.extend(cell_points(9.75, -3.25));
+    pts.extend(ground_points(30.0));
+    let on = MonitorParams { spill_least_stretch: true, ..MonitorParams::default() };
+    let mut m = Monitor::new(on).unwrap();
+    let r = run(&mut m, &[car, pedestrian], &pts);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::Consistent, "car: {:?}", r[0].sensor);
+    assert_eq!(r[1].sensor.verdict, SensorVerdict::PositionError, "pedestrian: {:?}", r[1].sensor);
+    assert_eq!(r[1].sensor.position_cause, Some(PositionCause::DisplacedEvidence), "{:?}", r[1].sensor);
+    let mut m = Monitor::new(MonitorParams::default()).unwrap();
+    let r = run(&mut m, &[car, pedestrian], &pts);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "car, without the key: {:?}", r[0].sensor);
+    // (The pedestrian is then flagged too, by `evidence_runs_on`: its evidence runs on into the cell the car took.)
+    assert_ne!(r[1].sensor.position_cause, Some(PositionCause::DisplacedEvidence), "{:?}", r[1].sensor);
+    // With no pedestrian there (nor its evidence), the car takes the cell.
+    let mut alone = visible_face_points(&car, 0.05);
+    alone.extend(cell_points(9.75, -3.25));
+    alone.extend(ground_points(30.0));
+    let mut m = Monitor::new(on).unwrap();
+    let r = run(&mut m, &[car], &alone);
+    assert_eq!(r[0].sensor.verdict, SensorVerdict::PositionError, "car alone: {:?}", r[0].sensor);
+}

@@ -6,6 +6,7 @@
 //! (steps 2 and 7), the distances from a cluster in `distance.rs`, spill-over's fit tests in `fit.rs`, the evidence
 //! memory's steps (3c's place, 8 and 9) in `memory_steps.rs`, and the solver of the assignment in `assignment.rs`.
 
+use super::fit::STRETCH_MIN_LENGTH_M;
 use super::memory_steps::stayed_evidence;
 use super::*;
 
@@ -70,7 +71,9 @@ impl Monitor {
     ///    offered the clusters near where that offset puts its evidence now, at the cost of that distance.
     /// 3. Spill-over: a cluster left over that continues a confirmed object's own evidence (8-adjacent cells) and
     ///    fits its box together with it, or that touches an unconfirmed object's region (within half a cell)
-    ///    and fits its box, is that object's evidence reaching over its edge (the nearest such object). With
+    ///    and fits its box, is that object's evidence reaching over its edge (the nearest such object; when the
+    ///    nearest confirmed box whose evidence it continues is vehicle-sized, the confirmed box it stretches least
+    ///    stands for them: a neighbour's corner by a car's near end fits the car within the fit's slack). With
     ///    `spill_in_front`, a cluster within `conflict_association_m` of a confirmed box's region that stands in
     ///    front of it on the sensor's line of sight, holds at least as many cells as the box owns and touches no
     ///    other object's evidence need not touch the box's own evidence ([`Monitor::spills_in_front`]).
@@ -213,6 +216,10 @@ impl Monitor {
                 continue;
             };
             let mut best: Option<(f32, usize)> = None;
+            // The confirmed boxes whose evidence the cluster continues: the nearest (its distance, index, and
+            // whether it is vehicle-sized), and the one it stretches least (stretch, distance, index).
+            let mut nearest_continued: Option<(f32, usize, bool)> = None;
+            let mut least_stretched: Option<(f32, f32, usize)> = None;
             let (lo, hi) = self.x_window(cb, far);
             for m in lo..hi {
                 let Some(j) = self.by_x.get(m).map(|&(_, j)| j as usize) else { continue };
@@ -237,7 +244,24 @@ impl Monitor {
                     let gap = self.spill_gap_for(&region);
                     if d <= adjacent * (gap + 1) as f32 && self.cluster_near_own_evidence(j, k, gap) {
                         let own = self.own_spans(j, &region).all;
-                        self.spill_fit(&region, k, own)
+                        if self.spill_fit(&region, k, own) {
+                            let fp = &region.footprint;
+                            let vehicle = 2.0 * fp.half_length.max(fp.half_width) >= STRETCH_MIN_LENGTH_M;
+                            if nearest_continued.is_none_or(|(bd, bj, _)| d.total_cmp(&bd).then(j.cmp(&bj)).is_lt()) {
+                                nearest_continued = Some((d, j, vehicle));
+                            }
+                            if self.params.spill_least_stretch {
+                                let e = self.stretch(&region, k, own[0]);
+                                let less = |(be, bd, bj): (f32, f32, usize)| {
+                                    e.total_cmp(&be).then(d.total_cmp(&bd)).then(j.cmp(&bj)).is_lt()
+                                };
+                                if least_stretched.is_none_or(less) {
+                                    least_stretched = Some((e, d, j));
+                                }
+                            }
+                        }
+                        // Weighed against the other candidates below, once the loop has seen them all.
+                        false
                     } else {
                         self.params.spill_in_front && self.spills_in_front(j, &region, k)
                     }
@@ -246,6 +270,20 @@ impl Monitor {
                 };
                 // Nearest; ties to the lower index (deterministic whatever the loop order).
                 if ok && best.is_none_or(|(bd, bj)| d.total_cmp(&bd).then(j.cmp(&bj)).is_lt()) {
+                    best = Some((d, j));
+                }
+            }
+            // The confirmed box that stands for those whose evidence the cluster continues: the nearest, or, when
+            // that is vehicle-sized and `spill_least_stretch` is on, the one the cluster stretches least
+            // ([`Monitor::stretch`]); then the nearest of it and the other candidates, as before.
+            let continued = match nearest_continued {
+                Some((d, j, false)) => Some((d, j)),
+                Some((d, j, true)) if !self.params.spill_least_stretch => Some((d, j)),
+                Some((_, _, true)) => least_stretched.map(|(_, d, j)| (d, j)),
+                None => None,
+            };
+            if let Some((d, j)) = continued {
+                if best.is_none_or(|(bd, bj)| d.total_cmp(&bd).then(j.cmp(&bj)).is_lt()) {
                     best = Some((d, j));
                 }
             }

@@ -11,6 +11,12 @@ use super::*;
 /// car's or a truck's (4-12 m), not a pedestrian's (0.5-1 m); a bicycle's (about 1.8 m) stays below it.
 pub(super) const SPILL_GAP_MIN_LENGTH_M: f32 = 2.0;
 
+/// The least length (its longer side) of a confirmed box that spill-over does not give a cluster merely for being
+/// the nearest of the confirmed boxes whose evidence the cluster continues: it goes to the one it stretches least
+/// ([`Monitor::stretch`]; docs/attribution.md, "The box a cluster stretches least"). A parked car's (about 4 m); a
+/// pedestrian's box is below it, whose stretch at 0.5 m cells is mostly the cells' rounding.
+pub(super) const STRETCH_MIN_LENGTH_M: f32 = 3.0;
+
 impl Monitor {
     /// True when a cell of cluster `k` is within `gap + 1` cells (along each grid axis) of an occupied cell that
     /// object `j` owns: the two stand across at most `gap` empty cells (`spill_gap_m`); `gap` 0 is 8-adjacency.
@@ -256,6 +262,21 @@ impl Monitor {
             span = grown(span, fp.local(x, y));
         }
         span_fits(span, fp, slack)
+    }
+
+    /// How far cluster `k`'s cells and a confirmed object's own occupied span `own` (its box's axes) together reach
+    /// beyond the box's length or across its width, metres over cell centres (0 when they lie within both): how much
+    /// the box must stretch for the cluster to be its evidence. Spill-over's choice between the confirmed boxes
+    /// whose evidence a cluster continues when the nearest is vehicle-sized ([`STRETCH_MIN_LENGTH_M`]).
+    pub(super) fn stretch(&self, region: &Region, k: usize, own: [f32; 4]) -> f32 {
+        let geometry = self.grid.geometry;
+        let fp = &region.footprint;
+        let mut span = own;
+        for &c in self.cluster_cells(k) {
+            let (x, y) = geometry.cell_center(c);
+            span = grown(span, fp.local(x, y));
+        }
+        (span[1] - span[0] - 2.0 * fp.half_length).max(span[3] - span[2] - 2.0 * fp.half_width).max(0.0)
     }
 
     /// [`Monitor::spill_fits`] with the object's own spans given ([`Monitor::own_spans`]): the same answer.
