@@ -400,7 +400,7 @@ pub struct MonitorParams {
     /// Spill-over gives a cluster that continues the own evidence of several confirmed boxes, and fits each, to the
     /// nearest of them; with this key, when that one is vehicle-sized (at least 3 m long), to the one the cluster
     /// stretches least instead (how far the cluster and the box's own occupied cells together reach beyond its
-    /// length or width). A displaced pedestrian's corner by a clean parked car's near end fits the car within the
+    /// length or width). A displaced neighbour's corner by a clean parked car's near end fits the car within the
     /// fit's slack (a cell diagonal and twice the safety margin) and was its alarm. Full plans of seeds 7, 11 and 23:
     /// hard-conditions recall -0.3 to +0.7 points, precision -0.1 to +1.1, paper conditions and the sensor false
     /// alarms up to 0.3 m noise unchanged, `pmon check` on real sweeps byte-identical; but the real-sensor
