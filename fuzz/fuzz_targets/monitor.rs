@@ -110,7 +110,7 @@ fuzz_target!(|data: &[u8]| {
         memory_hold_s: if memory_gate { 1.0 } else { 0.0 },
         // The parked hold reads the memory the held offsets go to: on with them.
         parked_hold_s: if memory_gate { 3.0 } else { 0.0 },
-        // Spill-over's choice by stretch (on by default): off with `seen_over`, so both are fuzzed.
+        // Spill-over's choice by stretch (off by default): on without `seen_over`, so both are fuzzed.
         spill_least_stretch: !seen_over,
         roi_graze_fraction: if graze { 0.5 } else { 0.0 },
         roi_graze_height_m: 2.5,

@@ -264,14 +264,9 @@ mod tests {
         assert_eq!(on(|s| s.no_roi_graze = true).roi_graze_fraction.to_bits(), 0.0f32.to_bits());
         assert_eq!(on(|s| s.roi_graze = true).roi_graze_fraction.to_bits(), 0.5f32.to_bits());
         // The defaults these switches turn off are on in the default parameters (else the switch does nothing).
-        assert!(
-            d.seen_body
-                && d.follow_gate
-                && d.front_cluster
-                && d.spill_in_front
-                && d.spill_near_side
-                && !d.spill_least_stretch
-        );
+        assert!(d.seen_body && d.follow_gate && d.front_cluster && d.spill_in_front && d.spill_near_side);
+        // ... and the one `spill_least_stretch` turns on is off.
+        assert!(!d.spill_least_stretch);
         assert!(d.jump_from_returns && d.memory_hold_s > 0.0);
         assert!(d.roi_graze_fraction > 0.0);
     }

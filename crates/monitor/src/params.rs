@@ -439,8 +439,8 @@ pub struct MonitorParams {
     /// offset the last of those alarms found) for this long after that alarm, while it is still reported so, stands
     /// within half that offset of where the alarm found it (world frame: an error that ended moves the box back to
     /// its evidence) and the held offset still puts its evidence in front of it on its line of sight, within
-    /// `conflict_association_m` of it. A parked car in a row, displaced along the row, is what a correct box would give whenever the car in
-    /// front hides its near end; the ego's moving view opens and closes on it. Held verdicts are not evidence: they
+    /// `conflict_association_m` of it. A parked car in a row, displaced along the row, is what a correct box would
+    /// give whenever the car in front hides its near end; the ego's moving view opens and closes on it. Held verdicts are not evidence: they
     /// start no run and the memory records nothing of them. Must be in [0, 10] s. Costs a look-up in the evidence
     /// memory for each such box that no test flagged.
     pub parked_hold_s: f64,

@@ -277,9 +277,8 @@ impl Monitor {
             // that is vehicle-sized and `spill_least_stretch` is on, the one the cluster stretches least
             // ([`Monitor::stretch`]); then the nearest of it and the other candidates, as before.
             let continued = match nearest_continued {
-                Some((d, j, false)) => Some((d, j)),
-                Some((d, j, true)) if !self.params.spill_least_stretch => Some((d, j)),
-                Some((_, _, true)) => least_stretched.map(|(_, d, j)| (d, j)),
+                Some((d, j, vehicle)) if !vehicle || !self.params.spill_least_stretch => Some((d, j)),
+                Some(_) => least_stretched.map(|(_, d, j)| (d, j)),
                 None => None,
             };
             if let Some((d, j)) = continued {

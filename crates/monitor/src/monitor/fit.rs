@@ -253,15 +253,19 @@ impl Monitor {
         if !self.bounds_may_fit(region, k) {
             return false;
         }
-        let geometry = self.grid.geometry;
         let fp = &region.footprint;
-        let slack = self.fit_slack();
+        span_fits(self.span_with_cluster(fp, k, own), fp, self.fit_slack())
+    }
+
+    /// The span `own` (box `fp`'s axes, `[u min, u max, v min, v max]`) grown by the centres of cluster `k`'s cells.
+    fn span_with_cluster(&self, fp: &crate::geometry::OrientedRect, k: usize, own: [f32; 4]) -> [f32; 4] {
+        let geometry = self.grid.geometry;
         let mut span = own;
         for &c in self.cluster_cells(k) {
             let (x, y) = geometry.cell_center(c);
             span = grown(span, fp.local(x, y));
         }
-        span_fits(span, fp, slack)
+        span
     }
 
     /// How far cluster `k`'s cells and a confirmed object's own occupied span `own` (its box's axes) together reach
@@ -269,13 +273,8 @@ impl Monitor {
     /// the box must stretch for the cluster to be its evidence. Spill-over's choice between the confirmed boxes
     /// whose evidence a cluster continues when the nearest is vehicle-sized ([`STRETCH_MIN_LENGTH_M`]).
     pub(super) fn stretch(&self, region: &Region, k: usize, own: [f32; 4]) -> f32 {
-        let geometry = self.grid.geometry;
         let fp = &region.footprint;
-        let mut span = own;
-        for &c in self.cluster_cells(k) {
-            let (x, y) = geometry.cell_center(c);
-            span = grown(span, fp.local(x, y));
-        }
+        let span = self.span_with_cluster(fp, k, own);
         (span[1] - span[0] - 2.0 * fp.half_length).max(span[3] - span[2] - 2.0 * fp.half_width).max(0.0)
     }
 
